@@ -1,0 +1,520 @@
+//! Mesh layer: the unstructured [`Mesh`] of linear parent cells (Quad4 / Hex8) with named node
+//! and face sets, the structured generators for the cases of Corbett & Sauer 2014, section 4
+//! ([`rectangle`], [`half_disk`], [`sector`], [`box3d`], [`hemisphere`]), a Gmsh MSH 4.1 reader
+//! ([`gmsh`]) and rigid helpers ([`transform`]: translate, scale, merge).
+//!
+//! Generators orient every cell that has a face on a contact surface so that this face is
+//! local face 0 (quad: eta = -1; hex: zeta = -1); the NURBS enrichment of a later stage relies
+//! on it. Face sets on a curve or patch are ordered along the surface (documented per generator).
+//! [`Mesh::dual_graph`] feeds `crate::parallel::partition`.
+use std::collections::{BTreeMap, HashMap};
+
+pub mod box3d;
+mod cell_kind;
+mod error;
+pub mod gmsh;
+pub mod half_disk;
+pub mod hemisphere;
+pub mod rectangle;
+pub mod sector;
+pub mod transform;
+
+pub use cell_kind::CellKind;
+pub use error::MeshError;
+
+/// A mesh of linear parent cells with named node and face sets.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Mesh {
+    /// Spatial dimension, 2 or 3.
+    pub dim: usize,
+    /// Node coordinates, [n_nodes][dim].
+    pub coords: Vec<f64>,
+    /// CSR offsets into `cell_nodes`, [n_cells + 1] (variable node counts will come with
+    /// enriched elements).
+    pub cell_offsets: Vec<usize>,
+    /// CSR node lists of the cells, in the local order of [`CellKind`].
+    pub cell_nodes: Vec<u32>,
+    /// Parent topology of each cell, [n_cells].
+    pub cell_kind: Vec<CellKind>,
+    /// Named node sets, each sorted and unique.
+    pub node_sets: BTreeMap<String, Vec<u32>>,
+    /// Named face sets of (cell, local face), ordered along the surface where it is a curve
+    /// or a patch.
+    pub face_sets: BTreeMap<String, Vec<(u32, u8)>>,
+}
+
+/// Relative tolerance, in units of the cell's own scale `h^dim`, below which a corner Jacobian
+/// counts as zero rather than negative (degenerate corners, see [`Mesh::validate`]).
+const DEGENERATE_CORNER_TOL: f64 = 1e-10;
+
+impl Mesh {
+    /// An empty mesh of dimension `dim`.
+    pub fn new(dim: usize) -> Self {
+        Mesh {
+            dim,
+            coords: Vec::new(),
+            cell_offsets: vec![0],
+            cell_nodes: Vec::new(),
+            cell_kind: Vec::new(),
+            node_sets: BTreeMap::new(),
+            face_sets: BTreeMap::new(),
+        }
+    }
+
+    pub fn n_nodes(&self) -> usize {
+        self.coords.len() / self.dim.max(1)
+    }
+
+    pub fn n_cells(&self) -> usize {
+        self.cell_kind.len()
+    }
+
+    /// Global node numbers of cell `c`. Panics if `c >= n_cells()` (like slice indexing).
+    pub fn cell(&self, c: usize) -> &[u32] {
+        &self.cell_nodes[self.cell_offsets[c]..self.cell_offsets[c + 1]]
+    }
+
+    /// Coordinates of node `n`, [dim]. Panics if out of range (like slice indexing).
+    pub fn node(&self, n: u32) -> &[f64] {
+        let n = n as usize;
+        &self.coords[n * self.dim..(n + 1) * self.dim]
+    }
+
+    /// Appends a node and returns its number.
+    pub fn push_node(&mut self, x: &[f64]) -> u32 {
+        let id = self.n_nodes() as u32;
+        self.coords.extend_from_slice(&x[..self.dim]);
+        id
+    }
+
+    /// Appends a cell and returns its number.
+    pub fn push_cell(&mut self, kind: CellKind, nodes: &[u32]) -> u32 {
+        let id = self.n_cells() as u32;
+        self.cell_nodes.extend_from_slice(nodes);
+        self.cell_offsets.push(self.cell_nodes.len());
+        self.cell_kind.push(kind);
+        id
+    }
+
+    /// Inserts a node set, sorting and de-duplicating it.
+    pub fn insert_node_set(&mut self, name: &str, mut nodes: Vec<u32>) {
+        nodes.sort_unstable();
+        nodes.dedup();
+        self.node_sets.insert(name.to_string(), nodes);
+    }
+
+    /// Nodal coordinates of cell `c`, [n_cell_nodes][dim].
+    fn cell_coords(&self, c: usize) -> Vec<f64> {
+        self.cell(c)
+            .iter()
+            .flat_map(|&n| self.node(n).to_vec())
+            .collect()
+    }
+
+    /// Checks the mesh: array sizes, node counts per kind, node indices in range, positive
+    /// reference Jacobian at the cell centre, at the 2-point Gauss points and at the corners,
+    /// and that every set refers to existing nodes / faces.
+    ///
+    /// A corner Jacobian that is zero up to `1e-10 h^dim` (h = cell diameter) is accepted:
+    /// the hemisphere's four rim-corner cells (see [`hemisphere`]) have collinear rim edges
+    /// and therefore det J = 0 exactly at their rim corner nodes, while it stays positive at
+    /// the centre and all Gauss points. A negative corner Jacobian beyond that tolerance is an
+    /// [`MeshError::InvertedCell`].
+    pub fn validate(&self) -> Result<(), MeshError> {
+        if self.dim != 2 && self.dim != 3 {
+            return Err(MeshError::Inconsistent(format!(
+                "dimension {} is not 2 or 3",
+                self.dim
+            )));
+        }
+        if !self.coords.len().is_multiple_of(self.dim) {
+            return Err(MeshError::Inconsistent(format!(
+                "coords has {} entries, not a multiple of dim {}",
+                self.coords.len(),
+                self.dim
+            )));
+        }
+        let n_cells = self.n_cells();
+        if self.cell_offsets.len() != n_cells + 1
+            || self.cell_offsets.first() != Some(&0)
+            || self.cell_offsets.last() != Some(&self.cell_nodes.len())
+            || self.cell_offsets.windows(2).any(|w| w[0] > w[1])
+        {
+            return Err(MeshError::Inconsistent(format!(
+                "cell_offsets (len {}) is not a CSR offset array for {} cells and {} cell nodes",
+                self.cell_offsets.len(),
+                n_cells,
+                self.cell_nodes.len()
+            )));
+        }
+        let n_nodes = self.n_nodes();
+        for c in 0..n_cells {
+            let kind = self.cell_kind[c];
+            if kind.dim() != self.dim {
+                return Err(MeshError::CellDimension {
+                    cell: c,
+                    kind,
+                    dim: self.dim,
+                });
+            }
+            let nodes = self.cell(c);
+            if nodes.len() != kind.n_nodes() {
+                return Err(MeshError::CellNodeCount {
+                    cell: c,
+                    kind,
+                    expected: kind.n_nodes(),
+                    got: nodes.len(),
+                });
+            }
+            if let Some(&node) = nodes.iter().find(|&&n| n as usize >= n_nodes) {
+                return Err(MeshError::NodeIndexOutOfRange {
+                    cell: c,
+                    node,
+                    n_nodes,
+                });
+            }
+            self.check_cell_jacobian(c)?;
+        }
+        for (set, nodes) in &self.node_sets {
+            if let Some(&node) = nodes.iter().find(|&&n| n as usize >= n_nodes) {
+                return Err(MeshError::NodeSetOutOfRange {
+                    set: set.clone(),
+                    node,
+                    n_nodes,
+                });
+            }
+            if let Some(p) = nodes.windows(2).position(|w| w[0] >= w[1]) {
+                return Err(MeshError::NodeSetUnsorted {
+                    set: set.clone(),
+                    position: p + 1,
+                });
+            }
+        }
+        for (set, faces) in &self.face_sets {
+            for &(cell, face) in faces {
+                let ok = (cell as usize) < n_cells
+                    && (face as usize) < self.cell_kind[cell as usize].n_faces();
+                if !ok {
+                    return Err(MeshError::FaceSetOutOfRange {
+                        set: set.clone(),
+                        cell,
+                        face,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn check_cell_jacobian(&self, c: usize) -> Result<(), MeshError> {
+        let kind = self.cell_kind[c];
+        let d = kind.dim();
+        let x = self.cell_coords(c);
+        let pad = |xi: &[f64]| {
+            let mut p = [0.0; 3];
+            p[..d].copy_from_slice(xi);
+            p
+        };
+        let mut interior = vec![0.0; d];
+        interior.extend(kind.gauss2_points());
+        for xi in interior.chunks(d) {
+            let det = kind.jacobian_det(&x, xi);
+            if det.is_nan() || det <= 0.0 {
+                return Err(MeshError::InvertedCell {
+                    cell: c,
+                    kind,
+                    xi: pad(xi),
+                    det,
+                });
+            }
+        }
+        let h = self.cell_diameter(c);
+        for a in 0..kind.n_nodes() {
+            let xi = kind.node_reference(a);
+            let det = kind.jacobian_det(&x, xi);
+            if det.is_nan() || det <= -DEGENERATE_CORNER_TOL * h.powi(d as i32) {
+                return Err(MeshError::InvertedCell {
+                    cell: c,
+                    kind,
+                    xi: pad(xi),
+                    det,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Largest distance between two nodes of cell `c`.
+    pub fn cell_diameter(&self, c: usize) -> f64 {
+        let nodes = self.cell(c);
+        let mut h2: f64 = 0.0;
+        for (i, &a) in nodes.iter().enumerate() {
+            for &b in &nodes[i + 1..] {
+                let d2: f64 = self
+                    .node(a)
+                    .iter()
+                    .zip(self.node(b))
+                    .map(|(p, q)| (p - q).powi(2))
+                    .sum();
+                h2 = h2.max(d2);
+            }
+        }
+        h2.sqrt()
+    }
+
+    /// Area (2D) or volume (3D) of cell `c`, exact for Quad4 / Hex8 (2-point Gauss rule).
+    pub fn cell_measure(&self, c: usize) -> f64 {
+        let kind = self.cell_kind[c];
+        let x = self.cell_coords(c);
+        // reference cell [-1,1]^d has volume 2^d = sum of the 2^d unit Gauss weights
+        kind.gauss2_points()
+            .chunks(kind.dim())
+            .map(|xi| kind.jacobian_det(&x, xi))
+            .sum()
+    }
+
+    /// Total area (2D) or volume (3D) of the mesh.
+    pub fn measure(&self) -> f64 {
+        (0..self.n_cells()).map(|c| self.cell_measure(c)).sum()
+    }
+
+    /// Global node numbers of local face `face` of cell `cell`, in the outward orientation of
+    /// [`CellKind::face_local_nodes`].
+    pub fn face_nodes(&self, cell: usize, face: u8) -> Result<Vec<u32>, MeshError> {
+        if cell >= self.n_cells() {
+            return Err(MeshError::CellOutOfRange {
+                cell,
+                n_cells: self.n_cells(),
+            });
+        }
+        let kind = self.cell_kind[cell];
+        let local = kind
+            .face_local_nodes(face)
+            .ok_or(MeshError::FaceOutOfRange { cell, kind, face })?;
+        let nodes = self.cell(cell);
+        Ok(local.iter().map(|&a| nodes[a]).collect())
+    }
+
+    /// Sorted unique nodes of the faces in face set `name`.
+    pub fn node_set_from_faces(&self, name: &str) -> Result<Vec<u32>, MeshError> {
+        let faces = self
+            .face_sets
+            .get(name)
+            .ok_or_else(|| MeshError::UnknownSet(name.to_string()))?;
+        let mut nodes = Vec::new();
+        for &(c, f) in faces {
+            nodes.extend(self.face_nodes(c as usize, f)?);
+        }
+        nodes.sort_unstable();
+        nodes.dedup();
+        Ok(nodes)
+    }
+
+    /// Adds the node set `name` holding the one node nearest to `point` ([dim]), searched
+    /// among the node set `among` (or all nodes). Ties go to the lower node number.
+    pub fn add_nearest_node_set(
+        &mut self,
+        name: &str,
+        point: &[f64],
+        among: Option<&str>,
+    ) -> Result<u32, MeshError> {
+        let candidates: Vec<u32> = match among {
+            Some(set) => self
+                .node_sets
+                .get(set)
+                .ok_or_else(|| MeshError::UnknownSet(set.to_string()))?
+                .clone(),
+            None => (0..self.n_nodes() as u32).collect(),
+        };
+        let dist2 = |n: u32| -> f64 {
+            self.node(n)
+                .iter()
+                .zip(point)
+                .map(|(a, b)| (a - b).powi(2))
+                .sum()
+        };
+        let mut best: Option<(u32, f64)> = None;
+        for n in candidates {
+            let d = dist2(n);
+            if best.is_none_or(|(_, bd)| d < bd) {
+                best = Some((n, d));
+            }
+        }
+        let (n, _) =
+            best.ok_or_else(|| MeshError::UnknownSet(format!("{name} (no candidate nodes)")))?;
+        self.node_sets.insert(name.to_string(), vec![n]);
+        Ok(n)
+    }
+
+    /// Renumbers the local nodes of `cell` by a proper rotation of the reference cell so that
+    /// its current local face `face` becomes local face 0, and renames the faces of this cell
+    /// in every face set accordingly. The Jacobian sign is unchanged.
+    pub fn orient_face_to_local0(&mut self, cell: usize, face: u8) -> Result<(), MeshError> {
+        if cell >= self.n_cells() {
+            return Err(MeshError::CellOutOfRange {
+                cell,
+                n_cells: self.n_cells(),
+            });
+        }
+        let kind = self.cell_kind[cell];
+        let (perm, face_map) = kind
+            .rotation_to_face0(face)
+            .ok_or(MeshError::FaceOutOfRange { cell, kind, face })?;
+        let old = self.cell(cell).to_vec();
+        let start = self.cell_offsets[cell];
+        for (i, &a) in perm.iter().enumerate() {
+            self.cell_nodes[start + i] = old[a];
+        }
+        for faces in self.face_sets.values_mut() {
+            for entry in faces.iter_mut().filter(|e| e.0 as usize == cell) {
+                entry.1 = face_map[entry.1 as usize];
+            }
+        }
+        Ok(())
+    }
+
+    /// Cell-to-cell adjacency in CSR form `(xadj [n_cells + 1], adjncy)`: two cells are
+    /// neighbours if they share at least `min_shared_nodes` nodes (2 in 2D, 4 in 3D for face
+    /// neighbours). Neighbour lists are sorted; a cell is never its own neighbour.
+    pub fn dual_graph(&self, min_shared_nodes: usize) -> (Vec<usize>, Vec<u32>) {
+        let n_nodes = self.n_nodes();
+        // node -> cells (CSR), cell nodes assumed in range (validate() checks it)
+        let mut count = vec![0usize; n_nodes + 1];
+        for &n in &self.cell_nodes {
+            if (n as usize) < n_nodes {
+                count[n as usize + 1] += 1;
+            }
+        }
+        for i in 0..n_nodes {
+            count[i + 1] += count[i];
+        }
+        let mut fill = count.clone();
+        let mut node_cells = vec![0u32; count[n_nodes]];
+        for c in 0..self.n_cells() {
+            for &n in self.cell(c) {
+                if (n as usize) < n_nodes {
+                    node_cells[fill[n as usize]] = c as u32;
+                    fill[n as usize] += 1;
+                }
+            }
+        }
+        let mut xadj = Vec::with_capacity(self.n_cells() + 1);
+        xadj.push(0);
+        let mut adjncy = Vec::new();
+        let mut shared: HashMap<u32, usize> = HashMap::new();
+        for c in 0..self.n_cells() {
+            shared.clear();
+            let mut nodes = self.cell(c).to_vec();
+            nodes.sort_unstable();
+            nodes.dedup();
+            for n in nodes.into_iter().filter(|&n| (n as usize) < n_nodes) {
+                for &other in &node_cells[count[n as usize]..count[n as usize + 1]] {
+                    if other as usize != c {
+                        *shared.entry(other).or_insert(0) += 1;
+                    }
+                }
+            }
+            let mut nbrs: Vec<u32> = shared
+                .iter()
+                .filter(|&(_, &k)| k >= min_shared_nodes.max(1))
+                .map(|(&o, _)| o)
+                .collect();
+            nbrs.sort_unstable();
+            adjncy.extend(nbrs);
+            xadj.push(adjncy.len());
+        }
+        (xadj, adjncy)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::rectangle::rectangle;
+    use super::*;
+
+    #[test]
+    fn validate_catches_inverted_cell() {
+        let mut m = rectangle([0.0, 0.0], [2.0, 1.0], [2, 1]).unwrap();
+        m.validate().unwrap();
+        // swap two opposite-side nodes of cell 1 -> clockwise orientation
+        let s = m.cell_offsets[1];
+        m.cell_nodes.swap(s + 1, s + 3);
+        match m.validate() {
+            Err(MeshError::InvertedCell { cell, det, .. }) => {
+                assert_eq!(cell, 1);
+                assert!(det < 0.0);
+            }
+            other => panic!("expected InvertedCell, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn validate_catches_out_of_range_node_and_bad_sets() {
+        let mut m = rectangle([0.0, 0.0], [2.0, 1.0], [2, 1]).unwrap();
+        let mut bad = m.clone();
+        bad.cell_nodes[5] = 99;
+        assert!(matches!(
+            bad.validate(),
+            Err(MeshError::NodeIndexOutOfRange {
+                cell: 1,
+                node: 99,
+                n_nodes: 6
+            })
+        ));
+        let mut bad = m.clone();
+        bad.node_sets.insert("x".into(), vec![1, 6]);
+        assert!(matches!(
+            bad.validate(),
+            Err(MeshError::NodeSetOutOfRange { node: 6, .. })
+        ));
+        m.face_sets.insert("y".into(), vec![(0, 4)]);
+        let err = m.validate().unwrap_err();
+        assert!(matches!(
+            err,
+            MeshError::FaceSetOutOfRange {
+                cell: 0,
+                face: 4,
+                ..
+            }
+        ));
+        assert!(err.to_string().contains("'y'"));
+    }
+
+    #[test]
+    fn dual_graph_of_3x2_grid_has_face_neighbours_only() {
+        let m = rectangle([0.0, 0.0], [3.0, 2.0], [3, 2]).unwrap();
+        let (xadj, adjncy) = m.dual_graph(2);
+        // cell numbering row-major: cell 0 neighbours 1 and 3; cell 4 (middle of top row) 1,3,5
+        assert_eq!(&adjncy[xadj[0]..xadj[1]], &[1, 3]);
+        assert_eq!(&adjncy[xadj[4]..xadj[5]], &[1, 3, 5]);
+        assert_eq!(adjncy.len(), 2 * 7); // 7 interior edges
+        let (_, adj_vertex) = m.dual_graph(1);
+        assert_eq!(adj_vertex.len(), 2 * (7 + 4)); // plus 4 diagonal pairs
+    }
+
+    #[test]
+    fn orient_face_to_local0_moves_face_set_entry() {
+        let mut m = rectangle([0.0, 0.0], [1.0, 1.0], [1, 1]).unwrap();
+        let top_nodes = m.face_nodes(0, m.face_sets["top"][0].1).unwrap();
+        m.orient_face_to_local0(0, m.face_sets["top"][0].1).unwrap();
+        assert_eq!(m.face_sets["top"][0].1, 0);
+        assert_eq!(m.face_nodes(0, 0).unwrap(), top_nodes);
+        m.validate().unwrap();
+    }
+
+    #[test]
+    fn nearest_node_set_searches_only_the_given_set() {
+        let mut m = rectangle([0.0, 0.0], [4.0, 2.0], [4, 2]).unwrap();
+        let n = m
+            .add_nearest_node_set("p", &[2.2, 1.9], Some("bottom"))
+            .unwrap();
+        assert_eq!(m.node(n), &[2.0, 0.0]);
+        assert_eq!(m.node_sets["p"], vec![n]);
+        let n = m.add_nearest_node_set("q", &[2.2, 1.9], None).unwrap();
+        assert_eq!(m.node(n), &[2.0, 2.0]);
+        assert!(matches!(
+            m.add_nearest_node_set("r", &[0.0, 0.0], Some("nope")),
+            Err(MeshError::UnknownSet(_))
+        ));
+    }
+}

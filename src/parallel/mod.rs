@@ -1,0 +1,5 @@
+//! Parallel helpers: METIS partitioning of the cells' dual graph ([`partition`]).
+
+pub mod partition;
+
+pub use partition::{partition_cells, PartitionError};

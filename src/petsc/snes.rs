@@ -1,0 +1,281 @@
+//! PETSc's nonlinear solver (SNES) driving a Rust [`NonlinearProblem`] through `extern "C"` trampolines.
+
+use super::error::{call, PetscError};
+use super::{handle, sys, Matrix, Petsc, PetscInt, Vector};
+use mpi::raw::AsRaw;
+use std::ffi::{c_void, CStr};
+use std::marker::PhantomData;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+/// Why a residual or Jacobian evaluation could not be completed.
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum ProblemError {
+    /// The state is outside the problem's domain (an inverted element, a failed projection): SNES is
+    /// told through `SNESSetFunctionDomainError` and the load step is cut back. Must be raised on every
+    /// rank alike (the problem reduces the flag itself before returning it).
+    #[error("domain error: {0}")]
+    Domain(String),
+    /// Anything else: the solve stops with this message.
+    #[error("{0}")]
+    Fatal(String),
+}
+
+/// What SNES asks of the problem being solved.
+pub trait NonlinearProblem {
+    /// `f = F(x)`. Collective.
+    fn residual(&mut self, x: &Vector, f: &mut Vector) -> Result<(), ProblemError>;
+    /// `J = dF/dx (x)`. Collective.
+    fn jacobian(&mut self, x: &Vector, j: &mut Matrix) -> Result<(), ProblemError>;
+}
+
+/// The result of one [`Snes::solve`].
+#[derive(Debug, Clone)]
+pub struct SolveOutcome {
+    /// SNES converged (reason > 0).
+    pub converged: bool,
+    /// SNES's converged reason as text, e.g. `CONVERGED_FNORM_RELATIVE`.
+    pub reason: String,
+    /// Newton iterations taken.
+    pub iterations: usize,
+    /// Residual norm before each Newton iteration and after the last: `[|F(x0)|, |F(x1)|, ...]`.
+    pub residual_history: Vec<f64>,
+    /// The last domain error raised by the problem, if any.
+    pub domain_error: Option<String>,
+}
+
+const HISTORY_LEN: usize = 1000;
+
+/// A PETSc SNES with its convergence history buffers.
+pub struct Snes<'p> {
+    raw: sys::SNES,
+    owned: bool,
+    history: Vec<f64>,
+    history_its: Vec<PetscInt>,
+    _petsc: PhantomData<&'p Petsc>,
+}
+handle!(Snes, sys::SNES, sys::SNESDestroy);
+
+struct Context<'a> {
+    problem: &'a mut dyn NonlinearProblem,
+    domain: Option<String>,
+    fatal: Option<String>,
+}
+
+/// PETSc's code for "error in user callback" (PETSC_ERR_USER in petscerror.h).
+const PETSC_ERR_USER: sys::PetscErrorCode = 83;
+
+fn panic_text(p: Box<dyn std::any::Any + Send>) -> String {
+    if let Some(s) = p.downcast_ref::<&str>() {
+        (*s).to_string()
+    } else if let Some(s) = p.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "unknown panic".into()
+    }
+}
+
+unsafe extern "C" fn residual_trampoline(
+    snes: sys::SNES,
+    x: sys::Vec,
+    f: sys::Vec,
+    ctx: *mut c_void,
+) -> sys::PetscErrorCode {
+    // SAFETY: ctx is the &mut Context installed by `solve`, alive for the whole SNESSolve; x and f are
+    // valid vectors owned by SNES for the duration of this call.
+    let ctx = unsafe { &mut *(ctx as *mut Context) };
+    let xv = unsafe { Vector::borrowed(x) };
+    let mut fv = unsafe { Vector::borrowed(f) };
+    match catch_unwind(AssertUnwindSafe(|| ctx.problem.residual(&xv, &mut fv))) {
+        Ok(Ok(())) => 0,
+        Ok(Err(ProblemError::Domain(msg))) => {
+            ctx.domain = Some(msg);
+            // SAFETY: snes is the live solver calling us.
+            unsafe { sys::SNESSetFunctionDomainError(snes) }
+        }
+        Ok(Err(ProblemError::Fatal(msg))) => {
+            ctx.fatal = Some(msg);
+            PETSC_ERR_USER
+        }
+        Err(p) => {
+            ctx.fatal = Some(format!("panic in residual evaluation: {}", panic_text(p)));
+            PETSC_ERR_USER
+        }
+    }
+}
+
+unsafe extern "C" fn jacobian_trampoline(
+    snes: sys::SNES,
+    x: sys::Vec,
+    j: sys::Mat,
+    _p: sys::Mat,
+    ctx: *mut c_void,
+) -> sys::PetscErrorCode {
+    // SAFETY: as in residual_trampoline; j is the matrix we registered, alive during the call.
+    let ctx = unsafe { &mut *(ctx as *mut Context) };
+    let xv = unsafe { Vector::borrowed(x) };
+    let mut jm = unsafe { Matrix::borrowed(j) };
+    match catch_unwind(AssertUnwindSafe(|| ctx.problem.jacobian(&xv, &mut jm))) {
+        Ok(Ok(())) => 0,
+        Ok(Err(ProblemError::Domain(msg))) => {
+            ctx.domain = Some(msg);
+            // SAFETY: snes is the live solver calling us.
+            unsafe { sys::SNESSetJacobianDomainError(snes) }
+        }
+        Ok(Err(ProblemError::Fatal(msg))) => {
+            ctx.fatal = Some(msg);
+            PETSC_ERR_USER
+        }
+        Err(p) => {
+            ctx.fatal = Some(format!("panic in Jacobian evaluation: {}", panic_text(p)));
+            PETSC_ERR_USER
+        }
+    }
+}
+
+impl<'p> Snes<'p> {
+    /// A Newton solver with line search (`newtonls`) and a direct LU solve by MUMPS, unless the options
+    /// database (command line, case file) says otherwise: options are applied last.
+    ///
+    /// Collective.
+    pub fn new(petsc: &'p Petsc) -> Result<Self, PetscError> {
+        let mut raw = std::ptr::null_mut();
+        let mut history = vec![0.0; HISTORY_LEN];
+        let mut history_its = vec![0; HISTORY_LEN];
+        // SAFETY: valid communicator; KSP and PC are borrowed from the SNES and not destroyed by us; the
+        // history buffers live in the returned struct and never reallocate.
+        unsafe {
+            call!(SNESCreate(petsc.comm().as_raw(), &mut raw))?;
+            call!(SNESSetType(raw, sys::SNESNEWTONLS.as_ptr()))?;
+            let mut ksp = std::ptr::null_mut();
+            call!(SNESGetKSP(raw, &mut ksp))?;
+            call!(KSPSetType(ksp, sys::KSPPREONLY.as_ptr()))?;
+            let mut pc = std::ptr::null_mut();
+            call!(KSPGetPC(ksp, &mut pc))?;
+            call!(PCSetType(pc, sys::PCLU.as_ptr()))?;
+            call!(PCFactorSetMatSolverType(pc, sys::MATSOLVERMUMPS.as_ptr()))?;
+            call!(SNESSetConvergenceHistory(
+                raw,
+                history.as_mut_ptr(),
+                history_its.as_mut_ptr(),
+                HISTORY_LEN as PetscInt,
+                sys::PetscBool(1)
+            ))?;
+        }
+        Ok(Snes {
+            raw,
+            owned: true,
+            history,
+            history_its,
+            _petsc: PhantomData,
+        })
+    }
+
+    /// Sets tolerances (absolute, relative, step) and the iteration limit; `-snes_*` options override.
+    pub fn set_tolerances(
+        &mut self,
+        atol: f64,
+        rtol: f64,
+        stol: f64,
+        max_it: usize,
+    ) -> Result<(), PetscError> {
+        // SAFETY: valid handle; PETSC_DEFAULT (-2) keeps max function evaluations.
+        unsafe {
+            call!(SNESSetTolerances(
+                self.raw,
+                atol,
+                rtol,
+                stol,
+                max_it as PetscInt,
+                -2
+            ))
+        }
+    }
+
+    /// Applies the options database (`-snes_*`, `-ksp_*`, `-pc_*`, ...). Call after setting defaults.
+    pub fn set_from_options(&mut self) -> Result<(), PetscError> {
+        // SAFETY: valid handle.
+        unsafe { call!(SNESSetFromOptions(self.raw)) }
+    }
+
+    /// Solves `F(x) = 0` starting from `x`, with `jac` as the Jacobian storage.
+    ///
+    /// A diverged solve is not an `Err`: the outcome says why, so the caller can cut the step back.
+    /// `Err` means PETSc itself failed or the problem raised a fatal error.
+    ///
+    /// Collective.
+    pub fn solve(
+        &mut self,
+        problem: &mut dyn NonlinearProblem,
+        x: &mut Vector,
+        jac: &mut Matrix,
+    ) -> Result<SolveOutcome, PetscError> {
+        let mut ctx = Context {
+            problem,
+            domain: None,
+            fatal: None,
+        };
+        let ctx_ptr = &mut ctx as *mut Context as *mut c_void;
+        // SAFETY: ctx outlives SNESSolve (it is on this stack frame); the callbacks are re-registered
+        // with this pointer before every solve, so a stale pointer is never used.
+        let solve_result = unsafe {
+            call!(SNESSetFunction(
+                self.raw,
+                std::ptr::null_mut(),
+                Some(residual_trampoline),
+                ctx_ptr
+            ))?;
+            call!(SNESSetJacobian(
+                self.raw,
+                jac.as_raw(),
+                jac.as_raw(),
+                Some(jacobian_trampoline),
+                ctx_ptr
+            ))?;
+            call!(SNESSolve(self.raw, std::ptr::null_mut(), x.as_raw()))
+        };
+        if let Some(msg) = ctx.fatal.take() {
+            return Err(PetscError {
+                code: PETSC_ERR_USER,
+                function: "SNESSolve callback",
+                message: msg,
+            });
+        }
+        solve_result?;
+        let mut reason = sys::SNESConvergedReason(0);
+        let mut its: PetscInt = 0;
+        let mut text: *const std::os::raw::c_char = std::ptr::null();
+        let mut hist_ptr: *mut f64 = std::ptr::null_mut();
+        let mut hist_its: *mut PetscInt = std::ptr::null_mut();
+        let mut n_hist: PetscInt = 0;
+        // SAFETY: valid handle; the strings and history pointers refer to PETSc-owned static text and our
+        // own buffers.
+        unsafe {
+            call!(SNESGetConvergedReason(self.raw, &mut reason))?;
+            call!(SNESGetIterationNumber(self.raw, &mut its))?;
+            call!(SNESGetConvergedReasonString(self.raw, &mut text))?;
+            call!(SNESGetConvergenceHistory(
+                self.raw,
+                &mut hist_ptr,
+                &mut hist_its,
+                &mut n_hist
+            ))?;
+        }
+        let reason_text = if text.is_null() {
+            format!("{}", reason.0)
+        } else {
+            // SAFETY: PETSc returns a static NUL-terminated string.
+            unsafe { CStr::from_ptr(text) }
+                .to_string_lossy()
+                .into_owned()
+        };
+        let n = (n_hist.max(0) as usize).min(self.history.len());
+        let _ = &self.history_its;
+        Ok(SolveOutcome {
+            converged: reason.0 > 0,
+            reason: reason_text,
+            iterations: its.max(0) as usize,
+            residual_history: self.history[..n].to_vec(),
+            domain_error: ctx.domain,
+        })
+    }
+}

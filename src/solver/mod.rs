@@ -1,0 +1,6 @@
+//! Quasi-static solution: load stepping over the stages of a case, Newton (PETSc SNES) per step, and
+//! automatic cutback when a step diverges or meets a domain error.
+
+pub mod load_stepping;
+
+pub use load_stepping::{run_load_steps, SolverError, StepControl, StepRecord};
