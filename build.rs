@@ -101,7 +101,23 @@ fn mpi_include_dirs() -> Vec<PathBuf> {
     fail("MPI headers not found: no `mpicc` on PATH and no pkg-config entry for ompi/mpich (package libopenmpi-dev)");
 }
 
+/// Records `git describe` of the source tree for run summaries (absent outside a git checkout).
+fn git_revision() {
+    println!("cargo:rerun-if-changed=.git/HEAD");
+    println!("cargo:rerun-if-changed=.git/index");
+    if let Ok(out) = Command::new("git")
+        .args(["describe", "--always", "--dirty"])
+        .output()
+    {
+        if out.status.success() {
+            let rev = String::from_utf8_lossy(&out.stdout).trim().to_string();
+            println!("cargo:rustc-env=NURBS_CONTACT_GIT_REV={rev}");
+        }
+    }
+}
+
 fn main() {
+    git_revision();
     println!("cargo:rerun-if-changed=src/petsc/wrapper.h");
     println!("cargo:rerun-if-changed=build.rs");
     let petsc = find_petsc();

@@ -1,8 +1,36 @@
+//! # nurbs-contact
+//!
+//! Large-deformation contact between deformable solids with the NURBS-enriched contact elements of
+//! Corbett & Sauer (CMAME 2014): linear bulk elements, a NURBS contact surface of order p on the layer
+//! of elements at each declared contact surface, PETSc SNES + MUMPS for Newton, METIS for
+//! partitioning, MPI through rsmpi, HDF5/XDMF for results.
+//!
+//! ## Map of the modules and the flow of one run
+//! ```text
+//! case.toml --scene--> Case (typed, validated) --model--> Model: meshes (mesh), bodies, BCs, ties
+//! Model --parallel::partition (METIS)--> cell ranks --assembly::DofMap--> contiguous rows per rank, ghosts
+//! Model + ranks --fem::sets--> element sets (kernels from fem, material from material, bases from
+//!                              fem/geometry) --assembly::Assembler--> F(u), J(u) on PETSc (petsc)
+//! solver::run_load_steps: per load step, SNES (newtonls + MUMPS) on the Assembler; cutback on failure
+//! driver: observer per converged step -> io (results.h5/.xdmf, history.csv, summary.json)
+//! ```
+//! - [`petsc`]: the only `unsafe` code: bindgen bindings and their safe RAII wrappers.
+//! - [`assembly`]: numbering, restriction, sinks, Dirichlet rows, the nonlinear system.
+//! - [`fem`], [`material`]: element kernels (total Lagrangian, Q1E4, enriched bases) and the
+//!   Neo-Hookean law; nothing in them knows about MPI or PETSc.
+//! - [`geometry`]: knot vectors, B-splines, NURBS, Bezier extraction, refinement, exact conics.
+//! - [`mesh`]: the mesh type, structured generators with named sets, the Gmsh reader.
+//! - [`scene`], [`model`]: case files and what is built from them; [`solver`], [`driver`], [`io`].
+
 pub mod assembly;
+pub mod driver;
 pub mod fem;
 pub mod geometry;
+pub mod io;
 pub mod material;
 pub mod mesh;
+pub mod model;
 pub mod parallel;
 pub mod petsc;
+pub mod scene;
 pub mod solver;

@@ -1,3 +1,165 @@
-fn main() {
-    eprintln!("nurbs-contact: command line being integrated");
+//! `nurbs-contact`: run or check a case file. CLI only: parse, initialise MPI and PETSc, hand over to
+//! [`nurbs_contact::driver`], report.
+
+use clap::{Parser, Subcommand};
+use nurbs_contact::driver::{self, RunOptions, Verbosity};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Large-deformation contact with NURBS-enriched contact elements (Corbett & Sauer 2014).
+///
+/// Any PETSc option (single dash and a name, e.g. `-snes_monitor`, `-ksp_view`, `-log_view`,
+/// `-pc_factor_mat_solver_type superlu_dist`) may be given anywhere on the command line and reaches
+/// PETSc's options database unchanged; it overrides the case's `solver.petsc_options`.
+/// Run in parallel with `mpirun -np N nurbs-contact run CASE.toml`.
+#[derive(Parser, Debug)]
+#[command(name = "nurbs-contact", version, about, long_about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Solve a case and write results.h5 + results.xdmf, history.csv and summary.json.
+    Run {
+        /// The case file (TOML).
+        case: PathBuf,
+        /// Output directory (default: out/<case name>/).
+        #[arg(long, short = 'o')]
+        out: Option<PathBuf>,
+        /// Override a case value, e.g. `--set meshes.block.divisions=[20,20,20]` or
+        /// `--set stages.0.steps=10`; may be repeated.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        sets: Vec<String>,
+        /// More log output (repeat for more).
+        #[arg(short, long, action = clap::ArgAction::Count)]
+        verbose: u8,
+        /// Only errors.
+        #[arg(short, long)]
+        quiet: bool,
+        /// Assemble the Jacobian with MatSetValues on an exactly preallocated matrix instead of the
+        /// COO interface (for benchmarks).
+        #[arg(long)]
+        matsetvalues: bool,
+    },
+    /// Validate a case (schema, references, meshes, sets, boundary conditions) without solving.
+    Check {
+        /// The case file (TOML).
+        case: PathBuf,
+        /// Overrides, as for `run`.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        sets: Vec<String>,
+    },
+}
+
+/// Splits the command line into our arguments and PETSc's: a PETSc option is a single dash followed by
+/// a name of two or more characters (`-snes_rtol`), plus its value when the next word is not itself an
+/// option (numbers like `-1e-8` count as values).
+fn split_petsc_args(args: Vec<String>) -> (Vec<String>, Vec<String>) {
+    let is_petsc_opt = |a: &str| {
+        a.starts_with('-')
+            && !a.starts_with("--")
+            && a.len() > 2
+            && a[1..].starts_with(|c: char| c.is_ascii_alphabetic())
+            && !a[1..].chars().all(|c| c == 'v' || c == 'q')
+    };
+    let mut ours = Vec::new();
+    let mut petsc = Vec::new();
+    let mut it = args.into_iter().peekable();
+    if let Some(prog) = it.next() {
+        ours.push(prog.clone());
+        petsc.push(prog);
+    }
+    while let Some(a) = it.next() {
+        if is_petsc_opt(&a) {
+            petsc.push(a);
+            if let Some(next) = it.peek() {
+                if !next.starts_with('-') || next.parse::<f64>().is_ok() {
+                    petsc.push(it.next().unwrap_or_default());
+                }
+            }
+        } else {
+            ours.push(a);
+        }
+    }
+    (ours, petsc)
+}
+
+fn main() -> ExitCode {
+    let (ours, petsc_args) = split_petsc_args(std::env::args().collect());
+    let cli = Cli::parse_from(ours);
+    let result = match cli.command {
+        Command::Run {
+            case,
+            out,
+            sets,
+            verbose,
+            quiet,
+            matsetvalues,
+        } => driver::run_main(RunOptions {
+            case,
+            out,
+            sets,
+            petsc_args,
+            verbosity: if quiet {
+                Verbosity::Quiet
+            } else {
+                Verbosity::from_count(verbose)
+            },
+            matsetvalues,
+        }),
+        Command::Check { case, sets } => driver::check_main(&case, &sets, petsc_args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::split_petsc_args;
+
+    fn s(v: &[&str]) -> Vec<String> {
+        v.iter().map(|x| x.to_string()).collect()
+    }
+
+    #[test]
+    fn petsc_options_are_split_from_ours_with_their_values() {
+        let (ours, petsc) = split_petsc_args(s(&[
+            "nc",
+            "run",
+            "c.toml",
+            "-snes_monitor",
+            "--out",
+            "d",
+            "-snes_rtol",
+            "1e-12",
+            "-v",
+            "-vv",
+            "-mat_shift",
+            "-1e-3",
+            "--set",
+            "a.b=1",
+        ]));
+        assert_eq!(
+            ours,
+            s(&["nc", "run", "c.toml", "--out", "d", "-v", "-vv", "--set", "a.b=1"])
+        );
+        assert_eq!(
+            petsc,
+            s(&[
+                "nc",
+                "-snes_monitor",
+                "-snes_rtol",
+                "1e-12",
+                "-mat_shift",
+                "-1e-3"
+            ])
+        );
+    }
 }

@@ -396,6 +396,11 @@ impl<'p> Assembler<'p> {
         }
     }
 
+    /// The communicator of the system.
+    pub fn comm(&self) -> &mpi::topology::SimpleCommunicator {
+        self.petsc.comm()
+    }
+
     /// Number of stored nonzeros the COO pattern lists (before PETSc merges duplicates).
     pub fn coo_len(&self) -> usize {
         self.coo_values.len()

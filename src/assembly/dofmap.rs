@@ -64,6 +64,7 @@ impl DofMap {
     /// `cell_offsets`/`cell_nodes` is the CSR connectivity over global node ids, `cell_part` the rank of
     /// each cell, `ties` pairs `(slave, master)` whose unknowns are shared, `owned_cells` the cells of
     /// this rank (their nodes make up the local vector).
+    #[allow(clippy::too_many_arguments)] // plain slices keep this testable without a mesh type
     pub fn new(
         dim: usize,
         n_nodes: usize,

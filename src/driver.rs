@@ -1,0 +1,560 @@
+//! Running a case end to end: case file -> model -> partition -> numbering -> assembler -> SNES load
+//! stepping -> results. `main.rs` only parses the command line and calls [`run_main`] or [`check_main`].
+
+use crate::assembly::{
+    constrained_flags, prescribed_values, Assembler, DofMap, DofMapError, GlobalDof,
+};
+use crate::io::{self, FieldData, GridDef, HistoryRow, HistoryWriter, ResultsWriter, Summary};
+use crate::model::{Model, ModelError};
+use crate::parallel::partition_cells;
+use crate::petsc::{Matrix, Petsc, PetscError, PetscInt, Scatter, Snes, Vector};
+use crate::scene::{load_case, validate, Case, OutputField, SceneError};
+use crate::solver::{run_load_steps, SolverError, StepControl, StepRecord};
+use mpi::collective::SystemOperation;
+use mpi::topology::SimpleCommunicator;
+use mpi::traits::*;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// How much to log.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Verbosity {
+    /// Errors only.
+    Quiet,
+    /// Progress and where the results are.
+    Normal,
+    /// One line per step and per cutback.
+    Verbose,
+    /// Also setup details.
+    Debug,
+}
+
+impl Verbosity {
+    /// From the number of `-v` flags.
+    pub fn from_count(n: u8) -> Self {
+        match n {
+            0 => Verbosity::Normal,
+            1 => Verbosity::Verbose,
+            _ => Verbosity::Debug,
+        }
+    }
+}
+
+/// What `nurbs-contact run` was asked to do.
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    /// Case file.
+    pub case: PathBuf,
+    /// Output directory (default `out/<case name>`).
+    pub out: Option<PathBuf>,
+    /// `--set key=value` overrides.
+    pub sets: Vec<String>,
+    /// Program name followed by the PETSc options of the command line.
+    pub petsc_args: Vec<String>,
+    /// Logging.
+    pub verbosity: Verbosity,
+    /// Use `MatSetValues` instead of COO assembly.
+    pub matsetvalues: bool,
+}
+
+/// Everything that can stop a run.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// The case file.
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    /// Building meshes, sets, elements.
+    #[error(transparent)]
+    Model(#[from] ModelError),
+    /// Numbering.
+    #[error(transparent)]
+    DofMap(#[from] DofMapError),
+    /// PETSc.
+    #[error(transparent)]
+    Petsc(#[from] PetscError),
+    /// Load stepping.
+    #[error(transparent)]
+    Solver(#[from] SolverError),
+    /// Boundary conditions that contradict each other.
+    #[error("{}: {source}", .file.display())]
+    Conflict {
+        /// The case file.
+        file: PathBuf,
+        /// Which conditions.
+        source: crate::assembly::ConflictError,
+    },
+    /// Writing results.
+    #[error(transparent)]
+    Io(#[from] io::IoError),
+    /// METIS.
+    #[error(transparent)]
+    Partition(#[from] crate::parallel::PartitionError),
+    /// MPI could not be initialised.
+    #[error("MPI initialisation failed (already initialised?)")]
+    Mpi,
+    /// Another rank failed and reported its error.
+    #[error("stopped because another rank failed")]
+    OtherRank,
+}
+
+/// `nurbs-contact check`: everything but the solve, on one process.
+pub fn check_main(
+    case_path: &Path,
+    sets: &[String],
+    _petsc_args: Vec<String>,
+) -> Result<(), Error> {
+    let case = load_case(case_path, sets)?;
+    validate(&case)?;
+    let model = Model::build(&case)?;
+    let part = vec![0u32; model.n_cells()];
+    let dofs = DofMap::new(
+        model.dim,
+        model.n_nodes(),
+        &model.cell_offsets,
+        &model.cell_nodes,
+        &part,
+        &model.ties,
+        1,
+        0,
+    )?;
+    let sets = model.element_sets(&case.file, &part, 0)?;
+    for s in 1..=case.stages.len() {
+        prescribed_values(&model.bcs, &dofs, &model.coords, s as f64).map_err(|source| {
+            Error::Conflict {
+                file: case.file.clone(),
+                source,
+            }
+        })?;
+    }
+    println!(
+        "{}: ok ({} bodies, {} elements in {} sets, {} nodes, {} unknowns, {} stages)",
+        case_path.display(),
+        model.bodies.len(),
+        model.n_cells(),
+        sets.len(),
+        model.n_nodes(),
+        dofs.n_global(),
+        case.stages.len()
+    );
+    Ok(())
+}
+
+/// `nurbs-contact run`: initialises MPI and PETSc, runs, and prints the error on the rank that has it.
+pub fn run_main(opts: RunOptions) -> Result<(), Error> {
+    let universe = mpi::initialize().ok_or(Error::Mpi)?;
+    let world = universe.world();
+    let rank = world.rank();
+    let petsc = Petsc::init(&world, &opts.petsc_args)?;
+    let result = run(&petsc, &opts);
+    drop(petsc);
+    match result {
+        // Collective errors are the same on every rank: rank 0 reports them, the others stay silent.
+        Err(e) if rank != 0 && !matches!(e, Error::Model(_) | Error::OtherRank) => {
+            Err(Error::OtherRank)
+        }
+        r => r,
+    }
+}
+
+/// Makes a rank-local failure collective, so no rank waits forever in a collective call.
+fn agree<T>(comm: &SimpleCommunicator, r: Result<T, Error>) -> Result<T, Error> {
+    let flag = i32::from(r.is_err());
+    let mut any = 0;
+    comm.all_reduce_into(&flag, &mut any, SystemOperation::max());
+    match r {
+        Ok(_) if any != 0 => Err(Error::OtherRank),
+        r => r,
+    }
+}
+
+fn log(rank: i32, v: Verbosity, at: Verbosity, msg: impl FnOnce() -> String) {
+    if rank == 0 && v >= at {
+        eprintln!("{}", msg());
+    }
+}
+
+/// Solves a case. Collective.
+pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
+    let t_start = Instant::now();
+    let comm = petsc.comm();
+    let (rank, size) = (comm.rank(), comm.size() as usize);
+    let v = opts.verbosity;
+
+    // Every rank reads and builds the same model; any failure here is identical on all ranks.
+    let case = load_case(&opts.case, &opts.sets)?;
+    validate(&case)?;
+    let model = Model::build(&case)?;
+    let out_dir = opts
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join(&case.case.name));
+
+    // Partition on rank 0 and broadcast, so all ranks agree even if METIS were not deterministic.
+    let mut part = vec![0u32; model.n_cells()];
+    if size > 1 {
+        let r0 = if rank == 0 {
+            partition_cells(&model.combined_mesh(), size).map_err(Error::from)
+        } else {
+            Ok(Vec::new())
+        };
+        let p = agree(comm, r0)?;
+        if rank == 0 {
+            part = p;
+        }
+        comm.process_at_rank(0).broadcast_into(&mut part[..]);
+    }
+    let dofs = DofMap::new(
+        model.dim,
+        model.n_nodes(),
+        &model.cell_offsets,
+        &model.cell_nodes,
+        &part,
+        &model.ties,
+        size,
+        rank as usize,
+    )?;
+    for s in 1..=case.stages.len() {
+        prescribed_values(&model.bcs, &dofs, &model.coords, s as f64).map_err(|source| {
+            Error::Conflict {
+                file: case.file.clone(),
+                source,
+            }
+        })?;
+    }
+    let sets = agree(
+        comm,
+        model
+            .element_sets(&case.file, &part, rank as usize)
+            .map_err(Error::from),
+    )?;
+    let n_global = dofs.n_global();
+    let n_owned = dofs.n_owned();
+    log(rank, v, Verbosity::Normal, || {
+        format!(
+            "{}: {} elements, {} unknowns on {} rank{}",
+            case.case.name,
+            model.n_cells(),
+            n_global,
+            size,
+            if size > 1 { "s" } else { "" }
+        )
+    });
+
+    let constrained = constrained_flags(&model.bcs, &dofs);
+    let mut x = Vector::new_mpi(petsc, n_owned)?;
+    x.set(0.0)?;
+    let mut asm = Assembler::new(petsc, &x, dofs, sets, constrained)?;
+    if opts.matsetvalues {
+        asm.use_preallocated(model.cell_offsets.clone(), model.cell_nodes.clone());
+    }
+    let mut jac = Matrix::new_aij(petsc, n_owned)?;
+
+    // Options: code defaults (in Snes::new), then the case's petsc_options, then the command line.
+    let cmdline = opts
+        .petsc_args
+        .iter()
+        .skip(1)
+        .cloned()
+        .collect::<Vec<_>>()
+        .join(" ");
+    petsc.insert_options(&case.solver.petsc_options, &cmdline)?;
+    let mut snes = Snes::new(petsc)?;
+    snes.set_tolerances(1e-11, 1e-10, 1e-14, 30)?;
+    snes.set_from_options()?;
+
+    let control = StepControl {
+        stage_steps: case.stages.iter().map(|s| s.steps).collect(),
+        max_cutbacks: case.steps.max_cutbacks as usize,
+        growth: case.steps.growth,
+        easy_iterations: case.steps.easy_iterations as usize,
+    };
+
+    // Output on rank 0: the whole displacement is gathered there at each written step.
+    let mut output = Output::new(petsc, &model, &case, &asm.dofs, &out_dir, rank == 0)?;
+    let n_stages = case.stages.len() as f64;
+    let total_steps: usize = control.stage_steps.iter().sum();
+    let bar = (rank == 0 && v == Verbosity::Normal && std::io::stderr().is_terminal()).then(|| {
+        let b = indicatif::ProgressBar::new(total_steps as u64);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:30}] load {msg}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    });
+    let mut newton = io::NewtonStats::default();
+    let mut step_log: Vec<io::StepLog> = Vec::new();
+    let mut t_output = 0.0;
+    let case_ref = &case;
+    let mut observer = |rec: &StepRecord, x: &Vector, asm: &mut Assembler| -> Result<(), String> {
+        let t0 = Instant::now();
+        newton.record(rec.iterations as u32);
+        step_log.push(io::StepLog {
+            step: rec.step,
+            load: rec.load,
+            iterations: rec.iterations as u32,
+            cutbacks: rec.cutbacks as u32,
+            residual_history: rec.residual_history.clone(),
+        });
+        let reactions: Vec<f64> = model
+            .reactions
+            .iter()
+            .flat_map(|(_, nodes)| asm.reaction(nodes))
+            .collect();
+        let last = (rec.load - n_stages).abs() < 1e-12;
+        let write = last || rec.step.is_multiple_of(case_ref.output.every);
+        output
+            .step(
+                rec,
+                &reactions,
+                t_start.elapsed().as_secs_f64(),
+                write,
+                x,
+                asm,
+            )
+            .map_err(|e| e.to_string())?;
+        t_output += t0.elapsed().as_secs_f64();
+        if let Some(b) = &bar {
+            b.set_position(((rec.load / n_stages) * total_steps as f64).round() as u64);
+            b.set_message(format!(
+                "{:.4} | step {} | {} it | |F| {:.2e}",
+                rec.load, rec.step, rec.iterations, rec.residual
+            ));
+        }
+        log(rank, v, Verbosity::Verbose, || {
+            format!(
+                "step {:4}  stage {}  load {:.6}  newton {:2}  |F| {:.3e}  cutbacks {}",
+                rec.step, rec.stage, rec.load, rec.iterations, rec.residual, rec.cutbacks
+            )
+        });
+        Ok(())
+    };
+    let t_solve = Instant::now();
+    let result = run_load_steps(
+        &mut asm,
+        &mut snes,
+        &mut x,
+        &mut jac,
+        &model.bcs,
+        &model.coords,
+        &control,
+        &mut observer,
+    );
+    let solve_wall = t_solve.elapsed().as_secs_f64();
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+
+    let assembly = asm.timers.residual + asm.timers.jacobian + asm.timers.pattern;
+    let status = match &result {
+        Ok(_) => io::RunStatus::Converged,
+        Err(e) => io::RunStatus::Failed {
+            reason: e.to_string(),
+        },
+    };
+    // Slowest rank's times: that is what the user waits for.
+    let mut times = [
+        assembly,
+        (solve_wall - assembly - t_output).max(0.0),
+        t_output,
+    ];
+    let local = times;
+    comm.all_reduce_into(&local[..], &mut times[..], SystemOperation::max());
+    let summary = Summary {
+        case: case.case.name.clone(),
+        git_revision: option_env!("NURBS_CONTACT_GIT_REV")
+            .unwrap_or("unknown")
+            .to_string(),
+        ranks: size,
+        unknowns: n_global as u64,
+        elements: model.n_cells() as u64,
+        newton,
+        wall_time: io::PhaseTimes {
+            assembly: times[0],
+            solve: times[1],
+            output: times[2],
+            total: t_start.elapsed().as_secs_f64(),
+        },
+        peak_memory_mb: petsc.max_memory_bytes() / 1e6,
+        steps: step_log,
+        status,
+    };
+    output.finish(&summary)?;
+    log(rank, v, Verbosity::Normal, || {
+        format!("results in {}", out_dir.display())
+    });
+    result.map(|_| ()).map_err(Error::from)
+}
+
+/// Results of a run on rank 0 (the other ranks only take part in the gathers).
+struct Output<'p> {
+    root: bool,
+    dim: usize,
+    n_nodes: usize,
+    n_cells: usize,
+    out_dir: PathBuf,
+    fields: Vec<OutputField>,
+    results: Option<ResultsWriter>,
+    history: Option<HistoryWriter>,
+    /// Gathers the whole displacement on rank 0, in node order.
+    gather: Scatter<'p>,
+    u_root: Vector<'p>,
+    /// Cells of each body start here in the global cell numbering.
+    cell_offset: Vec<usize>,
+    case_toml: String,
+}
+
+impl<'p> Output<'p> {
+    fn new(
+        petsc: &'p Petsc,
+        model: &Model,
+        case: &Case,
+        dofs: &DofMap,
+        out_dir: &Path,
+        root: bool,
+    ) -> Result<Self, Error> {
+        let (dim, n_nodes) = (model.dim, model.n_nodes());
+        // Rank 0 asks for every unknown in node order; nodes outside every cell read entry 0 and are
+        // zeroed after the gather.
+        let idx: Vec<PetscInt> = if root {
+            (0..n_nodes as u32)
+                .flat_map(|n| (0..dim).map(move |c| (n, c)))
+                .map(|(n, c)| dofs.global(n, c).map_or(0, |g: GlobalDof| g.0))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let u_root = Vector::new_seq(petsc, idx.len())?;
+        let template = Vector::new_mpi(petsc, dofs.n_owned())?;
+        let gather = Scatter::new(petsc, &template, &u_root, &idx)?;
+        let mut out = Output {
+            root,
+            dim,
+            n_nodes,
+            n_cells: model.n_cells(),
+            out_dir: out_dir.to_path_buf(),
+            fields: case.output.fields.clone(),
+            results: None,
+            history: None,
+            gather,
+            u_root,
+            cell_offset: model.bodies.iter().map(|b| b.cell_offset).collect(),
+            case_toml: case.to_toml_string()?,
+        };
+        if root {
+            std::fs::create_dir_all(out_dir).map_err(|source| io::IoError::File {
+                path: out_dir.to_path_buf(),
+                op: "create the output directory",
+                source,
+            })?;
+            let conn: Vec<usize> = model.cell_nodes.iter().map(|&n| n as usize).collect();
+            let kind = if dim == 2 {
+                io::CellKind::Quadrilateral
+            } else {
+                io::CellKind::Hexahedron
+            };
+            let grid = GridDef {
+                name: "bulk",
+                dim,
+                coords: &model.coords,
+                kind,
+                connectivity: &conn,
+            };
+            out.results = Some(ResultsWriter::create(out_dir, &[grid])?);
+            let labels: Vec<(&str, &str)> = case
+                .output
+                .reactions
+                .iter()
+                .map(|r| (r.body.as_str(), r.set.as_str()))
+                .collect();
+            out.history = Some(HistoryWriter::create(out_dir, dim, &labels)?);
+        }
+        Ok(out)
+    }
+
+    /// Records one converged step (history row; results when `write`). Collective.
+    fn step(
+        &mut self,
+        rec: &StepRecord,
+        reactions: &[f64],
+        wall: f64,
+        write: bool,
+        x: &Vector,
+        asm: &mut Assembler,
+    ) -> Result<(), Error> {
+        if let Some(h) = &mut self.history {
+            h.write_row(&HistoryRow {
+                step: rec.step,
+                stage: rec.stage,
+                load_factor: rec.load,
+                newton_iterations: rec.iterations as u32,
+                residual: rec.residual,
+                cutbacks: rec.cutbacks as u32,
+                reactions,
+                wall_time: wall,
+            })?;
+        }
+        if !write {
+            return Ok(());
+        }
+        self.gather.gather(x, &mut self.u_root)?;
+        // Element measures: each rank fills its cells, a sum-reduction assembles them on rank 0.
+        let measures = asm
+            .stress_measures(x)
+            .map_err(|e| Error::Solver(SolverError::Observer(e.to_string())))?;
+        let comm = asm_comm(asm);
+        let mut local = vec![0.0; 3 * self.n_cells];
+        let rank = comm.rank() as f64;
+        for (body, cell, tr, vm) in measures {
+            let g = self.cell_offset[body] + cell;
+            local[g] = tr;
+            local[self.n_cells + g] = vm;
+            local[2 * self.n_cells + g] = rank;
+        }
+        let root_proc = comm.process_at_rank(0);
+        if self.root {
+            let mut global = vec![0.0; 3 * self.n_cells];
+            root_proc.reduce_into_root(&local[..], &mut global[..], SystemOperation::sum());
+            let u = self.u_root.read()?;
+            let (i1, rest) = global.split_at(self.n_cells);
+            let (vm, ranks) = rest.split_at(self.n_cells);
+            let mut fields = Vec::new();
+            for f in &self.fields {
+                fields.push(match f {
+                    OutputField::Displacement => {
+                        FieldData::node_vector("bulk", "displacement", self.dim, &u)
+                    }
+                    OutputField::I1 => FieldData::cell_scalar("bulk", "I1", i1),
+                    OutputField::VonMises => FieldData::cell_scalar("bulk", "von_mises", vm),
+                    OutputField::Rank => FieldData::cell_scalar("bulk", "rank", ranks),
+                });
+            }
+            debug_assert_eq!(u.len(), self.n_nodes * self.dim);
+            if let Some(r) = &mut self.results {
+                r.write_step(rec.load, &fields)?;
+            }
+        } else {
+            root_proc.reduce_into(&local[..], SystemOperation::sum());
+        }
+        Ok(())
+    }
+
+    /// Finalises results (renamed into place) and writes the summary. Collective for nothing.
+    fn finish(mut self, summary: &Summary) -> Result<(), Error> {
+        if !self.root {
+            return Ok(());
+        }
+        if let Some(r) = self.results.take() {
+            r.finish()?;
+        }
+        // history.csv is flushed row by row under its final name: nothing to finish.
+        self.history.take();
+        io::write_atomic(&self.out_dir.join("case.toml"), self.case_toml.as_bytes())?;
+        io::write_summary(&self.out_dir, summary)?;
+        Ok(())
+    }
+}
+
+fn asm_comm<'a>(asm: &'a Assembler) -> &'a SimpleCommunicator {
+    asm.comm()
+}

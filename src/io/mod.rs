@@ -1,0 +1,22 @@
+//! Results writers. They take plain data (coordinates, connectivity, field values as flat slices),
+//! never a mesh type, and are called on one rank with gathered data.
+//!
+//! - [`hdf5_xdmf`]: `results.h5` + `results.xdmf` (ParaView), one grid per cell type, one temporal
+//!   collection per grid, load factor as time. Complete or absent: written under `.partial` names
+//!   and renamed by [`ResultsWriter::finish`].
+//! - [`history`]: `history.csv`, one row per converged step, flushed per row.
+//! - [`summary`]: `summary.json` (run statistics, status), written atomically.
+//! - [`atomic`]: the shared write-to-temp-then-rename helpers.
+//! - [`error`]: [`IoError`], naming the file and the dataset or field concerned.
+
+pub mod atomic;
+pub mod error;
+pub mod hdf5_xdmf;
+pub mod history;
+pub mod summary;
+
+pub use atomic::{commit, partial_path, write_atomic};
+pub use error::IoError;
+pub use hdf5_xdmf::{CellKind, Center, FieldData, GridDef, ResultsWriter};
+pub use history::{HistoryRow, HistoryWriter};
+pub use summary::{write_summary, NewtonStats, PhaseTimes, RunStatus, StepLog, Summary};

@@ -1,0 +1,168 @@
+//! `summary.json`: what a finished (or failed) run did, for scripts and studies. Written atomically.
+
+use crate::io::atomic::write_atomic;
+use crate::io::IoError;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Newton statistics over the converged steps.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct NewtonStats {
+    /// Converged load steps.
+    pub steps: usize,
+    /// Newton iterations summed over all converged steps (iterations of cut-back attempts excluded).
+    pub total_iterations: u64,
+    /// Largest number of Newton iterations one converged step needed.
+    pub max_iterations_per_step: u32,
+}
+
+impl NewtonStats {
+    /// Account for one converged step.
+    pub fn record(&mut self, iterations: u32) {
+        self.steps += 1;
+        self.total_iterations += u64::from(iterations);
+        self.max_iterations_per_step = self.max_iterations_per_step.max(iterations);
+    }
+}
+
+/// Wall time by phase, seconds (max over ranks is the caller's choice to report).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct PhaseTimes {
+    pub assembly: f64,
+    pub solve: f64,
+    pub output: f64,
+    pub total: f64,
+}
+
+/// One converged load step in the summary.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StepLog {
+    /// Step number, from 1.
+    pub step: usize,
+    /// Load parameter reached.
+    pub load: f64,
+    /// Newton iterations.
+    pub iterations: u32,
+    /// Failed attempts before convergence.
+    pub cutbacks: u32,
+    /// Residual norm before each Newton iteration and after the last.
+    pub residual_history: Vec<f64>,
+}
+
+/// How the run ended: `"status": "converged"` or `"status": "failed", "reason": "..."`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "status", rename_all = "lowercase")]
+pub enum RunStatus {
+    Converged,
+    Failed { reason: String },
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Summary {
+    /// `[case].name`.
+    pub case: String,
+    /// `git describe --always --dirty` of the code, passed in by the caller.
+    pub git_revision: String,
+    pub ranks: usize,
+    /// Global number of unknowns (free dofs).
+    pub unknowns: u64,
+    pub elements: u64,
+    pub newton: NewtonStats,
+    pub wall_time: PhaseTimes,
+    /// Peak resident memory of rank 0 as PETSc measured it (MB).
+    pub peak_memory_mb: f64,
+    /// One entry per converged load step, with its Newton residual history.
+    pub steps: Vec<StepLog>,
+    #[serde(flatten)]
+    pub status: RunStatus,
+}
+
+/// Write `dir/summary.json` atomically; returns its path.
+pub fn write_summary(dir: &Path, summary: &Summary) -> Result<PathBuf, IoError> {
+    let path = dir.join("summary.json");
+    let mut text = serde_json::to_string_pretty(summary).map_err(|source| IoError::Json {
+        path: path.clone(),
+        source,
+    })?;
+    text.push('\n');
+    write_atomic(&path, text.as_bytes())?;
+    Ok(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(status: RunStatus) -> Summary {
+        let mut newton = NewtonStats::default();
+        for it in [4, 7, 5] {
+            newton.record(it);
+        }
+        Summary {
+            case: "block_compression_3d".to_string(),
+            git_revision: "abc1234-dirty".to_string(),
+            ranks: 2,
+            unknowns: 375,
+            elements: 64,
+            newton,
+            wall_time: PhaseTimes {
+                assembly: 1.5,
+                solve: 2.25,
+                output: 0.125,
+                total: 4.0,
+            },
+            peak_memory_mb: 54.0,
+            steps: vec![StepLog {
+                step: 1,
+                load: 0.5,
+                iterations: 4,
+                cutbacks: 1,
+                residual_history: vec![1.0, 1e-3, 1e-9],
+            }],
+            status,
+        }
+    }
+
+    #[test]
+    fn newton_stats_track_total_and_max() {
+        let s = sample(RunStatus::Converged).newton;
+        assert_eq!(
+            (s.steps, s.total_iterations, s.max_iterations_per_step),
+            (3, 16, 7)
+        );
+    }
+
+    #[test]
+    fn summary_json_has_flat_status_and_round_trips() {
+        let dir = std::env::temp_dir().join(format!("io_summary_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for status in [
+            RunStatus::Converged,
+            RunStatus::Failed {
+                reason: "step 3: 8 cutbacks exhausted".to_string(),
+            },
+        ] {
+            let s = sample(status);
+            let path = write_summary(&dir, &s).unwrap();
+            assert!(!dir.join("summary.json.partial").exists());
+            let text = std::fs::read_to_string(&path).unwrap();
+            let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+            assert_eq!(v["case"], "block_compression_3d");
+            assert_eq!(v["newton"]["max_iterations_per_step"], 7);
+            assert_eq!(v["wall_time"]["solve"], 2.25);
+            match &s.status {
+                RunStatus::Converged => {
+                    assert_eq!(v["status"], "converged");
+                    assert!(v.get("reason").is_none());
+                }
+                RunStatus::Failed { reason } => {
+                    assert_eq!(v["status"], "failed");
+                    assert_eq!(v["reason"], reason.as_str());
+                }
+            }
+            let back: Summary = serde_json::from_str(&text).unwrap();
+            assert_eq!(back, s);
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

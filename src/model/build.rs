@@ -1,0 +1,409 @@
+//! Building a [`Model`] from a validated [`Case`].
+
+use crate::assembly::{DirichletBc, ElementSet, Prescription};
+use crate::fem::kernel::TlElement;
+use crate::fem::q1e4::Q1e4Element;
+use crate::fem::sets::{Q1e4Set, TlSet};
+use crate::fem::{hex8, quad4};
+use crate::material::NeoHookean;
+use crate::mesh::{self, CellKind, Mesh, MeshError};
+use crate::scene::{
+    validate_sets, BcSpec, Case, ElementFamily, Generator, MeshSpec, SceneError, SetKind,
+};
+
+/// Why a model could not be built from a (schema-valid) case.
+#[derive(Debug, thiserror::Error)]
+pub enum ModelError {
+    /// A mesh could not be generated or read.
+    #[error("{}: mesh `{mesh}`: {source}", .file.display())]
+    Mesh {
+        /// The case file.
+        file: std::path::PathBuf,
+        /// The mesh table name.
+        mesh: String,
+        /// What went wrong.
+        source: MeshError,
+    },
+    /// A set named in the case does not exist, or other case-level problems found once meshes exist.
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    /// A material constant is out of range.
+    #[error("{}: `bodies.{body}.material`: {msg}", .file.display())]
+    Material {
+        /// The case file.
+        file: std::path::PathBuf,
+        /// The body.
+        body: String,
+        /// What is wrong.
+        msg: String,
+    },
+    /// A cell's reference geometry is invalid for its element family.
+    #[error("{}: body `{body}` cell {cell} ({family}): {msg}", .file.display())]
+    Element {
+        /// The case file.
+        file: std::path::PathBuf,
+        /// The body.
+        body: String,
+        /// Body-local cell id.
+        cell: usize,
+        /// Element family.
+        family: String,
+        /// What is wrong.
+        msg: String,
+    },
+    /// A periodic tie could not match its node sets.
+    #[error("{}: `ties.{index}`: {msg}", .file.display())]
+    Tie {
+        /// The case file.
+        file: std::path::PathBuf,
+        /// Index of the tie.
+        index: usize,
+        /// What is wrong.
+        msg: String,
+    },
+    /// The case asks for something this version cannot build yet.
+    #[error("{}: `{key}`: {msg}", .file.display())]
+    Unsupported {
+        /// The case file.
+        file: std::path::PathBuf,
+        /// The key.
+        key: String,
+        /// What is missing.
+        msg: String,
+    },
+}
+
+/// One body: its mesh, where its nodes and cells start in the global numbering, family and material.
+pub struct Body {
+    /// Name in the case.
+    pub name: String,
+    /// Its mesh (body-local numbering).
+    pub mesh: Mesh,
+    /// Global id of its node 0.
+    pub node_offset: u32,
+    /// Global id of its cell 0.
+    pub cell_offset: usize,
+    /// Element family.
+    pub family: ElementFamily,
+    /// Material.
+    pub material: NeoHookean,
+}
+
+/// Everything a run needs, identical on every rank.
+pub struct Model {
+    /// Spatial dimension.
+    pub dim: usize,
+    /// Bodies in case order (alphabetical by name, as TOML tables are).
+    pub bodies: Vec<Body>,
+    /// Reference coordinates of every global node. [n_nodes][dim]
+    pub coords: Vec<f64>,
+    /// CSR connectivity over global node ids. [n_cells + 1]
+    pub cell_offsets: Vec<usize>,
+    /// [sum of cell sizes]
+    pub cell_nodes: Vec<u32>,
+    /// Body of each global cell. [n_cells]
+    pub cell_body: Vec<u32>,
+    /// Dirichlet conditions over global nodes.
+    pub bcs: Vec<DirichletBc>,
+    /// Periodic ties `(slave, master)` over global nodes.
+    pub ties: Vec<(u32, u32)>,
+    /// Reaction sets for the history: (column label `<body>_<set>`, global nodes).
+    pub reactions: Vec<(String, Vec<u32>)>,
+}
+
+fn generate(case: &Case, name: &str, spec: &MeshSpec) -> Result<Mesh, ModelError> {
+    let err = |source| ModelError::Mesh {
+        file: case.file.clone(),
+        mesh: name.to_string(),
+        source,
+    };
+    let m = match spec {
+        MeshSpec::Generated(g) => match g {
+            Generator::Rectangle(p) => mesh::rectangle::rectangle(p.origin, p.size, p.divisions),
+            Generator::HalfDisk(p) => {
+                mesh::half_disk::half_disk(p.center, p.radius, p.n_arc, p.n_radial)
+            }
+            Generator::Sector(p) => mesh::sector::sector(
+                p.center,
+                p.r_inner,
+                p.r_outer,
+                [p.theta0_deg.to_radians(), p.theta1_deg.to_radians()],
+                p.divisions[1],
+                p.divisions[0],
+            ),
+            Generator::Box(p) => mesh::box3d::box3d(p.origin, p.size, p.divisions),
+            Generator::Hemisphere(p) => mesh::hemisphere::hemisphere(
+                p.center,
+                p.outer_radius,
+                p.thickness,
+                p.n_surface,
+                p.n_thickness,
+            ),
+        },
+        MeshSpec::File(f) => mesh::gmsh::read_gmsh(&case.resolve_path(&f.file)),
+    }
+    .map_err(err)?;
+    m.validate().map_err(err)?;
+    Ok(m)
+}
+
+/// The nodes of a named set of a body: a node set, or the nodes of a face set.
+fn set_nodes(body: &Body, set: &str) -> Option<Vec<u32>> {
+    if let Some(n) = body.mesh.node_sets.get(set) {
+        return Some(n.iter().map(|&n| n + body.node_offset).collect());
+    }
+    body.mesh
+        .node_set_from_faces(set)
+        .ok()
+        .map(|v| v.iter().map(|&n| n + body.node_offset).collect())
+}
+
+impl Model {
+    /// Builds meshes, bodies, conditions and ties of a validated case.
+    pub fn build(case: &Case) -> Result<Model, ModelError> {
+        let dim = case.case.dim;
+        let mut bodies = Vec::new();
+        let (mut node_offset, mut cell_offset) = (0u32, 0usize);
+        for (name, spec) in &case.bodies {
+            let mesh_spec = &case.meshes[&spec.mesh];
+            let mesh = generate(case, &spec.mesh, mesh_spec)?;
+            let material = NeoHookean::from_young_poisson(spec.material.E, spec.material.nu)
+                .map_err(|e| ModelError::Material {
+                    file: case.file.clone(),
+                    body: name.clone(),
+                    msg: e.to_string(),
+                })?;
+            let (nn, nc) = (mesh.n_nodes() as u32, mesh.n_cells());
+            bodies.push(Body {
+                name: name.clone(),
+                mesh,
+                node_offset,
+                cell_offset,
+                family: spec.element,
+                material,
+            });
+            node_offset += nn;
+            cell_offset += nc;
+        }
+        let find = |b: &str| bodies.iter().find(|x| x.name == b);
+        validate_sets(case, &|b, s, kind| {
+            find(b).is_some_and(|body| match kind {
+                SetKind::Node => {
+                    body.mesh.node_sets.contains_key(s) || body.mesh.face_sets.contains_key(s)
+                }
+                SetKind::Face => body.mesh.face_sets.contains_key(s),
+            })
+        })?;
+
+        let mut coords = Vec::with_capacity(node_offset as usize * dim);
+        let (mut cell_offsets, mut cell_nodes, mut cell_body) =
+            (vec![0usize], Vec::new(), Vec::new());
+        for (bi, b) in bodies.iter().enumerate() {
+            if b.mesh.dim != dim {
+                return Err(ModelError::Unsupported {
+                    file: case.file.clone(),
+                    key: format!("bodies.{}.mesh", b.name),
+                    msg: format!("mesh is {}D but case.dim = {dim}", b.mesh.dim),
+                });
+            }
+            coords.extend_from_slice(&b.mesh.coords);
+            for c in 0..b.mesh.n_cells() {
+                cell_nodes.extend(b.mesh.cell(c).iter().map(|&n| n + b.node_offset));
+                cell_offsets.push(cell_nodes.len());
+                cell_body.push(bi as u32);
+            }
+        }
+
+        let mut bcs = Vec::new();
+        for (i, bc) in case.bcs.iter().enumerate() {
+            let body = find(bc.body()).ok_or_else(|| ModelError::Unsupported {
+                file: case.file.clone(),
+                key: format!("bcs.{i}.body"),
+                msg: format!("no body `{}`", bc.body()),
+            })?;
+            let nodes = set_nodes(body, bc.set()).unwrap_or_default();
+            let label = format!("bcs.{i} ({}/{})", bc.body(), bc.set());
+            let (components, kind) = match bc {
+                BcSpec::Fixed(f) => (
+                    f.components(dim).iter().map(|c| c.index()).collect(),
+                    Prescription::Fixed,
+                ),
+                BcSpec::Displacement(d) => (
+                    d.components(dim).iter().map(|c| c.index()).collect(),
+                    Prescription::Displacement(d.value.clone()),
+                ),
+                BcSpec::Rotation(r) => {
+                    let a = r.axis.unwrap_or([0.0, 0.0, 1.0]);
+                    let norm = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+                    let mut center = [0.0; 3];
+                    center[..r.center.len().min(3)]
+                        .copy_from_slice(&r.center[..r.center.len().min(3)]);
+                    (
+                        (0..dim).collect(),
+                        Prescription::Rotation {
+                            axis: a.map(|x| x / norm),
+                            center,
+                            angles: r.angle_deg.iter().map(|d| d.to_radians()).collect(),
+                        },
+                    )
+                }
+            };
+            bcs.push(DirichletBc {
+                label,
+                nodes,
+                components,
+                kind,
+            });
+        }
+
+        let mut ties = Vec::new();
+        for (i, t) in case.ties.iter().enumerate() {
+            let tie_err = |msg: String| ModelError::Tie {
+                file: case.file.clone(),
+                index: i,
+                msg,
+            };
+            let body = find(&t.body).ok_or_else(|| tie_err(format!("no body `{}`", t.body)))?;
+            let masters = set_nodes(body, &t.master).unwrap_or_default();
+            let slaves = set_nodes(body, &t.slave).unwrap_or_default();
+            if masters.len() != slaves.len() {
+                return Err(tie_err(format!(
+                    "master `{}` has {} nodes but slave `{}` has {}",
+                    t.master,
+                    masters.len(),
+                    t.slave,
+                    slaves.len()
+                )));
+            }
+            for &s in &slaves {
+                let xs = &coords[s as usize * dim..(s as usize + 1) * dim];
+                let hit = masters.iter().copied().find(|&m| {
+                    let xm = &coords[m as usize * dim..(m as usize + 1) * dim];
+                    (0..dim).all(|k| (xs[k] - t.offset[k] - xm[k]).abs() <= t.tolerance)
+                });
+                match hit {
+                    Some(m) if m != s => ties.push((s, m)),
+                    Some(_) => {}
+                    None => {
+                        return Err(tie_err(format!(
+                        "slave node at {xs:?} of `{}` has no master node in `{}` at offset {:?}",
+                        t.slave, t.master, t.offset
+                    )))
+                    }
+                }
+            }
+        }
+
+        let mut reactions = Vec::new();
+        for r in &case.output.reactions {
+            if let Some(body) = find(&r.body) {
+                reactions.push((
+                    format!("{}_{}", r.body, r.set),
+                    set_nodes(body, &r.set).unwrap_or_default(),
+                ));
+            }
+        }
+
+        Ok(Model {
+            dim,
+            bodies,
+            coords,
+            cell_offsets,
+            cell_nodes,
+            cell_body,
+            bcs,
+            ties,
+            reactions,
+        })
+    }
+
+    /// Number of global cells.
+    pub fn n_cells(&self) -> usize {
+        self.cell_body.len()
+    }
+
+    /// Number of global nodes.
+    pub fn n_nodes(&self) -> usize {
+        self.coords.len() / self.dim
+    }
+
+    /// All cells of all bodies as one mesh (for partitioning and output).
+    pub fn combined_mesh(&self) -> Mesh {
+        let mut m = Mesh::new(self.dim);
+        m.coords = self.coords.clone();
+        for (bi, b) in self.bodies.iter().enumerate() {
+            for c in 0..b.mesh.n_cells() {
+                let nodes: Vec<u32> = b
+                    .mesh
+                    .cell(c)
+                    .iter()
+                    .map(|&n| n + self.bodies[bi].node_offset)
+                    .collect();
+                m.push_cell(b.mesh.cell_kind[c], &nodes);
+            }
+        }
+        m
+    }
+
+    /// The element sets of the cells `cell_part` assigns to `rank`, one per body.
+    #[allow(non_snake_case)]
+    pub fn element_sets(
+        &self,
+        case_file: &std::path::Path,
+        cell_part: &[u32],
+        rank: usize,
+    ) -> Result<Vec<Box<dyn ElementSet>>, ModelError> {
+        let mut sets: Vec<Box<dyn ElementSet>> = Vec::new();
+        for (bi, b) in self.bodies.iter().enumerate() {
+            let dim = self.dim;
+            let elem_err = |cell: usize, msg: String| ModelError::Element {
+                file: case_file.to_path_buf(),
+                body: b.name.clone(),
+                cell,
+                family: format!("{:?}", b.family),
+                msg,
+            };
+            let mine =
+                (0..b.mesh.n_cells()).filter(|&c| cell_part[b.cell_offset + c] as usize == rank);
+            match b.family {
+                ElementFamily::Q1C1 => {
+                    let mut set = TlSet::new(bi, &b.name, "Q1C1", b.material);
+                    for c in mine {
+                        let nodes = b.mesh.cell(c);
+                        let X: Vec<f64> = nodes.iter().flat_map(|&n| b.mesh.node(n).to_vec()).collect();
+                        let el: Result<TlElement, _> = match b.mesh.cell_kind[c] {
+                            CellKind::Quad4 => quad4::tl_element(&X, 2),
+                            CellKind::Hex8 => hex8::tl_element(&X, 2),
+                        };
+                        let el = el.map_err(|e| elem_err(c, e.to_string()))?;
+                        let g: Vec<u32> = nodes.iter().map(|&n| n + b.node_offset).collect();
+                        set.push(c, &g, el);
+                    }
+                    sets.push(Box::new(set));
+                }
+                ElementFamily::Q1E4 if dim == 2 => {
+                    let mut set = Q1e4Set::new(bi, &b.name, b.material);
+                    for c in mine {
+                        let nodes = b.mesh.cell(c);
+                        let mut X = [0.0; 8];
+                        for (a, &n) in nodes.iter().enumerate().take(4) {
+                            X[2 * a..2 * a + 2].copy_from_slice(b.mesh.node(n));
+                        }
+                        let el = Q1e4Element::new(&X).map_err(|e| elem_err(c, e.to_string()))?;
+                        let g: Vec<u32> = nodes.iter().map(|&n| n + b.node_offset).collect();
+                        set.push(c, &g, el);
+                    }
+                    sets.push(Box::new(set));
+                }
+                other => {
+                    return Err(ModelError::Unsupported {
+                        file: case_file.to_path_buf(),
+                        key: format!("bodies.{}.element", b.name),
+                        msg: format!("element family {other:?} is not available in this build yet (enriched contact-surface elements are being integrated)"),
+                    })
+                }
+            }
+        }
+        Ok(sets)
+    }
+}

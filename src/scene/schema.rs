@@ -1,0 +1,547 @@
+//! The typed case schema: what a TOML case file may hold, with documented defaults.
+//!
+//! Every table denies unknown keys. Tables whose fields depend on a tag (`generator` of a mesh, `kind`
+//! of a boundary condition) are dispatched by hand on the tag and then deserialised into the variant's
+//! own struct, so that errors still carry the full key path (serde's internally tagged enums lose it).
+
+use crate::scene::element_family::ElementFamily;
+use crate::scene::keypath::{nest_message, split_toml_error};
+use serde::de::{self, DeserializeOwned, Deserializer};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// A whole case: `[case]`, `[meshes.*]`, `[bodies.*]`, `[[bcs]]`, `[[ties]]`, `[[stages]]`, `[steps]`,
+/// `[solver]`, `[output]`. Contact pairs will join as `[[contact]]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Case {
+    /// The case file this was read from (not part of the TOML); error messages and relative mesh
+    /// paths refer to it.
+    #[serde(skip)]
+    pub file: PathBuf,
+    pub case: CaseInfo,
+    /// Meshes by name.
+    pub meshes: BTreeMap<String, MeshSpec>,
+    /// Bodies by name; each refers to one mesh.
+    pub bodies: BTreeMap<String, BodySpec>,
+    /// Dirichlet conditions. Default: none.
+    #[serde(default)]
+    pub bcs: Vec<BcSpec>,
+    /// Periodic ties. Default: none.
+    #[serde(default)]
+    pub ties: Vec<TieSpec>,
+    /// Load stages, applied in order; at least one.
+    pub stages: Vec<StageSpec>,
+    /// Step size control. Default: see [`StepControl`].
+    #[serde(default)]
+    pub steps: StepControl,
+    #[serde(default)]
+    pub solver: SolverOptions,
+    #[serde(default)]
+    pub output: OutputSpec,
+}
+
+impl Case {
+    /// The resolved case (after overrides) as TOML, to be stored beside the results.
+    pub fn to_toml_string(&self) -> Result<String, crate::scene::SceneError> {
+        Ok(toml::to_string(self)?)
+    }
+
+    /// A path from the case file (e.g. a mesh `file`), made relative to the case file's directory.
+    pub fn resolve_path(&self, p: &Path) -> PathBuf {
+        if p.is_absolute() {
+            return p.to_path_buf();
+        }
+        match self.file.parent() {
+            Some(dir) => dir.join(p),
+            None => p.to_path_buf(),
+        }
+    }
+}
+
+/// `[case]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CaseInfo {
+    pub name: String,
+    /// Free text. Default: empty.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub description: String,
+    /// Spatial dimension, 2 or 3.
+    pub dim: usize,
+}
+
+/// `[meshes.<name>]`: exactly one of `generator = "..."` (with that generator's parameters) or `file`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum MeshSpec {
+    Generated(Generator),
+    File(FileMesh),
+}
+
+/// A mesh read from disk.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FileMesh {
+    /// Gmsh 4.1 `.msh`, relative to the case file (see [`Case::resolve_path`]).
+    pub file: PathBuf,
+}
+
+/// A structured mesh generator and its parameters, tagged by `generator`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "generator", rename_all = "snake_case")]
+pub enum Generator {
+    Rectangle(RectangleParams),
+    HalfDisk(HalfDiskParams),
+    Sector(SectorParams),
+    Box(BoxParams),
+    Hemisphere(HemisphereParams),
+}
+
+impl Generator {
+    /// Names accepted for `generator`.
+    pub const NAMES: [&'static str; 5] = ["rectangle", "half_disk", "sector", "box", "hemisphere"];
+
+    /// The spatial dimension of the mesh this generator builds.
+    pub fn dim(&self) -> usize {
+        match self {
+            Generator::Rectangle(_) | Generator::HalfDisk(_) | Generator::Sector(_) => 2,
+            Generator::Box(_) | Generator::Hemisphere(_) => 3,
+        }
+    }
+
+    /// The `generator = "..."` name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Generator::Rectangle(_) => "rectangle",
+            Generator::HalfDisk(_) => "half_disk",
+            Generator::Sector(_) => "sector",
+            Generator::Box(_) => "box",
+            Generator::Hemisphere(_) => "hemisphere",
+        }
+    }
+}
+
+/// `generator = "rectangle"`: axis-aligned `size[0] x size[1]` from `origin`, `divisions[0] x divisions[1]` quads.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RectangleParams {
+    /// Default: `[0, 0]`.
+    #[serde(default)]
+    pub origin: [f64; 2],
+    pub size: [f64; 2],
+    pub divisions: [usize; 2],
+}
+
+/// `generator = "half_disk"`: the lower half disk (flat side up) of `radius` around `center`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HalfDiskParams {
+    pub center: [f64; 2],
+    pub radius: f64,
+    /// Elements along the arc.
+    pub n_arc: usize,
+    /// Elements from the centre to the arc.
+    pub n_radial: usize,
+}
+
+/// `generator = "sector"`: annular sector `r_inner..r_outer`, `theta0_deg..theta1_deg` around `center`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SectorParams {
+    pub center: [f64; 2],
+    pub r_inner: f64,
+    pub r_outer: f64,
+    pub theta0_deg: f64,
+    pub theta1_deg: f64,
+    /// `[n_r, n_theta]`.
+    pub divisions: [usize; 2],
+}
+
+/// `generator = "box"`: axis-aligned brick from `origin`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxParams {
+    /// Default: `[0, 0, 0]`.
+    #[serde(default)]
+    pub origin: [f64; 3],
+    pub size: [f64; 3],
+    pub divisions: [usize; 3],
+}
+
+/// `generator = "hemisphere"`: hollow lower hemisphere (opening up) of `outer_radius` and wall
+/// `thickness` around `center` (section 4.4).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HemisphereParams {
+    pub center: [f64; 3],
+    pub outer_radius: f64,
+    pub thickness: f64,
+    /// Elements along a quarter great circle of the surface.
+    pub n_surface: usize,
+    /// Elements through the wall.
+    pub n_thickness: usize,
+}
+
+/// `[bodies.<name>]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    /// Name of a `[meshes.*]` table.
+    pub mesh: String,
+    pub element: ElementFamily,
+    /// Face set carrying the enrichment: required for Q1N/Q1C2/Q1CH, forbidden for Q1C1/Q1E4.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub enriched_surface: Option<String>,
+    pub material: MaterialSpec,
+}
+
+/// `[bodies.<name>.material]`.
+#[allow(non_snake_case)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    pub model: MaterialModel,
+    /// Young's modulus, > 0.
+    pub E: f64,
+    /// Poisson's ratio, in (-1, 0.5).
+    pub nu: f64,
+}
+
+/// Material laws. Only the Neo-Hookean law of eq. (21) of Corbett & Sauer 2014 so far; a model with
+/// other parameters would turn [`MaterialSpec`] into a tagged table like [`Generator`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MaterialModel {
+    NeoHookean,
+}
+
+/// A displacement component name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Component {
+    X,
+    Y,
+    Z,
+}
+
+impl Component {
+    /// 0, 1, 2.
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    /// All components of a `dim`-dimensional problem.
+    pub fn all(dim: usize) -> &'static [Component] {
+        &[Component::X, Component::Y, Component::Z][..dim.min(3)]
+    }
+}
+
+/// `[[bcs]]`: a Dirichlet condition on a node set of a body, tagged by `kind`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum BcSpec {
+    Fixed(FixedBc),
+    Displacement(DisplacementBc),
+    Rotation(RotationBc),
+}
+
+impl BcSpec {
+    /// Names accepted for `kind`.
+    pub const KINDS: [&'static str; 3] = ["fixed", "displacement", "rotation"];
+
+    pub fn body(&self) -> &str {
+        match self {
+            BcSpec::Fixed(b) => &b.body,
+            BcSpec::Displacement(b) => &b.body,
+            BcSpec::Rotation(b) => &b.body,
+        }
+    }
+
+    /// The node set the condition applies to.
+    pub fn set(&self) -> &str {
+        match self {
+            BcSpec::Fixed(b) => &b.set,
+            BcSpec::Displacement(b) => &b.set,
+            BcSpec::Rotation(b) => &b.set,
+        }
+    }
+}
+
+/// `kind = "fixed"`: zero displacement of `components`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FixedBc {
+    pub body: String,
+    pub set: String,
+    /// Default: all components.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub components: Option<Vec<Component>>,
+}
+
+impl FixedBc {
+    /// The constrained components (all of `dim` when not given).
+    pub fn components(&self, dim: usize) -> Vec<Component> {
+        self.components
+            .clone()
+            .unwrap_or_else(|| Component::all(dim).to_vec())
+    }
+}
+
+/// `kind = "displacement"`: prescribed displacement of `components`, linear in each stage.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DisplacementBc {
+    pub body: String,
+    pub set: String,
+    /// Default: all components.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub components: Option<Vec<Component>>,
+    /// `[n_stages][n_components]`: the displacement reached at the end of each stage.
+    pub value: Vec<Vec<f64>>,
+}
+
+impl DisplacementBc {
+    /// The prescribed components (all of `dim` when not given).
+    pub fn components(&self, dim: usize) -> Vec<Component> {
+        self.components
+            .clone()
+            .unwrap_or_else(|| Component::all(dim).to_vec())
+    }
+}
+
+/// `kind = "rotation"`: rigid rotation of the set about `center` (and `axis` in 3D); all components.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RotationBc {
+    pub body: String,
+    pub set: String,
+    /// Rotation axis, 3D only (2D rotates in the plane); need not be normalised, must be non-zero.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis: Option<[f64; 3]>,
+    /// `[dim]`: a point on the axis (3D) / the centre of rotation (2D).
+    pub center: Vec<f64>,
+    /// `[n_stages]`: total rotation angle in degrees reached at the end of each stage.
+    pub angle_deg: Vec<f64>,
+}
+
+/// `[[ties]]`: periodic tie of a slave node set to a master node set of one body.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TieSpec {
+    pub body: String,
+    pub master: String,
+    pub slave: String,
+    /// `[dim]`: slave node `x_s` matches master node `x_m` where `x_s - offset == x_m`.
+    pub offset: Vec<f64>,
+    /// Absolute matching tolerance on coordinates. Default: 1e-8.
+    #[serde(default = "default_tie_tolerance")]
+    pub tolerance: f64,
+}
+
+fn default_tie_tolerance() -> f64 {
+    1e-8
+}
+
+/// `[[stages]]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StageSpec {
+    pub name: String,
+    /// Number of equal load increments in this stage, > 0 (cutback may subdivide them).
+    pub steps: usize,
+}
+
+/// `[steps]`: cutback control.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StepControl {
+    /// Halvings of one increment before the run fails. Default: 8.
+    #[serde(default = "default_max_cutbacks")]
+    pub max_cutbacks: u32,
+    /// Factor (>= 1) by which a cut increment grows back after an easy step. Default: 1.5.
+    #[serde(default = "default_growth")]
+    pub growth: f64,
+    /// A step converging in at most this many Newton iterations is easy. Default: 4.
+    #[serde(default = "default_easy_iterations")]
+    pub easy_iterations: u32,
+}
+
+fn default_max_cutbacks() -> u32 {
+    8
+}
+fn default_growth() -> f64 {
+    1.5
+}
+fn default_easy_iterations() -> u32 {
+    4
+}
+
+impl Default for StepControl {
+    fn default() -> Self {
+        StepControl {
+            max_cutbacks: default_max_cutbacks(),
+            growth: default_growth(),
+            easy_iterations: default_easy_iterations(),
+        }
+    }
+}
+
+/// `[solver]`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolverOptions {
+    /// Passed verbatim to the PETSc options database after the code's defaults (newtonls + MUMPS), so
+    /// these win. Default: empty.
+    #[serde(default)]
+    pub petsc_options: String,
+}
+
+/// `[output]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// Write every n-th converged step (> 0); the last step is always written. Default: 1.
+    #[serde(default = "default_every")]
+    pub every: usize,
+    /// Fields written to results.h5. Default: `["displacement"]`.
+    #[serde(default = "default_fields")]
+    pub fields: Vec<OutputField>,
+    /// Node sets whose reaction force sums go to history.csv. Default: none.
+    #[serde(default)]
+    pub reactions: Vec<ReactionSpec>,
+}
+
+fn default_every() -> usize {
+    1
+}
+fn default_fields() -> Vec<OutputField> {
+    vec![OutputField::Displacement]
+}
+
+impl Default for OutputSpec {
+    fn default() -> Self {
+        OutputSpec {
+            every: default_every(),
+            fields: default_fields(),
+            reactions: Vec::new(),
+        }
+    }
+}
+
+/// Known output fields.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum OutputField {
+    /// Point field, `[n_nodes][3]`.
+    #[serde(rename = "displacement")]
+    Displacement,
+    /// Cell field: first stress invariant `tr(sigma) / E` averaged over the cell (as in the paper's figures).
+    #[serde(rename = "I1")]
+    I1,
+    /// Cell field: von Mises stress averaged over the cell.
+    #[serde(rename = "von_mises")]
+    VonMises,
+    /// Cell field: owning MPI rank.
+    #[serde(rename = "rank")]
+    Rank,
+}
+
+impl OutputField {
+    /// The name used in the case file and as the dataset name.
+    pub fn name(self) -> &'static str {
+        match self {
+            OutputField::Displacement => "displacement",
+            OutputField::I1 => "I1",
+            OutputField::VonMises => "von_mises",
+            OutputField::Rank => "rank",
+        }
+    }
+}
+
+/// `{ body = "...", set = "..." }` in `output.reactions`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReactionSpec {
+    pub body: String,
+    pub set: String,
+}
+
+/// Deserialise `T` from a table taken out of a tagged table, carrying the inner key path up in the
+/// message (see [`crate::scene::keypath`]).
+fn from_table<T: DeserializeOwned, E: de::Error>(table: toml::Table) -> Result<T, E> {
+    T::deserialize(toml::Value::Table(table)).map_err(|e| {
+        let (message, path) = split_toml_error(&e);
+        E::custom(nest_message(&message, path.as_deref()))
+    })
+}
+
+/// Remove the string tag `tag` from `table`; `what` lists the accepted names for the error.
+fn take_tag<E: de::Error>(table: &mut toml::Table, tag: &str, what: &[&str]) -> Result<String, E> {
+    match table.remove(tag) {
+        Some(toml::Value::String(s)) => Ok(s),
+        Some(other) => Err(E::custom(nest_message(
+            &format!(
+                "invalid type: {}, expected a string, one of {}",
+                other.type_str(),
+                what.join(", ")
+            ),
+            Some(tag),
+        ))),
+        None => Err(E::custom(format!("missing field `{tag}`"))),
+    }
+}
+
+impl<'de> Deserialize<'de> for MeshSpec {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let mut table = toml::Table::deserialize(d)?;
+        match (table.contains_key("generator"), table.contains_key("file")) {
+            (true, true) => Err(de::Error::custom(
+                "give exactly one of `generator` or `file`, not both",
+            )),
+            (false, false) => Err(de::Error::custom(
+                "missing field `generator` (or `file`): give exactly one of them",
+            )),
+            (false, true) => from_table(table).map(MeshSpec::File),
+            (true, false) => {
+                let name = take_tag(&mut table, "generator", &Generator::NAMES)?;
+                let g = match name.as_str() {
+                    "rectangle" => Generator::Rectangle(from_table(table)?),
+                    "half_disk" => Generator::HalfDisk(from_table(table)?),
+                    "sector" => Generator::Sector(from_table(table)?),
+                    "box" => Generator::Box(from_table(table)?),
+                    "hemisphere" => Generator::Hemisphere(from_table(table)?),
+                    other => {
+                        return Err(de::Error::custom(nest_message(
+                            &format!(
+                                "unknown generator `{other}`, expected one of {}",
+                                Generator::NAMES.join(", ")
+                            ),
+                            Some("generator"),
+                        )))
+                    }
+                };
+                Ok(MeshSpec::Generated(g))
+            }
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for BcSpec {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let mut table = toml::Table::deserialize(d)?;
+        let kind = take_tag(&mut table, "kind", &BcSpec::KINDS)?;
+        match kind.as_str() {
+            "fixed" => from_table(table).map(BcSpec::Fixed),
+            "displacement" => from_table(table).map(BcSpec::Displacement),
+            "rotation" => from_table(table).map(BcSpec::Rotation),
+            other => Err(de::Error::custom(nest_message(
+                &format!(
+                    "unknown kind `{other}`, expected one of {}",
+                    BcSpec::KINDS.join(", ")
+                ),
+                Some("kind"),
+            ))),
+        }
+    }
+}

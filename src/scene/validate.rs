@@ -1,0 +1,618 @@
+//! Semantic checks of a parsed [`Case`]: everything serde cannot see (value ranges, references between
+//! tables, counts that depend on the number of stages, dimension rules). All problems are collected and
+//! reported together, each with its key path.
+
+use crate::scene::error::Issue;
+use crate::scene::schema::{BcSpec, Case, Component, Generator, MeshSpec};
+use crate::scene::SceneError;
+use std::collections::BTreeSet;
+
+/// What kind of named set a reference needs: boundary conditions, ties and reactions act on node
+/// sets, enrichment on a face set.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum SetKind {
+    Node,
+    Face,
+}
+
+/// Check value ranges and cross references of a case; every issue names its key.
+pub fn validate(case: &Case) -> Result<(), SceneError> {
+    let mut v = Issues::default();
+    let dim = case.case.dim;
+    let dim_ok = dim == 2 || dim == 3;
+    if !dim_ok {
+        v.push("case.dim", format!("must be 2 or 3, got {dim}"));
+    }
+    if case.case.name.trim().is_empty() {
+        v.push("case.name", "must not be empty");
+    }
+
+    check_meshes(case, dim_ok, &mut v);
+    check_bodies(case, dim_ok, &mut v);
+    check_stages(case, &mut v);
+    check_bcs(case, dim_ok, &mut v);
+    check_ties(case, dim_ok, &mut v);
+    check_controls(case, &mut v);
+    v.finish(case)
+}
+
+/// Check that every set a case names exists on its body, once meshes are built.
+/// `has_set(body, set, kind)` answers whether `body`'s mesh has a set of that name and kind.
+pub fn validate_sets(
+    case: &Case,
+    has_set: &dyn Fn(&str, &str, SetKind) -> bool,
+) -> Result<(), SceneError> {
+    let mut v = Issues::default();
+    let mut need = |key: String, body: &str, set: &str, kind: SetKind| {
+        if !has_set(body, set, kind) {
+            let what = match kind {
+                SetKind::Node => "node set",
+                SetKind::Face => "face set",
+            };
+            v.push(key, format!("body `{body}` has no {what} `{set}`"));
+        }
+    };
+    for (name, b) in &case.bodies {
+        if let Some(s) = &b.enriched_surface {
+            need(
+                format!("bodies.{name}.enriched_surface"),
+                name,
+                s,
+                SetKind::Face,
+            );
+        }
+    }
+    for (i, bc) in case.bcs.iter().enumerate() {
+        need(format!("bcs.{i}.set"), bc.body(), bc.set(), SetKind::Node);
+    }
+    for (i, t) in case.ties.iter().enumerate() {
+        need(
+            format!("ties.{i}.master"),
+            &t.body,
+            &t.master,
+            SetKind::Node,
+        );
+        need(format!("ties.{i}.slave"), &t.body, &t.slave, SetKind::Node);
+    }
+    for (i, r) in case.output.reactions.iter().enumerate() {
+        need(
+            format!("output.reactions.{i}.set"),
+            &r.body,
+            &r.set,
+            SetKind::Node,
+        );
+    }
+    v.finish(case)
+}
+
+#[derive(Default)]
+struct Issues(Vec<Issue>);
+
+impl Issues {
+    fn push(&mut self, key: impl Into<String>, message: impl Into<String>) {
+        self.0.push(Issue {
+            key: key.into(),
+            line: None,
+            message: message.into(),
+        });
+    }
+
+    fn positive(&mut self, key: String, x: f64) {
+        if !(x.is_finite() && x > 0.0) {
+            self.push(key, format!("must be a positive number, got {x}"));
+        }
+    }
+
+    fn finite(&mut self, key: String, xs: &[f64]) {
+        if let Some(x) = xs.iter().find(|x| !x.is_finite()) {
+            self.push(key, format!("must be finite, got {x}"));
+        }
+    }
+
+    fn divisions(&mut self, key: String, n: &[usize]) {
+        if n.contains(&0) {
+            self.push(key, format!("every division count must be > 0, got {n:?}"));
+        }
+    }
+
+    fn finish(self, case: &Case) -> Result<(), SceneError> {
+        if self.0.is_empty() {
+            Ok(())
+        } else {
+            Err(SceneError::Invalid {
+                file: case.file.clone(),
+                issues: self.0,
+            })
+        }
+    }
+}
+
+fn check_meshes(case: &Case, dim_ok: bool, v: &mut Issues) {
+    if case.meshes.is_empty() {
+        v.push("meshes", "at least one mesh is required");
+    }
+    for (name, mesh) in &case.meshes {
+        let k = |field: &str| format!("meshes.{name}.{field}");
+        match mesh {
+            MeshSpec::File(f) => {
+                let p = case.resolve_path(&f.file);
+                if !p.is_file() {
+                    v.push(k("file"), format!("mesh file {} not found", p.display()));
+                }
+            }
+            MeshSpec::Generated(g) => {
+                if dim_ok && g.dim() != case.case.dim {
+                    v.push(
+                        k("generator"),
+                        format!(
+                            "generator `{}` builds a {}D mesh but case.dim = {}",
+                            g.name(),
+                            g.dim(),
+                            case.case.dim
+                        ),
+                    );
+                }
+                match g {
+                    Generator::Rectangle(p) => {
+                        v.finite(k("origin"), &p.origin);
+                        p.size.iter().for_each(|&s| v.positive(k("size"), s));
+                        v.divisions(k("divisions"), &p.divisions);
+                    }
+                    Generator::Box(p) => {
+                        v.finite(k("origin"), &p.origin);
+                        p.size.iter().for_each(|&s| v.positive(k("size"), s));
+                        v.divisions(k("divisions"), &p.divisions);
+                    }
+                    Generator::HalfDisk(p) => {
+                        v.finite(k("center"), &p.center);
+                        v.positive(k("radius"), p.radius);
+                        v.divisions(k("n_arc"), &[p.n_arc]);
+                        v.divisions(k("n_radial"), &[p.n_radial]);
+                    }
+                    Generator::Sector(p) => {
+                        v.finite(k("center"), &p.center);
+                        v.finite(k("theta0_deg"), &[p.theta0_deg, p.theta1_deg]);
+                        if !(p.r_inner.is_finite() && p.r_inner >= 0.0) {
+                            v.push(k("r_inner"), format!("must be >= 0, got {}", p.r_inner));
+                        }
+                        if !(p.r_outer.is_finite() && p.r_outer > p.r_inner) {
+                            v.push(
+                                k("r_outer"),
+                                format!("must exceed r_inner = {}, got {}", p.r_inner, p.r_outer),
+                            );
+                        }
+                        let span = p.theta1_deg - p.theta0_deg;
+                        if !(span > 0.0 && span <= 360.0) {
+                            v.push(
+                                k("theta1_deg"),
+                                format!("theta1_deg - theta0_deg must be in (0, 360], got {span}"),
+                            );
+                        }
+                        v.divisions(k("divisions"), &p.divisions);
+                    }
+                    Generator::Hemisphere(p) => {
+                        v.finite(k("center"), &p.center);
+                        v.positive(k("outer_radius"), p.outer_radius);
+                        if !(p.thickness > 0.0 && p.thickness < p.outer_radius) {
+                            v.push(
+                                k("thickness"),
+                                format!(
+                                    "must be in (0, outer_radius = {}), got {}",
+                                    p.outer_radius, p.thickness
+                                ),
+                            );
+                        }
+                        v.divisions(k("n_surface"), &[p.n_surface]);
+                        v.divisions(k("n_thickness"), &[p.n_thickness]);
+                    }
+                }
+            }
+        }
+    }
+}
+
+fn check_bodies(case: &Case, dim_ok: bool, v: &mut Issues) {
+    if case.bodies.is_empty() {
+        v.push("bodies", "at least one body is required");
+    }
+    for (name, b) in &case.bodies {
+        let k = |field: &str| format!("bodies.{name}.{field}");
+        if !case.meshes.contains_key(&b.mesh) {
+            v.push(k("mesh"), format!("undefined mesh `{}`", b.mesh));
+        }
+        if dim_ok && case.case.dim == 3 && !b.element.supports_3d() {
+            v.push(
+                k("element"),
+                format!("element family {} is 2D only but case.dim = 3", b.element),
+            );
+        }
+        match (b.element.is_enriched(), &b.enriched_surface) {
+            (true, None) => v.push(
+                k("enriched_surface"),
+                format!(
+                    "element family {} needs an enriched_surface (a face set)",
+                    b.element
+                ),
+            ),
+            (false, Some(_)) => v.push(
+                k("enriched_surface"),
+                format!(
+                    "element family {} is not enriched; remove enriched_surface",
+                    b.element
+                ),
+            ),
+            (true, Some(s)) if s.trim().is_empty() => {
+                v.push(k("enriched_surface"), "must name a face set")
+            }
+            _ => {}
+        }
+        let m = &b.material;
+        if !(m.E.is_finite() && m.E > 0.0) {
+            v.push(
+                k("material.E"),
+                format!("Young's modulus must be > 0, got {}", m.E),
+            );
+        }
+        if !(m.nu > -1.0 && m.nu < 0.5) {
+            v.push(
+                k("material.nu"),
+                format!("Poisson's ratio must be in (-1, 0.5), got {}", m.nu),
+            );
+        }
+    }
+}
+
+fn check_stages(case: &Case, v: &mut Issues) {
+    if case.stages.is_empty() {
+        v.push("stages", "at least one [[stages]] entry is required");
+    }
+    let mut names = BTreeSet::new();
+    for (i, s) in case.stages.iter().enumerate() {
+        if s.steps == 0 {
+            v.push(format!("stages.{i}.steps"), "must be > 0");
+        }
+        if !names.insert(s.name.as_str()) {
+            v.push(
+                format!("stages.{i}.name"),
+                format!("duplicate stage name `{}`", s.name),
+            );
+        }
+    }
+}
+
+fn check_components(key: String, comps: &Option<Vec<Component>>, dim: usize, v: &mut Issues) {
+    let Some(comps) = comps else { return };
+    if comps.is_empty() {
+        v.push(key.clone(), "must list at least one component");
+    }
+    if let Some(c) = comps.iter().find(|c| c.index() >= dim) {
+        v.push(
+            key.clone(),
+            format!("component {c:?} does not exist in {dim}D"),
+        );
+    }
+    let unique: BTreeSet<_> = comps.iter().collect();
+    if unique.len() != comps.len() {
+        v.push(key, "lists a component twice");
+    }
+}
+
+fn check_bcs(case: &Case, dim_ok: bool, v: &mut Issues) {
+    let dim = case.case.dim;
+    let n_stages = case.stages.len();
+    for (i, bc) in case.bcs.iter().enumerate() {
+        let k = |field: &str| format!("bcs.{i}.{field}");
+        if !case.bodies.contains_key(bc.body()) {
+            v.push(k("body"), format!("undefined body `{}`", bc.body()));
+        }
+        if !dim_ok {
+            continue;
+        }
+        match bc {
+            BcSpec::Fixed(f) => check_components(k("components"), &f.components, dim, v),
+            BcSpec::Displacement(d) => {
+                check_components(k("components"), &d.components, dim, v);
+                let n_comp = d.components(dim).len();
+                if d.value.len() != n_stages {
+                    v.push(
+                        k("value"),
+                        format!(
+                            "needs one vector per stage ({n_stages} stages), got {}",
+                            d.value.len()
+                        ),
+                    );
+                }
+                for (s, vec) in d.value.iter().enumerate() {
+                    if vec.len() != n_comp {
+                        v.push(
+                            format!("bcs.{i}.value.{s}"),
+                            format!(
+                                "needs {n_comp} entries (one per component), got {}",
+                                vec.len()
+                            ),
+                        );
+                    }
+                    v.finite(format!("bcs.{i}.value.{s}"), vec);
+                }
+            }
+            BcSpec::Rotation(r) => {
+                match (dim, r.axis) {
+                    (3, None) => v.push(k("axis"), "a 3D rotation needs an axis"),
+                    (3, Some(a)) => {
+                        let n2: f64 = a.iter().map(|x| x * x).sum();
+                        if !(n2.is_finite() && n2 > 0.0) {
+                            v.push(k("axis"), format!("must be a non-zero vector, got {a:?}"));
+                        }
+                    }
+                    (_, Some(_)) => v.push(k("axis"), "2D rotations are in-plane; remove axis"),
+                    _ => {}
+                }
+                if r.center.len() != dim {
+                    v.push(
+                        k("center"),
+                        format!("needs {dim} coordinates, got {}", r.center.len()),
+                    );
+                }
+                v.finite(k("center"), &r.center);
+                if r.angle_deg.len() != n_stages {
+                    v.push(
+                        k("angle_deg"),
+                        format!(
+                            "needs one angle per stage ({n_stages} stages), got {}",
+                            r.angle_deg.len()
+                        ),
+                    );
+                }
+                v.finite(k("angle_deg"), &r.angle_deg);
+            }
+        }
+    }
+}
+
+fn check_ties(case: &Case, dim_ok: bool, v: &mut Issues) {
+    for (i, t) in case.ties.iter().enumerate() {
+        let k = |field: &str| format!("ties.{i}.{field}");
+        if !case.bodies.contains_key(&t.body) {
+            v.push(k("body"), format!("undefined body `{}`", t.body));
+        }
+        if t.master == t.slave {
+            v.push(
+                k("slave"),
+                format!("must differ from master `{}`", t.master),
+            );
+        }
+        if dim_ok && t.offset.len() != case.case.dim {
+            v.push(
+                k("offset"),
+                format!(
+                    "needs {} coordinates, got {}",
+                    case.case.dim,
+                    t.offset.len()
+                ),
+            );
+        }
+        v.finite(k("offset"), &t.offset);
+        v.positive(k("tolerance"), t.tolerance);
+    }
+}
+
+fn check_controls(case: &Case, v: &mut Issues) {
+    let s = &case.steps;
+    if !(s.growth.is_finite() && s.growth >= 1.0) {
+        v.push("steps.growth", format!("must be >= 1, got {}", s.growth));
+    }
+    if s.easy_iterations == 0 {
+        v.push("steps.easy_iterations", "must be > 0");
+    }
+    let o = &case.output;
+    if o.every == 0 {
+        v.push("output.every", "must be > 0");
+    }
+    let mut seen: BTreeSet<&str> = BTreeSet::new();
+    for f in &o.fields {
+        if !seen.insert(f.name()) {
+            v.push("output.fields", format!("lists `{}` twice", f.name()));
+        }
+    }
+    for (i, r) in o.reactions.iter().enumerate() {
+        if !case.bodies.contains_key(&r.body) {
+            v.push(
+                format!("output.reactions.{i}.body"),
+                format!("undefined body `{}`", r.body),
+            );
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::examples::{BLOCK_COMPRESSION_3D, IRONING_2D, STRIP_BENDING_2D};
+    use crate::scene::parse_case;
+    use std::path::Path;
+
+    fn issues(text: &str, overrides: &[&str]) -> Vec<Issue> {
+        let o: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+        match parse_case(text, Path::new("c.toml"), &o) {
+            Err(SceneError::Invalid { issues, .. }) => issues,
+            other => panic!("expected validation issues, got {other:?}"),
+        }
+    }
+
+    fn has(issues: &[Issue], key: &str, words: &str) -> bool {
+        issues
+            .iter()
+            .any(|i| i.key == key && i.message.contains(words))
+    }
+
+    #[test]
+    fn generator_dimension_must_match_case_dim() {
+        let i = issues(BLOCK_COMPRESSION_3D, &["case.dim=2"]);
+        assert!(
+            has(&i, "meshes.block.generator", "builds a 3D mesh"),
+            "{i:?}"
+        );
+        let i = issues(BLOCK_COMPRESSION_3D, &["case.dim=4"]);
+        assert!(has(&i, "case.dim", "must be 2 or 3"), "{i:?}");
+    }
+
+    #[test]
+    fn two_d_only_families_are_rejected_in_3d() {
+        for fam in ["Q1E4", "Q1C2", "Q1CH"] {
+            let i = issues(
+                BLOCK_COMPRESSION_3D,
+                &[
+                    &format!("bodies.block.element={fam}"),
+                    "bodies.block.enriched_surface=zmax",
+                ],
+            );
+            assert!(has(&i, "bodies.block.element", "2D only"), "{fam}: {i:?}");
+        }
+    }
+
+    #[test]
+    fn enriched_surface_is_required_exactly_for_enriched_families() {
+        let i = issues(BLOCK_COMPRESSION_3D, &["bodies.block.element=Q1N2"]);
+        assert!(
+            has(
+                &i,
+                "bodies.block.enriched_surface",
+                "needs an enriched_surface"
+            ),
+            "{i:?}"
+        );
+        let i = issues(STRIP_BENDING_2D, &["bodies.strip.enriched_surface=ymax"]);
+        assert!(
+            has(&i, "bodies.strip.enriched_surface", "not enriched"),
+            "{i:?}"
+        );
+    }
+
+    #[test]
+    fn divisions_and_sizes_must_be_positive() {
+        let i = issues(
+            BLOCK_COMPRESSION_3D,
+            &[
+                "meshes.block.divisions=[4, 0, 4]",
+                "meshes.block.size=[1.0, -1.0, 1.0]",
+            ],
+        );
+        assert!(has(&i, "meshes.block.divisions", "> 0"), "{i:?}");
+        assert!(has(&i, "meshes.block.size", "positive"), "{i:?}");
+        let i = issues(
+            IRONING_2D,
+            &["meshes.cylinder.n_arc=0", "meshes.cylinder.radius=0.0"],
+        );
+        assert!(has(&i, "meshes.cylinder.n_arc", "> 0"), "{i:?}");
+        assert!(has(&i, "meshes.cylinder.radius", "positive"), "{i:?}");
+    }
+
+    #[test]
+    fn rotation_needs_nonzero_axis_in_3d_and_none_in_2d() {
+        let rot3 = BLOCK_COMPRESSION_3D.replacen(
+            "kind = \"displacement\"\ncomponents = [\"z\"]\nvalue = [[-0.2]]",
+            "kind = \"rotation\"\naxis = [0.0, 0.0, 0.0]\ncenter = [0.5, 0.5, 1.0]\nangle_deg = [90.0]",
+            1,
+        );
+        assert_ne!(rot3, BLOCK_COMPRESSION_3D);
+        let i = issues(&rot3, &[]);
+        assert!(has(&i, "bcs.1.axis", "non-zero"), "{i:?}");
+        let i = issues(
+            STRIP_BENDING_2D,
+            &["bcs.1.axis=[0.0, 0.0, 1.0]", "bcs.1.center=[1.0]"],
+        );
+        assert!(has(&i, "bcs.1.axis", "in-plane"), "{i:?}");
+        assert!(has(&i, "bcs.1.center", "needs 2 coordinates"), "{i:?}");
+        let i = issues(STRIP_BENDING_2D, &["bcs.1.angle_deg=[90.0]"]);
+        assert!(
+            has(
+                &i,
+                "bcs.1.angle_deg",
+                "one angle per stage (2 stages), got 1"
+            ),
+            "{i:?}"
+        );
+    }
+
+    #[test]
+    fn components_must_exist_in_the_dimension() {
+        let i = issues(STRIP_BENDING_2D, &["bcs.0.components=[\"x\", \"z\"]"]);
+        assert!(has(&i, "bcs.0.components", "does not exist in 2D"), "{i:?}");
+        let i = issues(STRIP_BENDING_2D, &["bcs.0.components=[\"x\", \"x\"]"]);
+        assert!(has(&i, "bcs.0.components", "twice"), "{i:?}");
+    }
+
+    #[test]
+    fn ties_need_dim_offset_and_distinct_sets() {
+        let i = issues(
+            IRONING_2D,
+            &[
+                "ties.0.offset=[10.0]",
+                "ties.0.slave=xmin",
+                "ties.0.body=plate",
+            ],
+        );
+        assert!(has(&i, "ties.0.offset", "needs 2 coordinates"), "{i:?}");
+        assert!(has(&i, "ties.0.slave", "must differ"), "{i:?}");
+        assert!(has(&i, "ties.0.body", "undefined body `plate`"), "{i:?}");
+    }
+
+    #[test]
+    fn step_and_output_controls_are_checked() {
+        let i = issues(
+            BLOCK_COMPRESSION_3D,
+            &[
+                "steps={ growth = 0.5 }",
+                "output.every=0",
+                "output.reactions=[{ body = \"x\", set = \"zmin\" }]",
+            ],
+        );
+        assert!(has(&i, "steps.growth", ">= 1"), "{i:?}");
+        assert!(has(&i, "output.every", "> 0"), "{i:?}");
+        assert!(
+            has(&i, "output.reactions.0.body", "undefined body `x`"),
+            "{i:?}"
+        );
+    }
+
+    #[test]
+    fn all_issues_are_reported_together() {
+        let i = issues(
+            BLOCK_COMPRESSION_3D,
+            &[
+                "bodies.block.material.nu=0.7",
+                "bodies.block.material.E=-1.0",
+                "stages.0.steps=0",
+            ],
+        );
+        assert_eq!(i.len(), 3, "{i:?}");
+    }
+
+    #[test]
+    fn validate_sets_reports_each_missing_set_with_key() {
+        let c = parse_case(IRONING_2D, Path::new("c.toml"), &[]).unwrap();
+        let all = |_: &str, _: &str, _: SetKind| true;
+        assert!(validate_sets(&c, &all).is_ok());
+        // Only node sets named *min/top/x* exist; no face sets at all.
+        let some = |_: &str, set: &str, kind: SetKind| kind == SetKind::Node && set != "xmax";
+        let e = validate_sets(&c, &some).unwrap_err();
+        let SceneError::Invalid { issues, .. } = &e else {
+            panic!("{e:?}")
+        };
+        let keys: Vec<&str> = issues.iter().map(|i| i.key.as_str()).collect();
+        assert_eq!(
+            keys,
+            vec![
+                "bodies.block.enriched_surface",
+                "bodies.cylinder.enriched_surface",
+                "ties.0.slave"
+            ]
+        );
+        assert!(
+            e.to_string()
+                .contains("body `block` has no node set `xmax`"),
+            "{e}"
+        );
+        assert!(e.to_string().contains("c.toml"), "{e}");
+    }
+}
