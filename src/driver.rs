@@ -74,8 +74,13 @@ pub enum Error {
     #[error(transparent)]
     Petsc(#[from] PetscError),
     /// Load stepping.
-    #[error(transparent)]
-    Solver(#[from] SolverError),
+    #[error("{}: {source}", .file.display())]
+    Solver {
+        /// The case file.
+        file: PathBuf,
+        /// What failed.
+        source: SolverError,
+    },
     /// Boundary conditions that contradict each other.
     #[error("{}: {source}", .file.display())]
     Conflict {
@@ -383,7 +388,10 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
     log(rank, v, Verbosity::Normal, || {
         format!("results in {}", out_dir.display())
     });
-    result.map(|_| ()).map_err(Error::from)
+    result.map(|_| ()).map_err(|source| Error::Solver {
+        file: case.file.clone(),
+        source,
+    })
 }
 
 /// Results of a run on rank 0 (the other ranks only take part in the gathers).
@@ -499,9 +507,7 @@ impl<'p> Output<'p> {
         }
         self.gather.gather(x, &mut self.u_root)?;
         // Element measures: each rank fills its cells, a sum-reduction assembles them on rank 0.
-        let measures = asm
-            .stress_measures(x)
-            .map_err(|e| Error::Solver(SolverError::Observer(e.to_string())))?;
+        let measures = asm.stress_measures(x)?;
         let comm = asm_comm(asm);
         let mut local = vec![0.0; 3 * self.n_cells];
         let rank = comm.rank() as f64;

@@ -113,6 +113,8 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        // That rank stayed silent: the rank that failed has printed the error.
+        Err(driver::Error::OtherRank) => ExitCode::FAILURE,
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::FAILURE

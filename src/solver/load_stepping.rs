@@ -3,8 +3,9 @@
 //! The load parameter `lambda` runs from 0 to the number of stages; stage `s` is split into its
 //! nominal number of equal increments. A step whose Newton solve diverges (or hits an inverted
 //! element, a failed projection, ...) is retried from the last converged state with half the
-//! increment, up to `max_cutbacks` times; after an easy step the increment grows back by `growth`,
-//! never beyond the nominal one.
+//! increment; the increment never goes below `nominal / 2^max_cutbacks` (the minimum step), and a
+//! step that fails at the minimum stops the run with an error naming it. After an easy step the
+//! increment grows back by `growth`, never beyond the nominal one.
 
 use crate::assembly::{prescribed_values, Assembler, ConflictError, DirichletBc};
 use crate::petsc::{Matrix, PetscError, Snes, Vector};
@@ -15,7 +16,8 @@ use std::time::Instant;
 pub struct StepControl {
     /// Nominal number of increments of each stage. [n_stages]
     pub stage_steps: Vec<usize>,
-    /// Halvings allowed for one step before giving up.
+    /// Halvings allowed below the nominal increment: the smallest increment is
+    /// `nominal / 2^max_cutbacks`; a step that fails at that size stops the run.
     pub max_cutbacks: usize,
     /// Factor by which the increment grows back after an easy step.
     pub growth: f64,
@@ -95,6 +97,7 @@ pub fn run_load_steps<'p>(
     let mut dl = f64::INFINITY;
     for (stage, &n_steps) in control.stage_steps.iter().enumerate() {
         let nominal = 1.0 / n_steps.max(1) as f64;
+        let dl_min = nominal / 2f64.powi(control.max_cutbacks.min(60) as i32);
         let stage_end = (stage + 1) as f64;
         dl = dl.min(nominal);
         while stage_end - lambda > 1e-9 * nominal {
@@ -117,16 +120,19 @@ pub fn run_load_steps<'p>(
                     break (out, target);
                 }
                 asm.rollback();
-                cutbacks += 1;
-                if cutbacks > control.max_cutbacks {
+                if dl / 2.0 < dl_min * (1.0 - 1e-9) {
                     return Err(SolverError::StepFailed {
                         step: step + 1,
                         stage,
                         load: target,
-                        cutbacks: cutbacks - 1,
-                        reason: out.domain_error.unwrap_or(out.reason),
+                        cutbacks,
+                        reason: format!(
+                            "the minimum increment {dl_min:.3e} was reached; last attempt: {}",
+                            out.domain_error.unwrap_or(out.reason)
+                        ),
                     });
                 }
+                cutbacks += 1;
                 dl /= 2.0;
             };
             let (out, target) = outcome;

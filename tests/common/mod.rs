@@ -1,0 +1,123 @@
+//! Shared helpers of the integration tests: run the solver binary (optionally under mpirun), read
+//! its results back with real readers (HDF5, CSV, JSON).
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The solver binary cargo built for these tests.
+pub fn bin() -> &'static str {
+    env!("CARGO_BIN_EXE_nurbs-contact")
+}
+
+/// The repository root.
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A case file shipped in `cases/`.
+pub fn case(name: &str) -> PathBuf {
+    root().join("cases").join(name)
+}
+
+/// A fresh scratch directory for one test.
+pub fn scratch(name: &str) -> PathBuf {
+    let d = root().join("target").join("test-scratch").join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("create scratch dir");
+    d
+}
+
+fn mpi_env(cmd: &mut Command) {
+    cmd.env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+        .env("OMPI_MCA_mpi_yield_when_idle", "1")
+        .env("OMPI_MCA_btl", "self,vader")
+        .env("OMPI_MCA_rmaps_base_oversubscribe", "1");
+}
+
+/// Runs `nurbs-contact args...` on `np` ranks (np = 1 runs it directly, without mpirun).
+pub fn run(np: usize, args: &[&str]) -> Output {
+    let mut cmd = if np == 1 {
+        Command::new(bin())
+    } else {
+        let mut c = Command::new("mpirun");
+        c.args(["--oversubscribe", "-np", &np.to_string(), bin()]);
+        c
+    };
+    cmd.args(args);
+    mpi_env(&mut cmd);
+    cmd.output().expect("failed to start nurbs-contact")
+}
+
+/// Runs and asserts success, printing the output otherwise.
+pub fn run_ok(np: usize, args: &[&str]) -> Output {
+    let out = run(np, args);
+    assert!(
+        out.status.success(),
+        "nurbs-contact {args:?} on {np} ranks failed:\nstdout:\n{}\nstderr:\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+/// The stderr of a run as text.
+pub fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// Number of output steps in a results.h5.
+pub fn h5_steps(dir: &Path) -> usize {
+    let f = hdf5::File::open(dir.join("results.h5")).expect("open results.h5");
+    f.group("steps").expect("steps group").member_names().expect("members").len()
+}
+
+/// A dataset of the last output step of grid `grid`, flattened.
+pub fn h5_last(dir: &Path, grid: &str, field: &str) -> Vec<f64> {
+    let f = hdf5::File::open(dir.join("results.h5")).expect("open results.h5");
+    let steps = f.group("steps").expect("steps group");
+    let mut names = steps.member_names().expect("members");
+    names.sort_by_key(|n| n.parse::<usize>().unwrap_or(0));
+    let last = names.last().expect("at least one step");
+    let ds = steps
+        .dataset(&format!("{last}/{grid}/{field}"))
+        .unwrap_or_else(|e| panic!("dataset {last}/{grid}/{field}: {e}"));
+    ds.read_raw::<f64>().expect("read dataset")
+}
+
+/// The columns of history.csv by header name.
+pub fn history(dir: &Path) -> Vec<(String, Vec<f64>)> {
+    let text = std::fs::read_to_string(dir.join("history.csv")).expect("read history.csv");
+    let mut lines = text.lines();
+    let header: Vec<String> = lines.next().expect("header").split(',').map(str::to_string).collect();
+    let mut cols: Vec<Vec<f64>> = vec![Vec::new(); header.len()];
+    for l in lines {
+        for (c, v) in l.split(',').enumerate() {
+            cols[c].push(v.parse().expect("number in history.csv"));
+        }
+    }
+    header.into_iter().zip(cols).collect()
+}
+
+/// One column of history.csv.
+pub fn history_col(dir: &Path, name: &str) -> Vec<f64> {
+    history(dir)
+        .into_iter()
+        .find(|(h, _)| h == name)
+        .unwrap_or_else(|| panic!("no column {name} in history.csv"))
+        .1
+}
+
+/// summary.json as a JSON value.
+pub fn summary(dir: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(dir.join("summary.json")).expect("read summary.json");
+    serde_json::from_str(&text).expect("parse summary.json")
+}
+
+/// max |a - b| / max |a|.
+pub fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len(), "compared fields differ in length");
+    let scale = a.iter().fold(0.0f64, |m, x| m.max(x.abs())).max(1e-300);
+    a.iter().zip(b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs())) / scale
+}

@@ -1,0 +1,145 @@
+//! Bad input gives a clear message naming the file, key, set or element, and a non-zero exit; never
+//! a panic.
+
+mod common;
+use common::*;
+use std::path::{Path, PathBuf};
+
+const BLOCK: &str = r#"
+[case]
+name = "bad"
+dim = 3
+
+[meshes.block]
+generator = "box"
+origin = [0.0, 0.0, 0.0]
+size = [1.0, 1.0, 1.0]
+divisions = [2, 2, 2]
+
+[bodies.block]
+mesh = "block"
+element = "Q1C1"
+[bodies.block.material]
+model = "neo_hookean"
+E = 1.0
+nu = 0.3
+
+[[bcs]]
+body = "block"
+set = "zmin"
+kind = "fixed"
+
+[[bcs]]
+body = "block"
+set = "zmax"
+kind = "displacement"
+components = ["z"]
+value = [[-0.2]]
+
+[[stages]]
+name = "compress"
+steps = 2
+"#;
+
+fn write_case(dir: &Path, text: &str) -> PathBuf {
+    let p = dir.join("case.toml");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// Runs `run` on a case text and returns (exit ok, stderr), asserting there was no panic.
+fn fails_with(name: &str, text: &str, np: usize) -> String {
+    let d = scratch(name);
+    let p = write_case(&d, text);
+    let out = run(np, &["run", p.to_str().unwrap(), "--out", d.join("out").to_str().unwrap(), "-q"]);
+    let err = stderr(&out);
+    assert!(!out.status.success(), "{name}: bad input was accepted");
+    assert!(!err.contains("panicked"), "{name}: panic instead of an error:\n{err}");
+    assert!(err.contains("case.toml"), "{name}: message does not name the file:\n{err}");
+    err
+}
+
+#[test]
+fn unknown_key_is_named() {
+    let e = fails_with("unknown-key", &BLOCK.replace("nu = 0.3", "nu = 0.3\nshear = 2.0"), 1);
+    assert!(e.contains("shear") && e.contains("bodies.block.material"), "{e}");
+}
+
+#[test]
+fn impossible_poisson_ratio_is_named() {
+    let e = fails_with("nu", &BLOCK.replace("nu = 0.3", "nu = 0.5"), 1);
+    assert!(e.contains("bodies.block.material.nu"), "{e}");
+}
+
+#[test]
+fn missing_mesh_file_is_named() {
+    let text = BLOCK.replace(
+        "generator = \"box\"\norigin = [0.0, 0.0, 0.0]\nsize = [1.0, 1.0, 1.0]\ndivisions = [2, 2, 2]",
+        "file = \"meshes/does_not_exist.msh\"",
+    );
+    let e = fails_with("missing-mesh", &text, 1);
+    assert!(e.contains("does_not_exist.msh"), "{e}");
+}
+
+#[test]
+fn undefined_set_is_named() {
+    let e = fails_with("undefined-set", &BLOCK.replace("set = \"zmin\"", "set = \"floor\""), 1);
+    assert!(e.contains("floor") && e.contains("bcs.0"), "{e}");
+}
+
+#[test]
+fn inconsistent_boundary_sets_are_reported_with_both_conditions() {
+    // xmin shares an edge with zmin: fixed there, but also pushed in x.
+    let text = format!(
+        "{BLOCK}\n[[bcs]]\nbody = \"block\"\nset = \"xmin\"\nkind = \"displacement\"\ncomponents = [\"x\"]\nvalue = [[0.1]]\n"
+    );
+    let e = fails_with("inconsistent-bcs", &text, 1);
+    assert!(e.contains("inconsistent boundary conditions") && e.contains("bcs.0") && e.contains("bcs.2"), "{e}");
+}
+
+#[test]
+fn inverted_element_in_input_mesh_is_named() {
+    let d = scratch("inverted-mesh");
+    // Two quads; the first is a bow tie (nodes 5 and 6 swapped in space).
+    let msh = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 6 1 6\n2 1 0 6\n1\n2\n3\n4\n5\n6\n\
+               0 0 0\n1 0 0\n2 0 0\n2 1 0\n0 1 0\n1 1 0\n$EndNodes\n$Elements\n1 2 1 2\n2 1 3 2\n1 1 2 5 6\n2 2 3 4 5\n$EndElements\n";
+    std::fs::write(d.join("bowtie.msh"), msh).unwrap();
+    let text = r#"
+[case]
+name = "bowtie"
+dim = 2
+[meshes.m]
+file = "bowtie.msh"
+[bodies.b]
+mesh = "m"
+element = "Q1C1"
+[bodies.b.material]
+model = "neo_hookean"
+E = 1.0
+nu = 0.3
+[[stages]]
+name = "s"
+steps = 1
+"#;
+    let p = write_case(&d, text);
+    let out = run(1, &["run", p.to_str().unwrap(), "--out", d.join("out").to_str().unwrap(), "-q"]);
+    let e = stderr(&out);
+    assert!(!out.status.success() && !e.contains("panicked"), "{e}");
+    assert!(e.contains("bowtie.msh") || e.contains("mesh `m`"), "names the mesh: {e}");
+    assert!(e.to_lowercase().contains("cell 0"), "names the cell: {e}");
+}
+
+#[test]
+fn element_inverted_by_the_load_fails_cleanly_after_cutbacks_on_2_ranks() {
+    // Pushing the top 1.2 down through a unit cube inverts elements whatever the step size.
+    let text = BLOCK.replace("value = [[-0.2]]", "value = [[-1.2]]").replace("steps = 2", "steps = 2\n[steps]\nmax_cutbacks = 3");
+    let e = fails_with("inverted-by-load", &text, 2);
+    assert!(e.contains("load step") && e.contains("cutbacks"), "{e}");
+    assert!(e.contains("inverted") || e.contains("DIVERGED"), "{e}");
+    // The failure is recorded, and what converged before it is complete and readable.
+    let out = root().join("target/test-scratch/inverted-by-load/out");
+    let s = summary(&out);
+    assert_eq!(s["status"], "failed");
+    assert!(s["reason"].as_str().unwrap().contains("load step"));
+    assert!(out.join("results.h5").exists() && !out.join("results.h5.partial").exists());
+}
