@@ -358,10 +358,14 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
         },
     };
     // Slowest rank's times: that is what the user waits for.
+    let t = asm.timers;
     let mut times = [
         assembly,
         (solve_wall - assembly - t_output).max(0.0),
         t_output,
+        t.residual,
+        t.jacobian,
+        t.pattern,
     ];
     let local = times;
     comm.all_reduce_into(&local[..], &mut times[..], SystemOperation::max());
@@ -376,6 +380,9 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
         newton,
         wall_time: io::PhaseTimes {
             assembly: times[0],
+            residual: times[3],
+            jacobian: times[4],
+            pattern: times[5],
             solve: times[1],
             output: times[2],
             total: t_start.elapsed().as_secs_f64(),

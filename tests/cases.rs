@@ -10,7 +10,12 @@ fn every_case_in_cases_dir_passes_check() {
         let p = entry.expect("entry").path();
         if p.extension().is_some_and(|e| e == "toml") {
             let out = run(1, &["check", p.to_str().unwrap()]);
-            assert!(out.status.success(), "check {} failed: {}", p.display(), stderr(&out));
+            assert!(
+                out.status.success(),
+                "check {} failed: {}",
+                p.display(),
+                stderr(&out)
+            );
             n += 1;
         }
     }
@@ -24,7 +29,10 @@ fn cases_readme_lists_every_case() {
         let p = entry.expect("entry").path();
         if p.extension().is_some_and(|e| e == "toml") {
             let name = p.file_name().unwrap().to_str().unwrap().to_string();
-            assert!(readme.contains(&name), "cases/README.md does not mention {name}");
+            assert!(
+                readme.contains(&name),
+                "cases/README.md does not mention {name}"
+            );
         }
     }
 }
@@ -33,10 +41,22 @@ fn cases_readme_lists_every_case() {
 fn results_are_readable_and_complete() {
     let d = scratch("results-complete");
     let c = case("strip_bending_2d.toml");
-    run_ok(1, &["run", c.to_str().unwrap(), "--out", d.to_str().unwrap(), "-q"]);
+    run_ok(
+        1,
+        &[
+            "run",
+            c.to_str().unwrap(),
+            "--out",
+            d.to_str().unwrap(),
+            "-q",
+        ],
+    );
     assert_eq!(h5_steps(&d), 8, "one output per converged step");
     let xdmf = std::fs::read_to_string(d.join("results.xdmf")).unwrap();
-    assert!(xdmf.contains("Quadrilateral") && xdmf.contains("results.h5:/steps/000007/bulk/displacement"));
+    assert!(
+        xdmf.contains("Quadrilateral")
+            && xdmf.contains("results.h5:/steps/000007/bulk/displacement")
+    );
     let i1 = h5_last(&d, "bulk", "I1");
     assert_eq!(i1.len(), 80);
     assert!(i1.iter().all(|v| v.is_finite()));
@@ -46,7 +66,11 @@ fn results_are_readable_and_complete() {
     assert!(s["wall_time"]["total"].as_f64().unwrap() > 0.0);
     assert!(!d.join("results.h5.partial").exists());
     // h5dump, a reader independent of our writer, opens it.
-    if let Ok(out) = std::process::Command::new("h5dump").args(["-H"]).arg(d.join("results.h5")).output() {
+    if let Ok(out) = std::process::Command::new("h5dump")
+        .args(["-H"])
+        .arg(d.join("results.h5"))
+        .output()
+    {
         assert!(out.status.success(), "h5dump could not read results.h5");
     }
 }
@@ -56,8 +80,19 @@ fn run_killed_while_writing_leaves_no_truncated_results() {
     let d = scratch("killed");
     let c = case("block_compression_3d.toml");
     let mut child = std::process::Command::new(bin())
-        .args(["run", c.to_str().unwrap(), "--out", d.to_str().unwrap(), "-q"])
-        .args(["--set", "meshes.block.divisions=[8,8,8]", "--set", "stages.0.steps=400"])
+        .args([
+            "run",
+            c.to_str().unwrap(),
+            "--out",
+            d.to_str().unwrap(),
+            "-q",
+        ])
+        .args([
+            "--set",
+            "meshes.block.divisions=[8,8,8]",
+            "--set",
+            "stages.0.steps=400",
+        ])
         .spawn()
         .expect("start solver");
     // Wait until the writer has started (its partial file exists), then kill it hard.
@@ -70,8 +105,20 @@ fn run_killed_while_writing_leaves_no_truncated_results() {
     std::thread::sleep(std::time::Duration::from_millis(300));
     child.kill().expect("kill");
     let status = child.wait().expect("wait");
-    assert!(!status.success(), "the run finished before it was killed; make it longer");
-    assert!(!d.join("results.h5").exists(), "a killed run left results.h5 behind");
-    assert!(!d.join("results.xdmf").exists(), "a killed run left results.xdmf behind");
-    assert!(!d.join("summary.json").exists(), "a killed run left summary.json behind");
+    assert!(
+        !status.success(),
+        "the run finished before it was killed; make it longer"
+    );
+    assert!(
+        !d.join("results.h5").exists(),
+        "a killed run left results.h5 behind"
+    );
+    assert!(
+        !d.join("results.xdmf").exists(),
+        "a killed run left results.xdmf behind"
+    );
+    assert!(
+        !d.join("summary.json").exists(),
+        "a killed run left summary.json behind"
+    );
 }

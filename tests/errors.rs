@@ -51,18 +51,40 @@ fn write_case(dir: &Path, text: &str) -> PathBuf {
 fn fails_with(name: &str, text: &str, np: usize) -> String {
     let d = scratch(name);
     let p = write_case(&d, text);
-    let out = run(np, &["run", p.to_str().unwrap(), "--out", d.join("out").to_str().unwrap(), "-q"]);
+    let out = run(
+        np,
+        &[
+            "run",
+            p.to_str().unwrap(),
+            "--out",
+            d.join("out").to_str().unwrap(),
+            "-q",
+        ],
+    );
     let err = stderr(&out);
     assert!(!out.status.success(), "{name}: bad input was accepted");
-    assert!(!err.contains("panicked"), "{name}: panic instead of an error:\n{err}");
-    assert!(err.contains("case.toml"), "{name}: message does not name the file:\n{err}");
+    assert!(
+        !err.contains("panicked"),
+        "{name}: panic instead of an error:\n{err}"
+    );
+    assert!(
+        err.contains("case.toml"),
+        "{name}: message does not name the file:\n{err}"
+    );
     err
 }
 
 #[test]
 fn unknown_key_is_named() {
-    let e = fails_with("unknown-key", &BLOCK.replace("nu = 0.3", "nu = 0.3\nshear = 2.0"), 1);
-    assert!(e.contains("shear") && e.contains("bodies.block.material"), "{e}");
+    let e = fails_with(
+        "unknown-key",
+        &BLOCK.replace("nu = 0.3", "nu = 0.3\nshear = 2.0"),
+        1,
+    );
+    assert!(
+        e.contains("shear") && e.contains("bodies.block.material"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -83,7 +105,11 @@ fn missing_mesh_file_is_named() {
 
 #[test]
 fn undefined_set_is_named() {
-    let e = fails_with("undefined-set", &BLOCK.replace("set = \"zmin\"", "set = \"floor\""), 1);
+    let e = fails_with(
+        "undefined-set",
+        &BLOCK.replace("set = \"zmin\"", "set = \"floor\""),
+        1,
+    );
     assert!(e.contains("floor") && e.contains("bcs.0"), "{e}");
 }
 
@@ -94,7 +120,12 @@ fn inconsistent_boundary_sets_are_reported_with_both_conditions() {
         "{BLOCK}\n[[bcs]]\nbody = \"block\"\nset = \"xmin\"\nkind = \"displacement\"\ncomponents = [\"x\"]\nvalue = [[0.1]]\n"
     );
     let e = fails_with("inconsistent-bcs", &text, 1);
-    assert!(e.contains("inconsistent boundary conditions") && e.contains("bcs.0") && e.contains("bcs.2"), "{e}");
+    assert!(
+        e.contains("inconsistent boundary conditions")
+            && e.contains("bcs.0")
+            && e.contains("bcs.2"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -122,17 +153,31 @@ name = "s"
 steps = 1
 "#;
     let p = write_case(&d, text);
-    let out = run(1, &["run", p.to_str().unwrap(), "--out", d.join("out").to_str().unwrap(), "-q"]);
+    let out = run(
+        1,
+        &[
+            "run",
+            p.to_str().unwrap(),
+            "--out",
+            d.join("out").to_str().unwrap(),
+            "-q",
+        ],
+    );
     let e = stderr(&out);
     assert!(!out.status.success() && !e.contains("panicked"), "{e}");
-    assert!(e.contains("bowtie.msh") || e.contains("mesh `m`"), "names the mesh: {e}");
+    assert!(
+        e.contains("bowtie.msh") || e.contains("mesh `m`"),
+        "names the mesh: {e}"
+    );
     assert!(e.to_lowercase().contains("cell 0"), "names the cell: {e}");
 }
 
 #[test]
 fn element_inverted_by_the_load_fails_cleanly_after_cutbacks_on_2_ranks() {
     // Pushing the top 1.2 down through a unit cube inverts elements whatever the step size.
-    let text = BLOCK.replace("value = [[-0.2]]", "value = [[-1.2]]").replace("steps = 2", "steps = 2\n[steps]\nmax_cutbacks = 3");
+    let text = BLOCK
+        .replace("value = [[-0.2]]", "value = [[-1.2]]")
+        .replace("steps = 2", "steps = 2\n[steps]\nmax_cutbacks = 3");
     let e = fails_with("inverted-by-load", &text, 2);
     assert!(e.contains("load step") && e.contains("cutbacks"), "{e}");
     assert!(e.contains("inverted") || e.contains("DIVERGED"), "{e}");

@@ -361,7 +361,10 @@ impl<'p> Assembler<'p> {
     /// Element stress measures of every owned element: (body, cell, tr sigma, von Mises). An element
     /// whose measures cannot be evaluated reports NaN rather than failing, so that the collective
     /// output that follows stays in step on every rank.
-    pub fn stress_measures(&mut self, x: &Vector) -> Result<Vec<(usize, usize, f64, f64)>, PetscError> {
+    pub fn stress_measures(
+        &mut self,
+        x: &Vector,
+    ) -> Result<Vec<(usize, usize, f64, f64)>, PetscError> {
         self.scatter.gather(x, &mut self.x_local)?;
         let xl = self.x_local.read()?;
         let mut out = Vec::new();
@@ -371,7 +374,9 @@ impl<'p> Assembler<'p> {
                 for (k, &l) in r.local[a..b].iter().enumerate() {
                     self.u_e[k] = xl[l as usize];
                 }
-                let (tr, vm) = set.stress_measures(e, &self.u_e[..b - a]).unwrap_or((f64::NAN, f64::NAN));
+                let (tr, vm) = set
+                    .stress_measures(e, &self.u_e[..b - a])
+                    .unwrap_or((f64::NAN, f64::NAN));
                 let (body, cell) = set.cell_id(e);
                 out.push((body, cell, tr, vm));
             }

@@ -28,7 +28,17 @@ impl NewtonStats {
 /// Wall time by phase, seconds (max over ranks is the caller's choice to report).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct PhaseTimes {
+    /// Residual and Jacobian evaluation, including building the sparsity pattern.
     pub assembly: f64,
+    /// Of `assembly`: residual evaluations.
+    #[serde(default)]
+    pub residual: f64,
+    /// Of `assembly`: Jacobian evaluations (kernels and matrix insertion).
+    #[serde(default)]
+    pub jacobian: f64,
+    /// Of `assembly`: building sparsity patterns and preallocating.
+    #[serde(default)]
+    pub pattern: f64,
     pub solve: f64,
     pub output: f64,
     pub total: f64,
@@ -107,6 +117,9 @@ mod tests {
             newton,
             wall_time: PhaseTimes {
                 assembly: 1.5,
+                residual: 0.5,
+                jacobian: 0.75,
+                pattern: 0.25,
                 solve: 2.25,
                 output: 0.125,
                 total: 4.0,

@@ -70,7 +70,11 @@ pub fn stderr(out: &Output) -> String {
 /// Number of output steps in a results.h5.
 pub fn h5_steps(dir: &Path) -> usize {
     let f = hdf5::File::open(dir.join("results.h5")).expect("open results.h5");
-    f.group("steps").expect("steps group").member_names().expect("members").len()
+    f.group("steps")
+        .expect("steps group")
+        .member_names()
+        .expect("members")
+        .len()
 }
 
 /// A dataset of the last output step of grid `grid`, flattened.
@@ -90,7 +94,12 @@ pub fn h5_last(dir: &Path, grid: &str, field: &str) -> Vec<f64> {
 pub fn history(dir: &Path) -> Vec<(String, Vec<f64>)> {
     let text = std::fs::read_to_string(dir.join("history.csv")).expect("read history.csv");
     let mut lines = text.lines();
-    let header: Vec<String> = lines.next().expect("header").split(',').map(str::to_string).collect();
+    let header: Vec<String> = lines
+        .next()
+        .expect("header")
+        .split(',')
+        .map(str::to_string)
+        .collect();
     let mut cols: Vec<Vec<f64>> = vec![Vec::new(); header.len()];
     for l in lines {
         for (c, v) in l.split(',').enumerate() {
@@ -119,5 +128,8 @@ pub fn summary(dir: &Path) -> serde_json::Value {
 pub fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
     assert_eq!(a.len(), b.len(), "compared fields differ in length");
     let scale = a.iter().fold(0.0f64, |m, x| m.max(x.abs())).max(1e-300);
-    a.iter().zip(b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs())) / scale
+    a.iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+        / scale
 }
