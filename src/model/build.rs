@@ -414,11 +414,23 @@ impl Model {
     /// Overwrites the displacement of every display node (surface node replaced by control
     /// points) with the value interpolated from its enriched element. `u`: [n_nodes][dim].
     pub fn fill_display_nodes(&self, u: &mut [f64]) {
+        super::sampling::apply_display(&self.display_interpolation(), self.dim, u);
+    }
+
+    /// Display nodes of all enriched layers with their interpolation, in global ids.
+    pub fn display_interpolation(&self) -> Vec<(u32, Vec<(u32, f64)>)> {
+        let mut out = Vec::new();
         for b in &self.bodies {
             if let Some(e) = &b.enrichment {
-                e.fill_display(self.dim, b.node_offset as usize, u);
+                let o = b.node_offset;
+                out.extend(
+                    e.display
+                        .iter()
+                        .map(|(n, w)| (n + o, w.iter().map(|&(a, wa)| (a + o, wa)).collect())),
+                );
             }
         }
+        out
     }
 
     /// Number of global cells.

@@ -210,21 +210,6 @@ impl Enrichment {
         }
         out.into_iter().collect()
     }
-
-    /// Fills the displacement of the display nodes from their element's nodes.
-    /// `u`: body-local nodal vectors [n_nodes][dim], `node_offset` added to every id.
-    pub fn fill_display(&self, dim: usize, node_offset: usize, u: &mut [f64]) {
-        for (node, weights) in &self.display {
-            let mut v = [0.0; 3];
-            for &(a, w) in weights {
-                for k in 0..dim {
-                    v[k] += w * u[(node_offset + a as usize) * dim + k];
-                }
-            }
-            let i = (node_offset + *node as usize) * dim;
-            u[i..i + dim].copy_from_slice(&v[..dim]);
-        }
-    }
 }
 
 fn faces_err(set: &str, msg: impl Into<String>) -> EnrichError {

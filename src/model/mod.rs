@@ -11,6 +11,8 @@ mod build;
 pub mod enrich;
 #[cfg(test)]
 mod enrich_tests;
+mod sampling;
 
 pub use build::{enriched_tl_element, Body, Model, ModelError};
 pub use enrich::{EnrichError, EnrichedBasis, EnrichedCell, Enrichment, ExactSurface};
+pub use sampling::{apply_display, SampledGrid};
