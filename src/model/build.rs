@@ -63,6 +63,16 @@ pub enum ModelError {
         /// What is wrong.
         msg: String,
     },
+    /// The enriched layer of a body could not be built on its `enriched_surface`.
+    #[error("{}: `bodies.{body}.enriched_surface`: {source}", .file.display())]
+    Enrichment {
+        /// The case file.
+        file: std::path::PathBuf,
+        /// The body.
+        body: String,
+        /// What went wrong.
+        source: super::enrich::EnrichError,
+    },
     /// The case asks for something this version cannot build yet.
     #[error("{}: `{key}`: {msg}", .file.display())]
     Unsupported {
@@ -264,11 +274,11 @@ impl Model {
         for b in &mut bodies {
             let spec = &case.bodies[&b.name];
             if let (true, Some(set)) = (b.family.is_enriched(), &spec.enriched_surface) {
-                let e = build_enrichment(&mut b.mesh, set, b.family).map_err(|e| {
-                    ModelError::Unsupported {
+                let e = build_enrichment(&mut b.mesh, set, b.family).map_err(|source| {
+                    ModelError::Enrichment {
                         file: case.file.clone(),
-                        key: format!("bodies.{}.enriched_surface", b.name),
-                        msg: e.to_string(),
+                        body: b.name.clone(),
+                        source,
                     }
                 })?;
                 b.enrichment = Some(e);

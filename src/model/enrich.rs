@@ -446,21 +446,19 @@ fn detect_curve(set: &str, pts: &[[f64; 2]]) -> Result<Curve2d, EnrichError> {
     Ok(Curve2d { curve, pos, along })
 }
 
-/// Element half-length in arc length, `ds/dxi`, of span `[ua, ub]` (20-point Gauss).
-fn half_length(c: &NurbsCurve, ua: f64, ub: f64) -> f64 {
-    let (x, w) = match crate::fem::quadrature::gauss_legendre(20) {
-        Ok(r) => r,
-        Err(_) => return 0.0,
-    };
+/// Element half-length in arc length, `ds/dxi`, of span `[ua, ub]` (20-point Gauss: exact to
+/// round-off for lines and arcs, whose speed `|dC/du|` is smooth on a span).
+fn half_length(c: &NurbsCurve, ua: f64, ub: f64) -> Result<f64, crate::fem::ElementError> {
+    let (x, w) = crate::fem::quadrature::gauss_legendre(20)?;
     let half = 0.5 * (ub - ua);
-    x.iter()
+    Ok(x.iter()
         .zip(&w)
         .map(|(&xi, &wi)| {
             let (_, d) = c.eval(0.5 * (ua + ub) + half * xi);
             wi * (d[0] * d[0] + d[1] * d[1]).sqrt() * half
         })
         .sum::<f64>()
-        * 0.5
+        * 0.5)
 }
 
 fn build_2d(
@@ -607,7 +605,8 @@ fn build_2d(
                 .collect();
             pseudo.extend_from_slice(&tangents);
             for i in 0..n_el {
-                let h = half_length(&exact.curve, params[i], params[i + 1]);
+                let h = half_length(&exact.curve, params[i], params[i + 1])
+                    .map_err(|e| faces_err(set, e.to_string()))?;
                 let [b0, b1] = bulk(cells[i]);
                 out_cells.push(EnrichedCell {
                     cell: cells[i],
