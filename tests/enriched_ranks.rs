@@ -1,5 +1,6 @@
 //! The half-cylinder case (cases/half_cylinder_press_2d.toml) with every enriched family: the same
-//! displacement on 1 and 2 ranks, and refinement converging towards a fine Q1C1 solution.
+//! displacement on 1 and 2 ranks, and refinement converging towards a fine Q1C1 solution; the 3D
+//! block case with a Q1N2-enriched top on 1 and 2 ranks.
 //! Runs the solver binary (with mpirun for 2 ranks), reads results.h5 and history.csv.
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -9,8 +10,18 @@ const CASE: &str = concat!(
     "/cases/half_cylinder_press_2d.toml"
 );
 
-/// Runs the case on `ranks` ranks with `--set` overrides; returns the output directory.
+const BLOCK_3D: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/cases/block_compression_3d.toml"
+);
+
+/// Runs the half-cylinder case on `ranks` ranks with `--set` overrides; returns the output directory.
 fn run(tag: &str, ranks: usize, sets: &[String]) -> PathBuf {
+    run_case(CASE, tag, ranks, sets)
+}
+
+/// Runs `case` on `ranks` ranks with `--set` overrides; returns the output directory.
+fn run_case(case: &str, tag: &str, ranks: usize, sets: &[String]) -> PathBuf {
     let out =
         Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("enriched_ranks_{tag}_np{ranks}"));
     let _ = std::fs::remove_dir_all(&out);
@@ -24,7 +35,7 @@ fn run(tag: &str, ranks: usize, sets: &[String]) -> PathBuf {
     };
     cmd.env("OMPI_ALLOW_RUN_AS_ROOT", "1")
         .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
-        .args(["run", CASE, "--out"])
+        .args(["run", case, "--out"])
         .arg(&out);
     for s in sets {
         cmd.args(["--set", s]);
@@ -82,6 +93,28 @@ fn every_enriched_family_gives_the_same_displacement_on_1_and_2_ranks() {
             "{family}: 1 vs 2 ranks differ by {diff}"
         );
     }
+}
+
+/// Max difference between two displacement vectors relative to the largest entry of the first.
+fn relative_difference(u1: &[f64], u2: &[f64]) -> f64 {
+    assert_eq!(u1.len(), u2.len());
+    let scale = u1.iter().fold(0.0_f64, |a, x| a.max(x.abs()));
+    u1.iter()
+        .zip(u2)
+        .fold(0.0_f64, |a, (x, y)| a.max((x - y).abs()))
+        / scale
+}
+
+#[test]
+fn enriched_3d_block_gives_the_same_displacement_on_1_and_2_ranks() {
+    let sets = [
+        "bodies.block.element=Q1N2".to_string(),
+        "bodies.block.enriched_surface=zmax".to_string(),
+    ];
+    let u1 = last_displacement(&run_case(BLOCK_3D, "block_q1n2", 1, &sets));
+    let u2 = last_displacement(&run_case(BLOCK_3D, "block_q1n2", 2, &sets));
+    let d = relative_difference(&u1, &u2);
+    assert!(d <= 1e-10, "3D Q1N2: 1 vs 2 ranks differ by {d}");
 }
 
 #[test]
