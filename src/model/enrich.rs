@@ -16,6 +16,14 @@
 //! lies in the set brings all its position-type nodes. So a set holding a whole enriched surface gets
 //! all its control points, a patch edge gets the control points of that edge row, and a single
 //! interior node gets the `p` control points whose functions are nonzero there.
+//!
+//! Exact geometry and its limits: a 2D arc is split into the fewest equal rational quadratic
+//! segments (< 180 degrees) whose joints are mesh nodes; those joints stay C^0 knots (multiplicity
+//! p+t) of the refined curve, every other element boundary has the continuity of Table 1. Curves
+//! other than lines and circles, closed curves and non-planar or non-rectangular 3D patches are
+//! reported as unsupported: in particular the hemisphere, whose NURBS parametrisation in
+//! `geometry::conics::hollow_hemisphere` does not match the hemisphere mesh generator's cells.
+//! The bulk of an enriched body is Q1C1.
 #![allow(clippy::needless_range_loop)] // index loops mirror the equations
 use crate::fem::enriched::{q1c2_2d, q1ch_2d, q1np_2d, q1np_3d, EnrichedElementData};
 use crate::geometry::conics::{circular_arc_segments, line_segment, plane_patch};
