@@ -402,6 +402,9 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
 }
 
 /// Results of a run on rank 0 (the other ranks only take part in the gathers).
+/// Sample points per enriched element edge in the "surface" output grid.
+const SURFACE_SAMPLES: usize = 8;
+
 struct Output<'p> {
     root: bool,
     dim: usize,
@@ -417,6 +420,10 @@ struct Output<'p> {
     /// Cells of each body start here in the global cell numbering.
     cell_offset: Vec<usize>,
     case_toml: String,
+    /// Display nodes of enriched surfaces (global id, interpolation from element nodes).
+    display: Vec<(u32, Vec<(u32, f64)>)>,
+    /// Enriched-surface grids ("surface", "control_net") written beside "bulk".
+    sampled: Vec<crate::model::SampledGrid>,
 }
 
 impl<'p> Output<'p> {
@@ -455,6 +462,11 @@ impl<'p> Output<'p> {
             u_root,
             cell_offset: model.bodies.iter().map(|b| b.cell_offset).collect(),
             case_toml: case.to_toml_string()?,
+            display: model.display_interpolation(),
+            sampled: [model.surface_grid(SURFACE_SAMPLES), model.control_net()]
+                .into_iter()
+                .flatten()
+                .collect(),
         };
         if root {
             std::fs::create_dir_all(out_dir).map_err(|source| io::IoError::File {
@@ -462,7 +474,8 @@ impl<'p> Output<'p> {
                 op: "create the output directory",
                 source,
             })?;
-            let conn: Vec<usize> = model.cell_nodes.iter().map(|&n| n as usize).collect();
+            // linear parents; on enriched surfaces their corners are display nodes
+            let conn = model.parent_connectivity();
             let kind = if dim == 2 {
                 io::CellKind::Quadrilateral
             } else {
@@ -475,7 +488,15 @@ impl<'p> Output<'p> {
                 kind,
                 connectivity: &conn,
             };
-            out.results = Some(ResultsWriter::create(out_dir, &[grid])?);
+            let mut grids = vec![grid];
+            grids.extend(out.sampled.iter().map(|g| GridDef {
+                name: g.name,
+                dim,
+                coords: &g.coords,
+                kind: g.kind,
+                connectivity: &g.connectivity,
+            }));
+            out.results = Some(ResultsWriter::create(out_dir, &grids)?);
             let labels: Vec<(&str, &str)> = case
                 .output
                 .reactions
@@ -528,7 +549,13 @@ impl<'p> Output<'p> {
         if self.root {
             let mut global = vec![0.0; 3 * self.n_cells];
             root_proc.reduce_into_root(&local[..], &mut global[..], SystemOperation::sum());
-            let u = self.u_root.read()?;
+            let mut u = self.u_root.read()?.to_vec();
+            crate::model::apply_display(&self.display, self.dim, &mut u);
+            let sampled_u: Vec<Vec<f64>> = self
+                .sampled
+                .iter()
+                .map(|g| g.interpolate(self.dim, &u))
+                .collect();
             let (i1, rest) = global.split_at(self.n_cells);
             let (vm, ranks) = rest.split_at(self.n_cells);
             let mut fields = Vec::new();
@@ -541,6 +568,9 @@ impl<'p> Output<'p> {
                     OutputField::VonMises => FieldData::cell_scalar("bulk", "von_mises", vm),
                     OutputField::Rank => FieldData::cell_scalar("bulk", "rank", ranks),
                 });
+            }
+            for (g, v) in self.sampled.iter().zip(&sampled_u) {
+                fields.push(FieldData::node_vector(g.name, "displacement", self.dim, v));
             }
             debug_assert_eq!(u.len(), self.n_nodes * self.dim);
             if let Some(r) = &mut self.results {

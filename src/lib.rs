@@ -20,7 +20,8 @@
 //!   Neo-Hookean law; nothing in them knows about MPI or PETSc.
 //! - [`geometry`]: knot vectors, B-splines, NURBS, Bezier extraction, refinement, exact conics.
 //! - [`mesh`]: the mesh type, structured generators with named sets, the Gmsh reader.
-//! - [`scene`], [`model`]: case files and what is built from them; [`solver`], [`driver`], [`io`].
+//! - [`scene`], [`model`]: case files and what is built from them (including the enriched layer of a
+//!   body's contact surface, `model::enrich`); [`solver`], [`driver`], [`io`].
 
 pub mod assembly;
 pub mod driver;

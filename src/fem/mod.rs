@@ -21,6 +21,6 @@ pub mod quadrature;
 pub mod sets;
 
 #[cfg(test)]
-mod test_support;
+pub(crate) mod test_support;
 
 pub use error::ElementError;

@@ -27,6 +27,8 @@ const CORE_FRACTION: f64 = 0.6;
 /// - `arc`: faces ordered from angle 180 to 360 degrees (left to right along the bottom),
 ///   all local face 0; node set: the `n_arc + 1` arc nodes;
 /// - `top`: the flat side y = cy, faces ordered left to right; node set of its nodes;
+/// - `top_core`: the top nodes above the core, `|x - cx| <= a` (a flat punch on the middle of
+///   the top whose width `2a = 1.2 r cos(45 deg)` is the same for every `n_arc` multiple of 4);
 /// - `top_center`: the top node nearest to (cx, cy) (exact when `n_bot` is even, else the
 ///   left one of the two nearest).
 pub fn half_disk(center: [f64; 2], r: f64, n_arc: usize, n_rad: usize) -> Result<Mesh, MeshError> {
@@ -143,6 +145,7 @@ pub fn half_disk(center: [f64; 2], r: f64, n_arc: usize, n_rad: usize) -> Result
     let top_nodes = mesh.node_set_from_faces("top")?;
     mesh.insert_node_set("top", top_nodes);
     mesh.insert_node_set("top_center", vec![core(n_bot / 2, n_side)]);
+    mesh.insert_node_set("top_core", (0..=n_bot).map(|i| core(i, n_side)).collect());
     Ok(mesh)
 }
 
@@ -263,5 +266,12 @@ mod tests {
         assert!((x - (cx + r)).abs() < 1e-12);
         assert_eq!(m.node_sets["top"].len(), 11);
         assert_eq!(m.node(m.node_sets["top_center"][0]), &[cx, cy]);
+        // top_core: the core's top row, centred, strictly inside the top
+        let core = &m.node_sets["top_core"];
+        let xs: Vec<f64> = core.iter().map(|&n| m.node(n)[0] - cx).collect();
+        assert!(core.iter().all(|&n| m.node(n)[1] == cy));
+        let half = xs.iter().fold(0.0_f64, |a, x| a.max(x.abs()));
+        assert!(half < r && half > 0.3 * r);
+        assert!((xs.iter().sum::<f64>()).abs() < 1e-12);
     }
 }

@@ -1,8 +1,10 @@
 //! Building a [`Model`] from a validated [`Case`].
 
+use super::enrich::{build_enrichment, EnrichedCell, Enrichment};
 use crate::assembly::{DirichletBc, ElementSet, Prescription};
 use crate::fem::kernel::TlElement;
 use crate::fem::q1e4::Q1e4Element;
+use crate::fem::quadrature::tensor_rule;
 use crate::fem::sets::{Q1e4Set, TlSet};
 use crate::fem::{hex8, quad4};
 use crate::material::NeoHookean;
@@ -61,6 +63,16 @@ pub enum ModelError {
         /// What is wrong.
         msg: String,
     },
+    /// The enriched layer of a body could not be built on its `enriched_surface`.
+    #[error("{}: `bodies.{body}.enriched_surface`: {source}", .file.display())]
+    Enrichment {
+        /// The case file.
+        file: std::path::PathBuf,
+        /// The body.
+        body: String,
+        /// What went wrong.
+        source: super::enrich::EnrichError,
+    },
     /// The case asks for something this version cannot build yet.
     #[error("{}: `{key}`: {msg}", .file.display())]
     Unsupported {
@@ -87,6 +99,42 @@ pub struct Body {
     pub family: ElementFamily,
     /// Material.
     pub material: NeoHookean,
+    /// The enriched layer (enriched families): new nodes numbered after the mesh's, enriched cells
+    /// beside the mesh's linear parents (`mesh.cell_kind` keeps meaning "linear parent").
+    pub enrichment: Option<Enrichment>,
+}
+
+impl Body {
+    /// Number of body nodes: mesh nodes, then the enrichment's new nodes.
+    pub fn n_nodes(&self) -> usize {
+        self.mesh.n_nodes() + self.enrichment.as_ref().map_or(0, |e| e.n_extra())
+    }
+
+    /// Body-local element node list of cell `c`: the enriched node list or the linear cell.
+    pub fn element_nodes(&self, c: usize) -> &[u32] {
+        match self.enriched_cell(c) {
+            Some(e) => &e.nodes,
+            None => self.mesh.cell(c),
+        }
+    }
+
+    /// The enriched cell of mesh cell `c`, if any.
+    pub fn enriched_cell(&self, c: usize) -> Option<&EnrichedCell> {
+        let en = self.enrichment.as_ref()?;
+        en.cell_index[c].map(|i| &en.cells[i])
+    }
+
+    /// Reference coordinates of body-local node `n` (mesh node or new node).
+    pub fn node(&self, n: u32) -> &[f64] {
+        let d = self.mesh.dim;
+        match &self.enrichment {
+            Some(e) if n as usize >= e.n_mesh_nodes => {
+                let i = n as usize - e.n_mesh_nodes;
+                &e.extra_coords[i * d..(i + 1) * d]
+            }
+            _ => self.mesh.node(n),
+        }
+    }
 }
 
 /// Everything a run needs, identical on every rank.
@@ -147,15 +195,43 @@ fn generate(case: &Case, name: &str, spec: &MeshSpec) -> Result<Mesh, ModelError
     Ok(m)
 }
 
-/// The nodes of a named set of a body: a node set, or the nodes of a face set.
-fn set_nodes(body: &Body, set: &str) -> Option<Vec<u32>> {
-    if let Some(n) = body.mesh.node_sets.get(set) {
-        return Some(n.iter().map(|&n| n + body.node_offset).collect());
+/// The total-Lagrangian kernel data of an enriched cell: its basis tabulated at the Gauss points of
+/// section 3.4, mapped with the element's reference nodal coordinates (control points, mid nodes,
+/// tangent pseudo-nodes entered as coordinates).
+#[allow(non_snake_case)]
+pub fn enriched_tl_element(
+    body: &Body,
+    ec: &EnrichedCell,
+) -> Result<TlElement, crate::fem::ElementError> {
+    let dim = body.mesh.dim;
+    let n = ec.n_nodes();
+    let rule = tensor_rule(&ec.quadrature_counts())?;
+    let X: Vec<f64> = ec
+        .nodes
+        .iter()
+        .flat_map(|&a| body.node(a).to_vec())
+        .collect();
+    let mut dN_ref = vec![0.0; rule.n_points() * n * dim];
+    let mut N = vec![0.0; n];
+    for (qp, xi) in rule.points.chunks_exact(dim).enumerate() {
+        ec.shape(xi, &mut N, &mut dN_ref[qp * n * dim..(qp + 1) * n * dim]);
     }
-    body.mesh
-        .node_set_from_faces(set)
-        .ok()
-        .map(|v| v.iter().map(|&n| n + body.node_offset).collect())
+    TlElement::new(dim, &X, &dN_ref, &rule.weights)
+}
+
+/// The nodes of a named set of a body: a node set, or the nodes of a face set.
+/// Sets holding surface nodes of an enriched layer are remapped to its control points (see
+/// `crate::model::enrich`).
+fn set_nodes(body: &Body, set: &str) -> Option<Vec<u32>> {
+    let local = match body.mesh.node_sets.get(set) {
+        Some(n) => n.clone(),
+        None => body.mesh.node_set_from_faces(set).ok()?,
+    };
+    let local = match &body.enrichment {
+        Some(e) => e.remap(&local),
+        None => local,
+    };
+    Some(local.iter().map(|&n| n + body.node_offset).collect())
 }
 
 impl Model {
@@ -173,27 +249,46 @@ impl Model {
                     body: name.clone(),
                     msg: e.to_string(),
                 })?;
-            let (nn, nc) = (mesh.n_nodes() as u32, mesh.n_cells());
             bodies.push(Body {
                 name: name.clone(),
                 mesh,
-                node_offset,
-                cell_offset,
+                node_offset: 0,
+                cell_offset: 0,
                 family: spec.element,
                 material,
+                enrichment: None,
             });
-            node_offset += nn;
-            cell_offset += nc;
+        }
+        validate_sets(case, &|b, s, kind| {
+            bodies
+                .iter()
+                .find(|x| x.name == b)
+                .is_some_and(|body| match kind {
+                    SetKind::Node => {
+                        body.mesh.node_sets.contains_key(s) || body.mesh.face_sets.contains_key(s)
+                    }
+                    SetKind::Face => body.mesh.face_sets.contains_key(s),
+                })
+        })?;
+        // enriched layers, then the global numbering (new nodes follow each body's mesh nodes)
+        for b in &mut bodies {
+            let spec = &case.bodies[&b.name];
+            if let (true, Some(set)) = (b.family.is_enriched(), &spec.enriched_surface) {
+                let e = build_enrichment(&mut b.mesh, set, b.family).map_err(|source| {
+                    ModelError::Enrichment {
+                        file: case.file.clone(),
+                        body: b.name.clone(),
+                        source,
+                    }
+                })?;
+                b.enrichment = Some(e);
+            }
+            b.node_offset = node_offset;
+            b.cell_offset = cell_offset;
+            node_offset += b.n_nodes() as u32;
+            cell_offset += b.mesh.n_cells();
         }
         let find = |b: &str| bodies.iter().find(|x| x.name == b);
-        validate_sets(case, &|b, s, kind| {
-            find(b).is_some_and(|body| match kind {
-                SetKind::Node => {
-                    body.mesh.node_sets.contains_key(s) || body.mesh.face_sets.contains_key(s)
-                }
-                SetKind::Face => body.mesh.face_sets.contains_key(s),
-            })
-        })?;
 
         let mut coords = Vec::with_capacity(node_offset as usize * dim);
         let (mut cell_offsets, mut cell_nodes, mut cell_body) =
@@ -207,8 +302,11 @@ impl Model {
                 });
             }
             coords.extend_from_slice(&b.mesh.coords);
+            if let Some(e) = &b.enrichment {
+                coords.extend_from_slice(&e.extra_coords);
+            }
             for c in 0..b.mesh.n_cells() {
-                cell_nodes.extend(b.mesh.cell(c).iter().map(|&n| n + b.node_offset));
+                cell_nodes.extend(b.element_nodes(c).iter().map(|&n| n + b.node_offset));
                 cell_offsets.push(cell_nodes.len());
                 cell_body.push(bi as u32);
             }
@@ -317,6 +415,34 @@ impl Model {
         })
     }
 
+    /// Global nodes of set `set` of body `body` (a node set or the nodes of a face set; remapped
+    /// to control points on an enriched surface), `None` if there is no such body or set.
+    pub fn set_nodes(&self, body: &str, set: &str) -> Option<Vec<u32>> {
+        set_nodes(self.bodies.iter().find(|b| b.name == body)?, set)
+    }
+
+    /// Overwrites the displacement of every display node (surface node replaced by control
+    /// points) with the value interpolated from its enriched element. `u`: [n_nodes][dim].
+    pub fn fill_display_nodes(&self, u: &mut [f64]) {
+        super::sampling::apply_display(&self.display_interpolation(), self.dim, u);
+    }
+
+    /// Display nodes of all enriched layers with their interpolation, in global ids.
+    pub fn display_interpolation(&self) -> Vec<(u32, Vec<(u32, f64)>)> {
+        let mut out = Vec::new();
+        for b in &self.bodies {
+            if let Some(e) = &b.enrichment {
+                let o = b.node_offset;
+                out.extend(
+                    e.display
+                        .iter()
+                        .map(|(n, w)| (n + o, w.iter().map(|&(a, wa)| (a + o, wa)).collect())),
+                );
+            }
+        }
+        out
+    }
+
     /// Number of global cells.
     pub fn n_cells(&self) -> usize {
         self.cell_body.len()
@@ -366,17 +492,31 @@ impl Model {
             let mine =
                 (0..b.mesh.n_cells()).filter(|&c| cell_part[b.cell_offset + c] as usize == rank);
             match b.family {
-                ElementFamily::Q1C1 => {
-                    let mut set = TlSet::new(bi, &b.name, "Q1C1", b.material);
+                ElementFamily::Q1C1
+                | ElementFamily::Q1N { .. }
+                | ElementFamily::Q1C2
+                | ElementFamily::Q1CH => {
+                    // the bulk of an enriched body is Q1C1
+                    let mut set = TlSet::new(bi, &b.name, &b.family.to_string(), b.material);
                     for c in mine {
-                        let nodes = b.mesh.cell(c);
-                        let X: Vec<f64> = nodes.iter().flat_map(|&n| b.mesh.node(n).to_vec()).collect();
-                        let el: Result<TlElement, _> = match b.mesh.cell_kind[c] {
-                            CellKind::Quad4 => quad4::tl_element(&X, 2),
-                            CellKind::Hex8 => hex8::tl_element(&X, 2),
+                        let el = match b.enriched_cell(c) {
+                            Some(ec) => enriched_tl_element(b, ec),
+                            None => {
+                                let X: Vec<f64> = b
+                                    .mesh
+                                    .cell(c)
+                                    .iter()
+                                    .flat_map(|&n| b.mesh.node(n).to_vec())
+                                    .collect();
+                                match b.mesh.cell_kind[c] {
+                                    CellKind::Quad4 => quad4::tl_element(&X, 2),
+                                    CellKind::Hex8 => hex8::tl_element(&X, 2),
+                                }
+                            }
                         };
                         let el = el.map_err(|e| elem_err(c, e.to_string()))?;
-                        let g: Vec<u32> = nodes.iter().map(|&n| n + b.node_offset).collect();
+                        let g: Vec<u32> =
+                            b.element_nodes(c).iter().map(|&n| n + b.node_offset).collect();
                         set.push(c, &g, el);
                     }
                     sets.push(Box::new(set));

@@ -1,9 +1,18 @@
 //! The model: what a case declares, built into meshes, bodies, global node numbering, Dirichlet
 //! conditions, periodic ties and element sets — and nothing the case does not declare.
 //!
+//! Enriched families ([`enrich`]) add an enriched layer to a body: new nodes after its mesh nodes,
+//! enriched node lists for the cells of its contact surface, remapped node sets.
+//!
 //! Every rank builds the same model (meshes are generated or read on every rank; they are small next
 //! to the matrix), then assembles only the cells METIS gives it.
 
 mod build;
+pub mod enrich;
+#[cfg(test)]
+mod enrich_tests;
+mod sampling;
 
-pub use build::{Body, Model, ModelError};
+pub use build::{enriched_tl_element, Body, Model, ModelError};
+pub use enrich::{EnrichError, EnrichedBasis, EnrichedCell, Enrichment, ExactSurface};
+pub use sampling::{apply_display, SampledGrid};

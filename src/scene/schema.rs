@@ -191,7 +191,8 @@ pub struct BodySpec {
     /// Name of a `[meshes.*]` table.
     pub mesh: String,
     pub element: ElementFamily,
-    /// Face set carrying the enrichment: required for Q1N/Q1C2/Q1CH, forbidden for Q1C1/Q1E4.
+    /// Face set carrying the enrichment: required for Q1N/Q1C2/Q1CH, ignored by Q1C1/Q1E4 (so one
+    /// case file runs every family through `--set bodies.<name>.element=...`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub enriched_surface: Option<String>,
     pub material: MaterialSpec,

@@ -1,0 +1,895 @@
+//! The enriched layer of a body (Corbett & Sauer 2014, sections 3.1-3.6): from the linear mesh's
+//! ordered contact faces, the exact surface geometry (a straight line or circular arc in 2D, a plane
+//! in 3D), refined to the body's family, and the node lists of the enriched cells.
+//!
+//! Numbering (body-local, before global numbering): the mesh nodes keep their ids; new nodes
+//! (control points, Q1C2 mid-face nodes, Q1CH tangent pseudo-nodes) are appended after them, with
+//! their reference coordinates in [`Enrichment::extra_coords`] (a tangent pseudo-node's
+//! "coordinates" are the reference unit tangent `dX/ds`). Surface nodes that a family replaces by
+//! control points (Q1Np: all but the patch corners / curve ends, which interpolate) stay in the mesh
+//! as *display nodes*: no element uses them, so they carry no unknowns; their displacement is
+//! interpolated for output from the element that has them as a corner ([`Enrichment::display`]).
+//!
+//! Node sets ([`Enrichment::remap`]): a replaced surface node in a set is replaced by the
+//! position-type nodes (control points / mid nodes, never tangent pseudo-nodes) of every enriched
+//! element whose basis is nonzero at that node, and every enriched element whose whole linear face
+//! lies in the set brings all its position-type nodes. So a set holding a whole enriched surface gets
+//! all its control points, a patch edge gets the control points of that edge row, and a single
+//! interior node gets the `p` control points whose functions are nonzero there.
+//!
+//! Exact geometry and its limits: a 2D arc is split into the fewest equal rational quadratic
+//! segments (< 180 degrees) whose joints are mesh nodes; those joints stay C^0 knots (multiplicity
+//! p+t) of the refined curve, every other element boundary has the continuity of Table 1. Curves
+//! other than lines and circles, closed curves and non-planar or non-rectangular 3D patches are
+//! reported as unsupported: in particular the hemisphere, whose NURBS parametrisation in
+//! `geometry::conics::hollow_hemisphere` does not match the hemisphere mesh generator's cells.
+//! The bulk of an enriched body is Q1C1.
+#![allow(clippy::needless_range_loop)] // index loops mirror the equations
+use crate::fem::enriched::{q1c2_2d, q1ch_2d, q1np_2d, q1np_3d, EnrichedElementData};
+use crate::geometry::conics::{circular_arc_segments, line_segment, plane_patch};
+use crate::geometry::knots::KnotVector;
+use crate::geometry::nurbs::{NurbsCurve, NurbsSurface};
+use crate::geometry::refine::Direction;
+use crate::geometry::GeometryError;
+use crate::mesh::{CellKind, Mesh};
+use crate::scene::ElementFamily;
+use std::collections::{BTreeMap, BTreeSet};
+use std::f64::consts::PI;
+
+/// Relative tolerance (in units of the surface's size) for "lies on a line / circle / plane".
+const GEOMETRY_TOL: f64 = 1e-10;
+
+/// Why an enriched layer could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum EnrichError {
+    /// The face set is missing, empty or not a chain/grid of local-0 faces.
+    #[error("enriched surface `{set}`: {msg}")]
+    Faces {
+        /// The face set.
+        set: String,
+        /// What is wrong.
+        msg: String,
+    },
+    /// The surface is of a kind this version cannot represent exactly.
+    #[error("enriched surface `{set}`: {msg}")]
+    Unsupported {
+        /// The face set.
+        set: String,
+        /// What is missing.
+        msg: String,
+    },
+    /// The exact geometry could not be built or refined.
+    #[error("enriched surface `{set}`: {source}")]
+    Geometry {
+        /// The face set.
+        set: String,
+        /// The geometry kernel's error.
+        source: GeometryError,
+    },
+}
+
+/// Reference basis of one enriched cell.
+#[derive(Debug, Clone, PartialEq)]
+pub enum EnrichedBasis {
+    /// Q1Np / Q1Np.t (eq. 17), 2D or 3D.
+    Nurbs(EnrichedElementData),
+    /// Q1C2: quadratic Lagrange surface (nodes at xi = -1, 0, 1).
+    C2,
+    /// Q1CH: cubic Hermite surface; `h` = half the face length in reference arc length.
+    Hermite {
+        /// `ds/dxi` of the face.
+        h: f64,
+    },
+}
+
+/// One enriched cell: node list in the order of `crate::fem::enriched`, and its basis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EnrichedCell {
+    /// Body-local cell id (its linear parent in the mesh).
+    pub cell: usize,
+    /// Body-local node ids in the element's node order.
+    pub nodes: Vec<u32>,
+    /// Number of leading position-type surface nodes (control points, mid nodes, Hermite positions).
+    pub n_position: usize,
+    /// The linear parent's surface corners (body-local), in reference order: 2D xi = -1, +1;
+    /// 3D (xi,eta) = (-1,-1), (1,-1), (1,1), (-1,1).
+    pub corners: Vec<u32>,
+    /// Reference basis.
+    pub basis: EnrichedBasis,
+}
+
+impl EnrichedCell {
+    /// Number of element nodes.
+    pub fn n_nodes(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Shape functions `N` [n_nodes] and reference derivatives `dN` [n_nodes][dim] at `xi` [dim].
+    #[allow(non_snake_case)]
+    pub fn shape(&self, xi: &[f64], N: &mut [f64], dN: &mut [f64]) {
+        match &self.basis {
+            EnrichedBasis::Nurbs(d) if d.q == 0 => q1np_2d(d, xi[0], xi[1], N, dN),
+            EnrichedBasis::Nurbs(d) => q1np_3d(d, xi[0], xi[1], xi[2], N, dN),
+            EnrichedBasis::C2 => q1c2_2d(xi[0], xi[1], N, dN),
+            EnrichedBasis::Hermite { h } => q1ch_2d(*h, xi[0], xi[1], N, dN),
+        }
+    }
+
+    /// Quadrature point counts per reference direction (section 3.4): `n_s` per surface direction
+    /// (`p+t+1`; Q1C2: 3, Q1CH: 4) and 2 through the thickness.
+    pub fn quadrature_counts(&self) -> Vec<usize> {
+        match &self.basis {
+            EnrichedBasis::Nurbs(d) if d.q == 0 => vec![d.p + 1, 2],
+            EnrichedBasis::Nurbs(d) => vec![d.p + 1, d.q + 1, 2],
+            EnrichedBasis::C2 => vec![3, 2],
+            EnrichedBasis::Hermite { .. } => vec![4, 2],
+        }
+    }
+
+    /// Reference coordinates of surface corner `k` (see [`EnrichedCell::corners`]).
+    pub fn corner_reference(&self, k: usize) -> Vec<f64> {
+        if self.corners.len() == 2 {
+            vec![if k == 0 { -1.0 } else { 1.0 }, -1.0]
+        } else {
+            let (x, e) = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)][k];
+            vec![x, e, -1.0]
+        }
+    }
+}
+
+/// The exact surface the enriched layer was built on (refined to the family for Q1Np).
+#[derive(Debug, Clone, PartialEq)]
+pub enum ExactSurface {
+    /// 2D: the curve in traversal order of the face set; for Q1Np refined so that knot spans
+    /// are the enriched elements.
+    Curve(NurbsCurve),
+    /// 3D plane, refined; element `e_u + n_el_u e_v` is face `(e_u, e_v)` of the face grid.
+    Surface(NurbsSurface),
+}
+
+/// The enriched layer of one body.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Enrichment {
+    /// The face set it was built on.
+    pub face_set: String,
+    /// Number of mesh nodes; new nodes are numbered from here.
+    pub n_mesh_nodes: usize,
+    /// Reference coordinates of the new nodes. [n_extra][dim]
+    pub extra_coords: Vec<f64>,
+    /// Enriched cells in face-set order.
+    pub cells: Vec<EnrichedCell>,
+    /// Index into `cells` of each mesh cell, `None` for linear cells. [n_cells]
+    pub cell_index: Vec<Option<usize>>,
+    /// Mesh surface nodes replaced by control points (display nodes), sorted.
+    pub replaced: Vec<u32>,
+    /// Q1CH tangent pseudo-nodes (never in node sets), sorted.
+    pub pseudo_nodes: Vec<u32>,
+    /// Each display node with its interpolation `(element node, weight)` from one enriched cell.
+    pub display: Vec<(u32, Vec<(u32, f64)>)>,
+    /// The exact (refined) surface.
+    pub exact: ExactSurface,
+}
+
+impl Enrichment {
+    /// Number of new nodes.
+    pub fn n_extra(&self) -> usize {
+        self.extra_coords.len() / self.dim()
+    }
+
+    fn dim(&self) -> usize {
+        match self.exact {
+            ExactSurface::Curve(_) => 2,
+            ExactSurface::Surface(_) => 3,
+        }
+    }
+
+    /// Remaps a body-local node set (see the module docs): replaced surface nodes leave it, the
+    /// control points / mid nodes they stand for enter it. Sorted, unique.
+    #[allow(non_snake_case)]
+    pub fn remap(&self, nodes: &[u32]) -> Vec<u32> {
+        let set: BTreeSet<u32> = nodes.iter().copied().collect();
+        let mut out: BTreeSet<u32> = set.clone();
+        let mut N = vec![0.0; 64];
+        let mut dN = vec![0.0; 192];
+        for c in &self.cells {
+            let n = c.n_nodes();
+            if N.len() < n {
+                N.resize(n, 0.0);
+                dN.resize(3 * n, 0.0);
+            }
+            if c.corners.iter().all(|k| set.contains(k)) {
+                out.extend(&c.nodes[..c.n_position]);
+                continue;
+            }
+            for (k, corner) in c.corners.iter().enumerate() {
+                if !set.contains(corner) {
+                    continue;
+                }
+                c.shape(&c.corner_reference(k), &mut N[..n], &mut dN[..3 * n]);
+                for a in 0..c.n_position {
+                    if N[a].abs() > 1e-14 {
+                        out.insert(c.nodes[a]);
+                    }
+                }
+            }
+        }
+        for r in &self.replaced {
+            out.remove(r);
+        }
+        out.into_iter().collect()
+    }
+}
+
+fn faces_err(set: &str, msg: impl Into<String>) -> EnrichError {
+    EnrichError::Faces {
+        set: set.to_string(),
+        msg: msg.into(),
+    }
+}
+
+fn unsupported(set: &str, msg: impl Into<String>) -> EnrichError {
+    EnrichError::Unsupported {
+        set: set.to_string(),
+        msg: msg.into(),
+    }
+}
+
+/// Builds the enriched layer of `mesh` on face set `set` for `family`. Cells with a face in the set
+/// are rotated so that face becomes local face 0 (a no-op for the generators, which already do so).
+pub fn build_enrichment(
+    mesh: &mut Mesh,
+    set: &str,
+    family: ElementFamily,
+) -> Result<Enrichment, EnrichError> {
+    let faces = mesh
+        .face_sets
+        .get(set)
+        .cloned()
+        .ok_or_else(|| faces_err(set, "no such face set"))?;
+    if faces.is_empty() {
+        return Err(faces_err(set, "the face set is empty"));
+    }
+    for &(cell, face) in &faces {
+        if face != 0 {
+            mesh.orient_face_to_local0(cell as usize, face)
+                .map_err(|e| faces_err(set, e.to_string()))?;
+        }
+    }
+    let cells: Vec<usize> = faces.iter().map(|&(c, _)| c as usize).collect();
+    let mut seen = BTreeSet::new();
+    if let Some(c) = cells.iter().find(|&&c| !seen.insert(c)) {
+        return Err(faces_err(
+            set,
+            format!("cell {c} has more than one face in the set"),
+        ));
+    }
+    let layer = match mesh.dim {
+        2 => build_2d(mesh, set, &cells, family)?,
+        _ => build_3d(mesh, set, &cells, family)?,
+    };
+    check_replaced_not_shared(mesh, set, &layer)?;
+    Ok(layer)
+}
+
+/// A replaced surface node used by a linear cell would leave that cell without its node.
+fn check_replaced_not_shared(mesh: &Mesh, set: &str, e: &Enrichment) -> Result<(), EnrichError> {
+    let replaced: BTreeSet<u32> = e.replaced.iter().copied().collect();
+    for c in 0..mesh.n_cells() {
+        if e.cell_index[c].is_none() {
+            if let Some(n) = mesh.cell(c).iter().find(|n| replaced.contains(n)) {
+                return Err(unsupported(
+                    set,
+                    format!(
+                        "surface node {n} is shared with the non-enriched cell {c}; an enriched \
+                         surface may share only its ends/corners with linear cells"
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn dist(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// Exact 2D curve through the chain of surface nodes, with a monotone "position along the curve"
+/// (distance for a line, swept angle for an arc) used to find node parameters.
+type AlongCurve = Box<dyn Fn(&NurbsCurve, f64) -> f64>;
+
+struct Curve2d {
+    curve: NurbsCurve,
+    /// position along the curve of each surface node
+    pos: Vec<f64>,
+    /// `u -> position along the curve`
+    along: AlongCurve,
+}
+
+impl Curve2d {
+    /// Parameter at position `s` (bisection on the monotone `along`; exact to round-off).
+    fn param(&self, s: f64) -> f64 {
+        let (mut a, mut b) = (0.0, 1.0);
+        for _ in 0..200 {
+            let m = 0.5 * (a + b);
+            if (self.along)(&self.curve, m) < s {
+                a = m;
+            } else {
+                b = m;
+            }
+            if b - a <= f64::EPSILON {
+                break;
+            }
+        }
+        0.5 * (a + b)
+    }
+}
+
+fn reverse_curve(c: &NurbsCurve) -> Result<NurbsCurve, GeometryError> {
+    let p = c.degree();
+    let knots: Vec<f64> = c.knots.knots().iter().rev().map(|u| 1.0 - u).collect();
+    let n = c.n_ctrl();
+    let ctrl: Vec<f64> = (0..n)
+        .rev()
+        .flat_map(|a| c.ctrl[a * c.dim..(a + 1) * c.dim].to_vec())
+        .collect();
+    let w = c.weights.iter().rev().copied().collect();
+    NurbsCurve::new(KnotVector::new(p, knots)?, c.dim, ctrl, w)
+}
+
+fn detect_curve(set: &str, pts: &[[f64; 2]]) -> Result<Curve2d, EnrichError> {
+    let geo = |source| EnrichError::Geometry {
+        set: set.to_string(),
+        source,
+    };
+    let n = pts.len() - 1;
+    let (a, b) = (pts[0], pts[n]);
+    let len = dist(&a, &b);
+    let scale = pts
+        .windows(2)
+        .map(|w| dist(&w[0], &w[1]))
+        .sum::<f64>()
+        .max(f64::MIN_POSITIVE);
+    let tol = GEOMETRY_TOL * scale.max(1.0);
+    // straight line?
+    if len > 0.0 {
+        let d = [(b[0] - a[0]) / len, (b[1] - a[1]) / len];
+        let off = |x: &[f64; 2]| ((x[0] - a[0]) * d[1] - (x[1] - a[1]) * d[0]).abs();
+        if pts.iter().all(|x| off(x) <= tol) {
+            let pos: Vec<f64> = pts
+                .iter()
+                .map(|x| (x[0] - a[0]) * d[0] + (x[1] - a[1]) * d[1])
+                .collect();
+            let curve = line_segment(&a, &b).map_err(geo)?;
+            let along = Box::new(move |c: &NurbsCurve, u: f64| {
+                let x = c.point(u);
+                (x[0] - a[0]) * d[0] + (x[1] - a[1]) * d[1]
+            });
+            return Ok(Curve2d { curve, pos, along });
+        }
+    }
+    if n < 2 {
+        return Err(unsupported(set, "a single face that is not straight"));
+    }
+    // circle through the first, middle and last node
+    let m = pts[n / 2];
+    let (ax, ay, bx, by, cx, cy) = (a[0], a[1], m[0], m[1], b[0], b[1]);
+    let det = 2.0 * (ax * (by - cy) + bx * (cy - ay) + cx * (ay - by));
+    let not_conic = || {
+        unsupported(
+            set,
+            "the surface nodes lie neither on a straight line nor on a circle (within 1e-10); \
+             other curves are not supported",
+        )
+    };
+    if det.abs() <= 1e-14 * scale * scale {
+        return Err(not_conic());
+    }
+    let (a2, b2, c2) = (ax * ax + ay * ay, bx * bx + by * by, cx * cx + cy * cy);
+    let center = [
+        (a2 * (by - cy) + b2 * (cy - ay) + c2 * (ay - by)) / det,
+        (a2 * (cx - bx) + b2 * (ax - cx) + c2 * (bx - ax)) / det,
+    ];
+    let r = dist(&a, &center);
+    if pts.iter().any(|x| (dist(x, &center) - r).abs() > tol) {
+        return Err(not_conic());
+    }
+    // unwrapped node angles, monotone in traversal order
+    let ang = |x: &[f64; 2]| (x[1] - center[1]).atan2(x[0] - center[0]);
+    let mut th = vec![ang(&pts[0])];
+    for x in &pts[1..] {
+        let prev = th[th.len() - 1];
+        let mut t = ang(x);
+        while t - prev > PI {
+            t -= 2.0 * PI;
+        }
+        while t - prev < -PI {
+            t += 2.0 * PI;
+        }
+        th.push(t);
+    }
+    let ccw = th[n] > th[0];
+    if th.windows(2).any(|w| (w[1] > w[0]) != ccw || w[1] == w[0]) {
+        return Err(faces_err(
+            set,
+            "the faces do not run monotonically along the arc",
+        ));
+    }
+    let sweep = (th[n] - th[0]).abs();
+    if sweep >= 2.0 * PI * (1.0 - 1e-12) {
+        return Err(unsupported(set, "closed circles are not supported"));
+    }
+    // fewest equal rational quadratic segments (< 180 degrees each) whose joints are mesh nodes,
+    // so every C^0 joint of the exact base curve sits on an element boundary
+    let pos: Vec<f64> = th.iter().map(|t| (t - th[0]).abs()).collect();
+    let n_seg = (1..=n)
+        .find(|&k| {
+            sweep / (k as f64) < PI * (1.0 - 1e-6)
+                && (1..k).all(|j| {
+                    let s = sweep * j as f64 / k as f64;
+                    pos.iter().any(|&q| (q - s).abs() <= tol / r)
+                })
+        })
+        .ok_or_else(|| {
+            unsupported(
+                set,
+                "no split of the arc into equal segments below 180 degrees has its joints at mesh nodes",
+            )
+        })?;
+    let (lo, hi) = if ccw { (th[0], th[n]) } else { (th[n], th[0]) };
+    let mut curve = circular_arc_segments(center, r, lo, hi, n_seg).map_err(geo)?;
+    if !ccw {
+        curve = reverse_curve(&curve).map_err(geo)?;
+    }
+    let (th0, sign) = (th[0], if ccw { 1.0 } else { -1.0 });
+    let along = Box::new(move |c: &NurbsCurve, u: f64| {
+        let x = c.point(u);
+        let t = (x[1] - center[1]).atan2(x[0] - center[0]);
+        (sign * (t - th0)).rem_euclid(2.0 * PI)
+    });
+    Ok(Curve2d { curve, pos, along })
+}
+
+/// Element half-length in arc length, `ds/dxi`, of span `[ua, ub]` (20-point Gauss: exact to
+/// round-off for lines and arcs, whose speed `|dC/du|` is smooth on a span).
+fn half_length(c: &NurbsCurve, ua: f64, ub: f64) -> Result<f64, crate::fem::ElementError> {
+    let (x, w) = crate::fem::quadrature::gauss_legendre(20)?;
+    let half = 0.5 * (ub - ua);
+    Ok(x.iter()
+        .zip(&w)
+        .map(|(&xi, &wi)| {
+            let (_, d) = c.eval(0.5 * (ua + ub) + half * xi);
+            wi * (d[0] * d[0] + d[1] * d[1]).sqrt() * half
+        })
+        .sum::<f64>()
+        * 0.5)
+}
+
+fn build_2d(
+    mesh: &Mesh,
+    set: &str,
+    cells: &[usize],
+    family: ElementFamily,
+) -> Result<Enrichment, EnrichError> {
+    let geo = |source| EnrichError::Geometry {
+        set: set.to_string(),
+        source,
+    };
+    for &c in cells {
+        if mesh.cell_kind[c] != CellKind::Quad4 {
+            return Err(faces_err(set, format!("cell {c} is not a Quad4")));
+        }
+    }
+    // chain of surface nodes: face 0 of a quad runs from node 0 to node 1 (increasing xi); the
+    // set may list the faces against that direction (e.g. a top side listed left to right)
+    let chain = |cells: &[usize]| -> Option<Vec<u32>> {
+        let mut snodes = vec![mesh.cell(cells[0])[0]];
+        for (i, &c) in cells.iter().enumerate() {
+            let cn = mesh.cell(c);
+            if cn[0] != snodes[i] {
+                return None;
+            }
+            snodes.push(cn[1]);
+        }
+        Some(snodes)
+    };
+    let reversed: Vec<usize> = cells.iter().rev().copied().collect();
+    let (cells, snodes) = match (chain(cells), chain(&reversed)) {
+        (Some(s), _) => (cells.to_vec(), s),
+        (None, Some(s)) => (reversed, s),
+        (None, None) => {
+            return Err(faces_err(
+                set,
+                "the faces are not a chain ordered along the surface (each face must start \
+                 where the previous one ends)",
+            ))
+        }
+    };
+    let cells = &cells[..];
+    if snodes[0] == snodes[snodes.len() - 1] {
+        return Err(unsupported(set, "closed surfaces are not supported"));
+    }
+    let pts: Vec<[f64; 2]> = snodes
+        .iter()
+        .map(|&n| [mesh.node(n)[0], mesh.node(n)[1]])
+        .collect();
+    let exact = detect_curve(set, &pts)?;
+    let n_el = cells.len();
+    let mut params: Vec<f64> = exact.pos.iter().map(|&s| exact.param(s)).collect();
+    (params[0], params[n_el]) = (0.0, 1.0);
+    let n_mesh = mesh.n_nodes();
+    let mut extra: Vec<f64> = Vec::new();
+    let mut push = |x: &[f64]| -> u32 {
+        extra.extend_from_slice(&x[..2]);
+        (n_mesh + extra.len() / 2 - 1) as u32
+    };
+    let bulk = |c: usize| [mesh.cell(c)[2], mesh.cell(c)[3]];
+    let mut out_cells = Vec::with_capacity(n_el);
+    let (mut replaced, mut pseudo) = (Vec::new(), Vec::new());
+    let curve_out;
+    match family {
+        ElementFamily::Q1N { p, t } => {
+            let (p, t) = (p as usize, t as usize);
+            let base = &exact.curve;
+            if p < base.degree() {
+                return Err(unsupported(
+                    set,
+                    format!(
+                        "Q1N{p} cannot represent this curve exactly (its exact NURBS has order {})",
+                        base.degree()
+                    ),
+                ));
+            }
+            let e = base.elevate(p - base.degree()).map_err(geo)?;
+            // the base joints are nodes up to round-off: they are element boundaries already
+            let knots = e.knots.unique_with_multiplicity();
+            let x: Vec<f64> = params[1..n_el]
+                .iter()
+                .copied()
+                .filter(|&u| knots.iter().all(|&(k, _)| (k - u).abs() > 1e-12))
+                .collect();
+            let c = e.insert_knots(&x).map_err(geo)?.elevate(t).map_err(geo)?;
+            if c.knots.n_elements() != n_el {
+                return Err(faces_err(
+                    set,
+                    format!(
+                        "refined curve has {} elements for {n_el} faces",
+                        c.knots.n_elements()
+                    ),
+                ));
+            }
+            let data = EnrichedElementData::elements_from_curve(&c)
+                .map_err(|e| faces_err(set, e.to_string()))?;
+            let n_ctrl = c.n_ctrl();
+            let ids: Vec<u32> = (0..n_ctrl)
+                .map(|a| match a {
+                    0 => snodes[0],
+                    a if a + 1 == n_ctrl => snodes[n_el],
+                    a => push(&c.ctrl[2 * a..2 * a + 2]),
+                })
+                .collect();
+            replaced.extend_from_slice(&snodes[1..n_el]);
+            for (i, d) in data.into_iter().enumerate() {
+                let mut nodes: Vec<u32> = d.ctrl_ids.iter().map(|&a| ids[a]).collect();
+                let n_position = nodes.len();
+                nodes.extend(bulk(cells[i]));
+                out_cells.push(EnrichedCell {
+                    cell: cells[i],
+                    nodes,
+                    n_position,
+                    corners: vec![snodes[i], snodes[i + 1]],
+                    basis: EnrichedBasis::Nurbs(d),
+                });
+            }
+            curve_out = c;
+        }
+        ElementFamily::Q1C2 => {
+            for i in 0..n_el {
+                let u = exact.param(0.5 * (exact.pos[i] + exact.pos[i + 1]));
+                let mid = push(&exact.curve.point(u));
+                let [b0, b1] = bulk(cells[i]);
+                out_cells.push(EnrichedCell {
+                    cell: cells[i],
+                    nodes: vec![snodes[i], mid, snodes[i + 1], b0, b1],
+                    n_position: 3,
+                    corners: vec![snodes[i], snodes[i + 1]],
+                    basis: EnrichedBasis::C2,
+                });
+            }
+            curve_out = exact.curve.clone();
+        }
+        ElementFamily::Q1CH => {
+            let tangents: Vec<u32> = params
+                .iter()
+                .map(|&u| {
+                    let (_, d) = exact.curve.eval(u);
+                    let l = (d[0] * d[0] + d[1] * d[1]).sqrt();
+                    push(&[d[0] / l, d[1] / l])
+                })
+                .collect();
+            pseudo.extend_from_slice(&tangents);
+            for i in 0..n_el {
+                let h = half_length(&exact.curve, params[i], params[i + 1])
+                    .map_err(|e| faces_err(set, e.to_string()))?;
+                let [b0, b1] = bulk(cells[i]);
+                out_cells.push(EnrichedCell {
+                    cell: cells[i],
+                    nodes: vec![
+                        snodes[i],
+                        snodes[i + 1],
+                        tangents[i],
+                        tangents[i + 1],
+                        b0,
+                        b1,
+                    ],
+                    n_position: 2,
+                    corners: vec![snodes[i], snodes[i + 1]],
+                    basis: EnrichedBasis::Hermite { h },
+                });
+            }
+            curve_out = exact.curve.clone();
+        }
+        other => {
+            return Err(unsupported(
+                set,
+                format!("element family {other} has no enriched layer"),
+            ))
+        }
+    }
+    finish(
+        mesh,
+        set,
+        extra,
+        out_cells,
+        replaced,
+        pseudo,
+        ExactSurface::Curve(curve_out),
+    )
+}
+
+/// Assembles the [`Enrichment`] and the display-node interpolation.
+#[allow(non_snake_case)]
+fn finish(
+    mesh: &Mesh,
+    set: &str,
+    extra_coords: Vec<f64>,
+    cells: Vec<EnrichedCell>,
+    mut replaced: Vec<u32>,
+    mut pseudo_nodes: Vec<u32>,
+    exact: ExactSurface,
+) -> Result<Enrichment, EnrichError> {
+    let mut cell_index = vec![None; mesh.n_cells()];
+    for (i, c) in cells.iter().enumerate() {
+        cell_index[c.cell] = Some(i);
+    }
+    replaced.sort_unstable();
+    replaced.dedup();
+    pseudo_nodes.sort_unstable();
+    let mut display: BTreeMap<u32, Vec<(u32, f64)>> = BTreeMap::new();
+    for c in &cells {
+        let n = c.n_nodes();
+        let (mut N, mut dN) = (vec![0.0; n], vec![0.0; 3 * n]);
+        for (k, &corner) in c.corners.iter().enumerate() {
+            if replaced.binary_search(&corner).is_ok() && !display.contains_key(&corner) {
+                c.shape(&c.corner_reference(k), &mut N, &mut dN);
+                let w = c
+                    .nodes
+                    .iter()
+                    .zip(&N)
+                    .filter(|(_, w)| w.abs() > 0.0)
+                    .map(|(&a, &w)| (a, w))
+                    .collect();
+                display.insert(corner, w);
+            }
+        }
+    }
+    if display.len() != replaced.len() {
+        return Err(faces_err(
+            set,
+            "a replaced surface node is no element corner",
+        ));
+    }
+    Ok(Enrichment {
+        face_set: set.to_string(),
+        n_mesh_nodes: mesh.n_nodes(),
+        extra_coords,
+        cells,
+        cell_index,
+        replaced,
+        pseudo_nodes,
+        display: display.into_iter().collect(),
+        exact,
+    })
+}
+
+fn cluster(values: &mut Vec<f64>, tol: f64) {
+    values.sort_by(f64::total_cmp);
+    values.dedup_by(|a, b| (*a - *b).abs() <= tol);
+}
+
+fn build_3d(
+    mesh: &Mesh,
+    set: &str,
+    cells: &[usize],
+    family: ElementFamily,
+) -> Result<Enrichment, EnrichError> {
+    let geo = |source| EnrichError::Geometry {
+        set: set.to_string(),
+        source,
+    };
+    let ElementFamily::Q1N { p, t } = family else {
+        return Err(unsupported(set, format!("{family} is 2D only")));
+    };
+    let (p, t) = (p as usize, t as usize);
+    for &c in cells {
+        if mesh.cell_kind[c] != CellKind::Hex8 {
+            return Err(faces_err(set, format!("cell {c} is not a Hex8")));
+        }
+    }
+    let x = |n: u32| -> [f64; 3] {
+        let v = mesh.node(n);
+        [v[0], v[1], v[2]]
+    };
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let norm = |a: [f64; 3]| {
+        let l = dot(a, a).sqrt();
+        [a[0] / l, a[1] / l, a[2] / l]
+    };
+    // frame of the first face: xi along node 0 -> 1, eta along node 0 -> 3
+    let c0 = mesh.cell(cells[0]);
+    let o = x(c0[0]);
+    let e1 = norm(sub(x(c0[1]), o));
+    let v = sub(x(c0[3]), o);
+    let d = dot(v, e1);
+    let e2 = norm([v[0] - d * e1[0], v[1] - d * e1[1], v[2] - d * e1[2]]);
+    let nrm = [
+        e1[1] * e2[2] - e1[2] * e2[1],
+        e1[2] * e2[0] - e1[0] * e2[2],
+        e1[0] * e2[1] - e1[1] * e2[0],
+    ];
+    let surf: BTreeSet<u32> = cells
+        .iter()
+        .flat_map(|&c| mesh.cell(c)[..4].to_vec())
+        .collect();
+    let size = surf
+        .iter()
+        .map(|&n| dot(sub(x(n), o), sub(x(n), o)).sqrt())
+        .fold(0.0, f64::max);
+    let tol = GEOMETRY_TOL * size.max(1.0);
+    if surf.iter().any(|&n| dot(sub(x(n), o), nrm).abs() > tol) {
+        return Err(unsupported(
+            set,
+            "the surface nodes are not on a plane (within 1e-10); curved 3D surfaces are not \
+             supported yet (the hemisphere NURBS parametrisation does not match the hemisphere mesh)",
+        ));
+    }
+    let st = |n: u32| (dot(sub(x(n), o), e1), dot(sub(x(n), o), e2));
+    let (mut su, mut sv): (Vec<f64>, Vec<f64>) = surf.iter().map(|&n| st(n)).unzip();
+    cluster(&mut su, tol);
+    cluster(&mut sv, tol);
+    let (nu, nv) = (su.len() - 1, sv.len() - 1);
+    let index = |s: f64, vals: &[f64]| vals.iter().position(|&q| (q - s).abs() <= tol);
+    let grid_err = || {
+        unsupported(
+            set,
+            "the faces do not form a structured rectangular grid (only rectangular planar \
+             patches are supported in 3D)",
+        )
+    };
+    if nu * nv != cells.len() {
+        return Err(grid_err());
+    }
+    // face (i, j) -> cell, and grid node (i, j) -> mesh node
+    let mut face_of = vec![usize::MAX; nu * nv];
+    let mut node_of = vec![u32::MAX; (nu + 1) * (nv + 1)];
+    for &c in cells {
+        let cn = mesh.cell(c);
+        let ij: Vec<(usize, usize)> = cn[..4]
+            .iter()
+            .map(|&n| {
+                let (s, tt) = st(n);
+                Ok((
+                    index(s, &su).ok_or_else(grid_err)?,
+                    index(tt, &sv).ok_or_else(grid_err)?,
+                ))
+            })
+            .collect::<Result<_, EnrichError>>()?;
+        let (i, j) = ij[0];
+        if i >= nu
+            || j >= nv
+            || ij[1] != (i + 1, j)
+            || ij[2] != (i + 1, j + 1)
+            || ij[3] != (i, j + 1)
+        {
+            return Err(grid_err());
+        }
+        if face_of[i + nu * j] != usize::MAX {
+            return Err(grid_err());
+        }
+        face_of[i + nu * j] = c;
+        for (k, &(a, b)) in ij.iter().enumerate() {
+            node_of[a + (nu + 1) * b] = cn[k];
+        }
+    }
+    let (lu, lv) = (su[nu] - su[0], sv[nv] - sv[0]);
+    let origin = [
+        o[0] + su[0] * e1[0] + sv[0] * e2[0],
+        o[1] + su[0] * e1[1] + sv[0] * e2[1],
+        o[2] + su[0] * e1[2] + sv[0] * e2[2],
+    ];
+    let s0 = plane_patch(origin, e1.map(|c| c * lu), e2.map(|c| c * lv)).map_err(geo)?;
+    let xu: Vec<f64> = su[1..nu].iter().map(|s| (s - su[0]) / lu).collect();
+    let xv: Vec<f64> = sv[1..nv].iter().map(|s| (s - sv[0]) / lv).collect();
+    let s = s0
+        .elevate(Direction::U, p - 1)
+        .and_then(|s| s.elevate(Direction::V, p - 1))
+        .and_then(|s| s.insert_knots(Direction::U, &xu))
+        .and_then(|s| s.insert_knots(Direction::V, &xv))
+        .and_then(|s| s.elevate(Direction::U, t))
+        .and_then(|s| s.elevate(Direction::V, t))
+        .map_err(geo)?;
+    let data = EnrichedElementData::elements_from_surface(&s)
+        .map_err(|e| faces_err(set, e.to_string()))?;
+    let (ncu, ncv) = s.n_ctrl();
+    let n_mesh = mesh.n_nodes();
+    let mut extra = Vec::new();
+    let mut ids = Vec::with_capacity(ncu * ncv);
+    for j in 0..ncv {
+        for i in 0..ncu {
+            let a = i + ncu * j;
+            let corner = match (i, j) {
+                (0, 0) => Some(node_of[0]),
+                (i, 0) if i + 1 == ncu => Some(node_of[nu]),
+                (0, j) if j + 1 == ncv => Some(node_of[(nu + 1) * nv]),
+                (i, j) if i + 1 == ncu && j + 1 == ncv => Some(node_of[nu + (nu + 1) * nv]),
+                _ => None,
+            };
+            ids.push(corner.unwrap_or_else(|| {
+                extra.extend_from_slice(&s.ctrl[3 * a..3 * a + 3]);
+                (n_mesh + extra.len() / 3 - 1) as u32
+            }));
+        }
+    }
+    let corners_kept: BTreeSet<u32> = [
+        node_of[0],
+        node_of[nu],
+        node_of[(nu + 1) * nv],
+        node_of[nu + (nu + 1) * nv],
+    ]
+    .into_iter()
+    .collect();
+    let replaced: Vec<u32> = node_of
+        .iter()
+        .copied()
+        .filter(|n| !corners_kept.contains(n))
+        .collect();
+    let mut out_cells = Vec::with_capacity(nu * nv);
+    for (e, d) in data.into_iter().enumerate() {
+        let c = face_of[e];
+        let cn = mesh.cell(c);
+        let mut nodes: Vec<u32> = d.ctrl_ids.iter().map(|&a| ids[a]).collect();
+        let n_position = nodes.len();
+        nodes.extend_from_slice(&cn[4..8]);
+        out_cells.push(EnrichedCell {
+            cell: c,
+            nodes,
+            n_position,
+            corners: cn[..4].to_vec(),
+            basis: EnrichedBasis::Nurbs(d),
+        });
+    }
+    finish(
+        mesh,
+        set,
+        extra,
+        out_cells,
+        replaced,
+        Vec::new(),
+        ExactSurface::Surface(s),
+    )
+}

@@ -1,0 +1,378 @@
+//! Tests of enriched layers as the model builder produces them: Table 1, element tangents, patch
+//! tests, exact half-cylinder geometry, Q1N1 = Q1C1.
+#![allow(non_snake_case)]
+use super::enrich::{EnrichedBasis, ExactSurface};
+use super::Model;
+use crate::assembly::ElementSet;
+use crate::fem::test_support::{fd_tangent, Lcg};
+use crate::geometry::table1::measure;
+use crate::scene::parse_case;
+use nalgebra::{DMatrix, DVector};
+use std::path::Path;
+
+fn case_text(dim: usize, mesh: &str, body: &str, element: &str, surface: &str) -> String {
+    format!(
+        r#"
+[case]
+name = "t"
+dim = {dim}
+[meshes.m]
+{mesh}
+[bodies.{body}]
+mesh = "m"
+element = "{element}"
+enriched_surface = "{surface}"
+[bodies.{body}.material]
+model = "neo_hookean"
+E = 1.0
+nu = 0.3
+[[stages]]
+name = "s"
+steps = 1
+"#
+    )
+}
+
+fn rectangle(nx: usize, ny: usize, lx: f64, element: &str) -> Model {
+    let mesh = format!(
+        "generator = \"rectangle\"\norigin = [0.0, 0.0]\nsize = [{lx}, 1.0]\ndivisions = [{nx}, {ny}]"
+    );
+    build(&case_text(2, &mesh, "b", element, "top"))
+}
+
+fn half_disk(n_arc: usize, element: &str) -> Model {
+    let mesh = format!(
+        "generator = \"half_disk\"\ncenter = [0.0, 0.0]\nradius = 1.0\nn_arc = {n_arc}\nn_radial = 2"
+    );
+    build(&case_text(2, &mesh, "b", element, "arc"))
+}
+
+fn box3(n: usize, element: &str) -> Model {
+    let mesh = format!(
+        "generator = \"box\"\norigin = [0.0, 0.0, 0.0]\nsize = [1.0, 1.2, 0.9]\ndivisions = [{n}, {n}, {n}]"
+    );
+    build(&case_text(3, &mesh, "b", element, "zmax"))
+}
+
+fn build(text: &str) -> Model {
+    let case = parse_case(text, Path::new("t.toml"), &[]).unwrap();
+    Model::build(&case).unwrap()
+}
+
+fn sets(m: &Model) -> Vec<Box<dyn ElementSet>> {
+    m.element_sets(Path::new("t.toml"), &vec![0; m.n_cells()], 0)
+        .unwrap()
+}
+
+fn gather(nodes: &[u32], dim: usize, u: &[f64]) -> Vec<f64> {
+    nodes
+        .iter()
+        .flat_map(|&n| u[n as usize * dim..(n as usize + 1) * dim].to_vec())
+        .collect()
+}
+
+/// Dense Newton on the model's elements with prescribed `(dof, value)`; dofs of nodes used by no
+/// element (display nodes) are held at 0.
+fn solve(m: &Model, fixed: &[(usize, f64)]) -> Vec<f64> {
+    let (dim, n) = (m.dim, m.n_nodes() * m.dim);
+    let mut sets = sets(m);
+    let mut used = vec![false; m.n_nodes()];
+    m.cell_nodes.iter().for_each(|&a| used[a as usize] = true);
+    let mut is_fixed = vec![false; n];
+    let mut u = vec![0.0; n];
+    for &(d, v) in fixed {
+        (is_fixed[d], u[d]) = (true, v);
+    }
+    for (a, _) in used.iter().enumerate().filter(|(_, u)| !**u) {
+        (a * dim..(a + 1) * dim).for_each(|d| is_fixed[d] = true);
+    }
+    let free: Vec<usize> = (0..n).filter(|&d| !is_fixed[d]).collect();
+    for _ in 0..30 {
+        let (mut r, mut k) = (vec![0.0; n], DMatrix::<f64>::zeros(n, n));
+        for s in sets.iter_mut() {
+            for e in 0..s.len() {
+                let nodes = s.nodes(e).to_vec();
+                let nd = nodes.len() * dim;
+                let (mut re, mut ke) = (vec![0.0; nd], vec![0.0; nd * nd]);
+                s.evaluate(e, &gather(&nodes, dim, &u), &mut re, Some(&mut ke))
+                    .unwrap();
+                let dofs: Vec<usize> = nodes
+                    .iter()
+                    .flat_map(|&a| (0..dim).map(move |c| a as usize * dim + c))
+                    .collect();
+                for (i, &gi) in dofs.iter().enumerate() {
+                    r[gi] += re[i];
+                    for (j, &gj) in dofs.iter().enumerate() {
+                        k[(gi, gj)] += ke[i * nd + j];
+                    }
+                }
+            }
+        }
+        let rf = DVector::from_iterator(free.len(), free.iter().map(|&d| r[d]));
+        if rf.norm() < 1e-12 {
+            return u;
+        }
+        let kf = DMatrix::from_fn(free.len(), free.len(), |p, q| k[(free[p], free[q])]);
+        let du = kf.lu().solve(&(-rf)).unwrap();
+        for (p, &d) in free.iter().enumerate() {
+            u[d] += du[p];
+        }
+    }
+    panic!("Newton did not converge");
+}
+
+#[test]
+fn table1_is_reproduced_from_enriched_layers_of_a_rectangle() {
+    // (p, t, C^k, DOF, n_s^e, node span, n_ex, n_max) from Table 1 of Corbett & Sauer 2014
+    type Row = (usize, usize, usize, usize, usize, f64, usize, usize);
+    let rows: [Row; 9] = [
+        (2, 0, 1, 10, 3, 2.0, 0, 3),
+        (3, 0, 2, 12, 4, 3.0, 0, 4),
+        (4, 0, 3, 14, 5, 4.0, 0, 5),
+        (2, 1, 1, 12, 4, 5.0 / 3.0, 0, 2),
+        (2, 2, 1, 14, 5, 1.5, 1, 2),
+        (2, 3, 1, 16, 6, 1.4, 2, 2),
+        (3, 1, 2, 14, 5, 2.0, 0, 3),
+        (3, 2, 2, 16, 6, 1.8, 0, 2),
+        (3, 3, 2, 18, 7, 5.0 / 3.0, 1, 2),
+    ];
+    for (p, t, ck, dof, ns, span, nex, nmax) in rows {
+        let m = rectangle(15, 2, 7.5, &format!("Q1N{p}.{t}"));
+        let e = m.bodies[0].enrichment.as_ref().unwrap();
+        let ExactSurface::Curve(c) = &e.exact else {
+            panic!("2D layer without a curve")
+        };
+        // the middle element of 15 elements of length 0.5
+        let row = measure(c, 7, 0.5).unwrap();
+        let cell = &e.cells[7];
+        assert_eq!(row.continuity, ck, "Q1N{p}.{t}");
+        assert_eq!(2 * cell.n_nodes(), dof, "Q1N{p}.{t}");
+        assert_eq!(cell.n_position, ns, "Q1N{p}.{t}");
+        assert!((row.node_span - span).abs() < 1e-12, "Q1N{p}.{t}");
+        assert_eq!((row.n_ex, row.n_max), (nex, nmax), "Q1N{p}.{t}");
+    }
+}
+
+/// Max relative deviation between the analytic tangent and central differences of the residual,
+/// over the enriched elements of `m` at a random displacement of size `amp`.
+fn tangent_error(m: &Model, amp: f64) -> f64 {
+    let dim = m.dim;
+    let mut rng = Lcg(7);
+    let mut worst: f64 = 0.0;
+    let mut n_checked = 0;
+    for mut s in sets(m) {
+        for e in 0..s.len() {
+            let (b, c) = s.cell_id(e);
+            if m.bodies[b].enriched_cell(c).is_none() || n_checked >= 6 {
+                continue;
+            }
+            n_checked += 1;
+            let nd = s.nodes(e).len() * dim;
+            let u: Vec<f64> = (0..nd).map(|_| amp * (rng.next() - 0.5)).collect();
+            let (mut r, mut k) = (vec![0.0; nd], vec![0.0; nd * nd]);
+            s.evaluate(e, &u, &mut r, Some(&mut k)).unwrap();
+            let kfd = fd_tangent(nd, &u, 1e-6, |v, r| {
+                s.evaluate(e, v, r, None).unwrap();
+                Ok(())
+            });
+            let scale = k.iter().fold(0.0_f64, |a, x| a.max(x.abs()));
+            let err = k
+                .iter()
+                .zip(&kfd)
+                .fold(0.0_f64, |a, (x, y)| a.max((x - y).abs()));
+            worst = worst.max(err / scale);
+        }
+    }
+    assert!(n_checked > 0, "no enriched element found");
+    worst
+}
+
+#[test]
+fn enriched_element_tangents_match_central_differences() {
+    for family in ["Q1N2", "Q1N2.1", "Q1N3", "Q1C2", "Q1CH"] {
+        let err = tangent_error(&half_disk(8, family), 0.1);
+        assert!(err < 1e-6, "{family}: {err}");
+    }
+    let err = tangent_error(&box3(2, "Q1N2"), 0.1);
+    assert!(err < 1e-6, "3D Q1N2: {err}");
+}
+
+/// Affine patch test: `u = H X` prescribed on every node of the boundary sets; returns the max
+/// deviation at the other nodes and the max spread of the element stress measures.
+fn patch_test(m: &Model, boundary: &[&str], H: &[f64]) -> (f64, f64) {
+    let dim = m.dim;
+    let affine = |a: usize, c: usize| {
+        (0..dim)
+            .map(|j| H[c * dim + j] * m.coords[a * dim + j])
+            .sum::<f64>()
+    };
+    let mut on_boundary = vec![false; m.n_nodes()];
+    for s in boundary {
+        for a in m.set_nodes("b", s).unwrap() {
+            on_boundary[a as usize] = true;
+        }
+    }
+    let fixed: Vec<(usize, f64)> = (0..m.n_nodes())
+        .filter(|&a| on_boundary[a])
+        .flat_map(|a| (0..dim).map(move |c| (a * dim + c, affine(a, c))))
+        .collect();
+    let u = solve(m, &fixed);
+    let mut used = vec![false; m.n_nodes()];
+    m.cell_nodes.iter().for_each(|&a| used[a as usize] = true);
+    let n_interior = (0..m.n_nodes())
+        .filter(|&a| used[a] && !on_boundary[a])
+        .count();
+    assert!(n_interior > 0, "patch without interior nodes");
+    let err_u = (0..m.n_nodes())
+        .filter(|&a| used[a] && !on_boundary[a])
+        .flat_map(|a| (0..dim).map(move |c| (a, c)))
+        .map(|(a, c)| (u[a * dim + c] - affine(a, c)).abs())
+        .fold(0.0, f64::max);
+    let mut measures = Vec::new();
+    for s in sets(m) {
+        for e in 0..s.len() {
+            measures.push(s.stress_measures(e, &gather(s.nodes(e), dim, &u)).unwrap());
+        }
+    }
+    let spread = measures
+        .iter()
+        .map(|&(tr, vm)| (tr - measures[0].0).abs().max((vm - measures[0].1).abs()))
+        .fold(0.0, f64::max);
+    assert!(
+        measures[0].1 > 1e-3,
+        "the affine field must stress the patch"
+    );
+    (err_u, spread)
+}
+
+#[test]
+fn patch_test_with_enriched_layer_is_passed_in_2d() {
+    let H = [0.1, -0.05, 0.07, -0.12];
+    for family in ["Q1N2", "Q1N2.1"] {
+        let m = rectangle(4, 3, 2.0, family);
+        let (du, ds) = patch_test(&m, &["left", "right", "bottom", "top"], &H);
+        assert!(du < 1e-10 && ds < 1e-10, "{family}: {du} {ds}");
+    }
+}
+
+#[test]
+fn patch_test_with_enriched_layer_is_passed_in_3d() {
+    let H = [0.1, -0.05, 0.02, 0.07, -0.12, 0.03, -0.04, 0.05, 0.08];
+    let m = box3(3, "Q1N2");
+    let faces = ["xmin", "xmax", "ymin", "ymax", "zmin", "zmax"];
+    let (du, ds) = patch_test(&m, &faces, &H);
+    assert!(du < 1e-10 && ds < 1e-10, "3D Q1N2: {du} {ds}");
+}
+
+#[test]
+fn half_cylinder_surface_built_by_the_model_is_exact() {
+    for family in ["Q1N2", "Q1N2.1", "Q1N3", "Q1C2"] {
+        let m = half_disk(8, family);
+        let b = &m.bodies[0];
+        let e = b.enrichment.as_ref().unwrap();
+        assert_eq!(e.cells.len(), 8);
+        for c in &e.cells {
+            let n = c.n_nodes();
+            let (mut N, mut dN) = (vec![0.0; n], vec![0.0; 2 * n]);
+            for k in 0..=20 {
+                let xi = -1.0 + k as f64 / 10.0;
+                c.shape(&[xi, -1.0], &mut N, &mut dN);
+                let mut x = [0.0; 2];
+                for (a, &node) in c.nodes.iter().enumerate() {
+                    x[0] += N[a] * b.node(node)[0];
+                    x[1] += N[a] * b.node(node)[1];
+                }
+                let r = x[0].hypot(x[1]);
+                // Q1C2 interpolates the circle at its three nodes only
+                if matches!(c.basis, EnrichedBasis::Nurbs(_)) || k % 10 == 0 {
+                    assert!((r - 1.0).abs() < 1e-12, "{family}: r = {r} at xi = {xi}");
+                }
+                assert!(x[1] <= 1e-12, "{family}: point above the flat side");
+            }
+        }
+        // display nodes are the curve points at the element ends
+        for (node, w) in &e.display {
+            for k in 0..2 {
+                let x: f64 = w.iter().map(|&(a, wa)| wa * b.node(a)[k]).sum();
+                assert!((x - b.mesh.node(*node)[k]).abs() < 1e-12, "{family}");
+            }
+        }
+    }
+}
+
+#[test]
+fn q1n1_with_unit_weights_gives_the_q1c1_solution() {
+    // clamp the left side, shear and stretch the right one; the top (enriched) stays free
+    let solve_for = |family: &str| {
+        let m = rectangle(4, 2, 2.0, family);
+        let dim = m.dim;
+        let mut fixed: Vec<(usize, f64)> = m
+            .set_nodes("b", "left")
+            .unwrap()
+            .iter()
+            .flat_map(|&a| (0..dim).map(move |c| (a as usize * dim + c, 0.0)))
+            .collect();
+        for a in m.set_nodes("b", "right").unwrap() {
+            fixed.push((a as usize * dim, 0.2));
+            fixed.push((a as usize * dim + 1, -0.3));
+        }
+        let mut u = solve(&m, &fixed);
+        m.fill_display_nodes(&mut u);
+        (m.bodies[0].mesh.n_nodes(), u)
+    };
+    let (n, u1) = solve_for("Q1C1");
+    let (_, un) = solve_for("Q1N1");
+    let err = (0..2 * n)
+        .map(|d| (u1[d] - un[d]).abs())
+        .fold(0.0, f64::max);
+    let top_moves = u1.iter().fold(0.0_f64, |a, x| a.max(x.abs()));
+    assert!(top_moves > 0.1);
+    assert!(err < 1e-12, "Q1N1 vs Q1C1: {err}");
+}
+
+#[test]
+fn node_sets_on_an_enriched_surface_hold_its_control_points() {
+    let m = rectangle(4, 2, 2.0, "Q1N2.1");
+    let b = &m.bodies[0];
+    let e = b.enrichment.as_ref().unwrap();
+    let top = m.set_nodes("b", "top").unwrap();
+    // 4 elements of order 3, C^1: 4 + 3 * 1 + ... = n_ctrl = n_el * (p+t - C^k) + C^k + 1 = 4*2+2
+    assert_eq!(top.len(), 10);
+    assert!(e
+        .replaced
+        .iter()
+        .all(|r| !top.contains(&(r + b.node_offset))));
+    // a corner keeps only itself: the end control point interpolates
+    let xmin = m.set_nodes("b", "left").unwrap();
+    assert_eq!(xmin.len(), 3);
+    let m3 = box3(2, "Q1N2");
+    let b3 = &m3.bodies[0];
+    // the xmin side of the box holds the 3 x 3 lower nodes... and the enriched edge's control row
+    let xmin = m3.set_nodes("b", "xmin").unwrap();
+    assert_eq!(xmin.len(), 6 + 4);
+    assert!(xmin
+        .iter()
+        .all(|&a| (b3.node(a - b3.node_offset)[0]).abs() < 1e-12));
+}
+
+fn build_err(text: &str) -> String {
+    let case = parse_case(text, Path::new("t.toml"), &[]).unwrap();
+    match Model::build(&case) {
+        Ok(_) => panic!("the model must be rejected"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn unsupported_enriched_surfaces_are_reported_with_the_reason() {
+    let mesh = "generator = \"hemisphere\"\ncenter = [0.0, 0.0, 1.0]\nouter_radius = 1.0\nthickness = 0.3\nn_surface = 2\nn_thickness = 1";
+    let err = build_err(&case_text(3, mesh, "b", "Q1N2", "outer"));
+    assert!(
+        err.contains("not on a plane") && err.contains("outer"),
+        "{err}"
+    );
+    let mesh =
+        "generator = \"half_disk\"\ncenter = [0.0, 0.0]\nradius = 1.0\nn_arc = 8\nn_radial = 2";
+    let err = build_err(&case_text(2, mesh, "b", "Q1N1", "arc"));
+    assert!(err.contains("cannot represent this curve exactly"), "{err}");
+}
