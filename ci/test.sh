@@ -2,9 +2,14 @@
 # Second command of the README: the whole test suite (unit tests, then integration tests that run the
 # solver on 1 and 2 MPI ranks), plus formatting and lint checks. .ci/run calls exactly this.
 set -euo pipefail
+# pipefail makes a failing `cargo test` fail this script even though its output is piped to tee.
 cd "$(dirname "$0")/.."
 source ci/env.sh
 ci/install-deps.sh
 cargo fmt --check
 cargo clippy --release --all-targets -- -D warnings
-cargo test --release
+log=$(mktemp)
+cargo test --release 2>&1 | tee "$log"
+# One closing line for the whole suite, summed over the test binaries.
+awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i } }
+     END { printf "%d passed, %d failed\n", p, f }' "$log"

@@ -31,7 +31,7 @@ fn run_both(name: &str, case: &str, sets: &[&str]) -> (std::path::PathBuf, std::
 fn assert_irregular_partition(dir: &std::path::Path, dim: usize) {
     let ranks = h5_last(dir, "bulk", "rank");
     assert!(
-        ranks.iter().any(|&r| r == 0.0) && ranks.iter().any(|&r| r == 1.0),
+        ranks.contains(&0.0) && ranks.contains(&1.0),
         "both ranks own cells"
     );
     let f = hdf5::File::open(dir.join("results.h5")).unwrap();
