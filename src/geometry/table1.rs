@@ -62,6 +62,23 @@ pub fn table1_row(p: usize, t: usize, n_el: usize) -> Result<Table1Row, Geometry
     measure(&curve, n_el / 2, 1.0)
 }
 
+/// One published row: `(p, t, C^k, DOF, n_s^e, node span, n_ex, n_max)`.
+pub type PublishedRow = (usize, usize, usize, usize, usize, f64, usize, usize);
+
+/// Table 1 of Corbett & Sauer 2014 as published, the reference the tests compare against:
+/// `(p, t, continuity C^k, DOF per element, n_s^e, node span in L_e, n_ex, n_max)`.
+pub const TABLE1_PAPER: [PublishedRow; 9] = [
+    (2, 0, 1, 10, 3, 2.0, 0, 3),
+    (3, 0, 2, 12, 4, 3.0, 0, 4),
+    (4, 0, 3, 14, 5, 4.0, 0, 5),
+    (2, 1, 1, 12, 4, 5.0 / 3.0, 0, 2),
+    (2, 2, 1, 14, 5, 1.5, 1, 2),
+    (2, 3, 1, 16, 6, 1.4, 2, 2),
+    (3, 1, 2, 14, 5, 2.0, 0, 3),
+    (3, 2, 2, 16, 6, 1.8, 0, 2),
+    (3, 3, 2, 18, 7, 5.0 / 3.0, 1, 2),
+];
+
 #[cfg(test)]
 #[allow(non_snake_case)]
 mod tests {
@@ -69,20 +86,7 @@ mod tests {
 
     #[test]
     fn table1_of_the_paper_is_reproduced_from_refined_curves() {
-        // (p, t, C^k, DOF, n_s^e, node span, n_ex, n_max) from Table 1 of Corbett & Sauer 2014
-        type Row = (usize, usize, usize, usize, usize, f64, usize, usize);
-        let rows: [Row; 9] = [
-            (2, 0, 1, 10, 3, 2.0, 0, 3),
-            (3, 0, 2, 12, 4, 3.0, 0, 4),
-            (4, 0, 3, 14, 5, 4.0, 0, 5),
-            (2, 1, 1, 12, 4, 5.0 / 3.0, 0, 2),
-            (2, 2, 1, 14, 5, 1.5, 1, 2),
-            (2, 3, 1, 16, 6, 1.4, 2, 2),
-            (3, 1, 2, 14, 5, 2.0, 0, 3),
-            (3, 2, 2, 16, 6, 1.8, 0, 2),
-            (3, 3, 2, 18, 7, 5.0 / 3.0, 1, 2),
-        ];
-        for (p, t, ck, dof, ns, span, nex, nmax) in rows {
+        for (p, t, ck, dof, ns, span, nex, nmax) in TABLE1_PAPER {
             let r = table1_row(p, t, 15).unwrap();
             assert_eq!(r.continuity, ck, "Q1N{p}.{t}");
             assert_eq!(r.dof_per_element, dof, "Q1N{p}.{t}");

@@ -11,32 +11,16 @@ pub enum CellKind {
     Hex8,
 }
 
-/// Reference coordinates of the Quad4 nodes, [4][2].
-const QUAD4_REF: [[f64; 2]; 4] = [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]];
+/// Reference coordinates of the Quad4 nodes, [4][2]: the element kernels' convention, one source.
+const QUAD4_REF: [[f64; 2]; 4] = crate::fem::quad4::NODES;
 /// Reference coordinates of the Hex8 nodes, [8][3].
-const HEX8_REF: [[f64; 3]; 8] = [
-    [-1.0, -1.0, -1.0],
-    [1.0, -1.0, -1.0],
-    [1.0, 1.0, -1.0],
-    [-1.0, 1.0, -1.0],
-    [-1.0, -1.0, 1.0],
-    [1.0, -1.0, 1.0],
-    [1.0, 1.0, 1.0],
-    [-1.0, 1.0, 1.0],
-];
+const HEX8_REF: [[f64; 3]; 8] = crate::fem::hex8::NODES;
 /// Local faces of Quad4: 0: eta=-1, 1: xi=+1, 2: eta=+1, 3: xi=-1; each traversed with the
 /// cell on its left (counter-clockwise).
-const QUAD4_FACES: [[usize; 2]; 4] = [[0, 1], [1, 2], [2, 3], [3, 0]];
+const QUAD4_FACES: [[usize; 2]; 4] = crate::fem::quad4::FACES;
 /// Local faces of Hex8: 0: zeta=-1, 1: zeta=+1, 2: eta=-1, 3: xi=+1, 4: eta=+1, 5: xi=-1;
 /// each ordered counter-clockwise seen from outside (outward normal by the right-hand rule).
-const HEX8_FACES: [[usize; 4]; 6] = [
-    [0, 3, 2, 1],
-    [4, 5, 6, 7],
-    [0, 1, 5, 4],
-    [1, 2, 6, 5],
-    [2, 3, 7, 6],
-    [3, 0, 4, 7],
-];
+const HEX8_FACES: [[usize; 4]; 6] = crate::fem::hex8::FACES;
 /// Outward reference normals of the Quad4 faces, [4][2].
 const QUAD4_NORMALS: [[f64; 2]; 4] = [[0.0, -1.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]];
 /// Outward reference normals of the Hex8 faces, [6][3].

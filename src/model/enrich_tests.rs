@@ -123,20 +123,7 @@ fn solve(m: &Model, fixed: &[(usize, f64)]) -> Vec<f64> {
 
 #[test]
 fn table1_is_reproduced_from_enriched_layers_of_a_rectangle() {
-    // (p, t, C^k, DOF, n_s^e, node span, n_ex, n_max) from Table 1 of Corbett & Sauer 2014
-    type Row = (usize, usize, usize, usize, usize, f64, usize, usize);
-    let rows: [Row; 9] = [
-        (2, 0, 1, 10, 3, 2.0, 0, 3),
-        (3, 0, 2, 12, 4, 3.0, 0, 4),
-        (4, 0, 3, 14, 5, 4.0, 0, 5),
-        (2, 1, 1, 12, 4, 5.0 / 3.0, 0, 2),
-        (2, 2, 1, 14, 5, 1.5, 1, 2),
-        (2, 3, 1, 16, 6, 1.4, 2, 2),
-        (3, 1, 2, 14, 5, 2.0, 0, 3),
-        (3, 2, 2, 16, 6, 1.8, 0, 2),
-        (3, 3, 2, 18, 7, 5.0 / 3.0, 1, 2),
-    ];
-    for (p, t, ck, dof, ns, span, nex, nmax) in rows {
+    for (p, t, ck, dof, ns, span, nex, nmax) in crate::geometry::table1::TABLE1_PAPER {
         let m = rectangle(15, 2, 7.5, &format!("Q1N{p}.{t}"));
         let e = m.bodies[0].enrichment.as_ref().unwrap();
         let ExactSurface::Curve(c) = &e.exact else {
