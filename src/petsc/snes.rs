@@ -1,7 +1,7 @@
 //! PETSc's nonlinear solver (SNES) driving a Rust [`NonlinearProblem`] through `extern "C"` trampolines.
 
 use super::error::{call, PetscError};
-use super::{handle, sys, Matrix, Petsc, PetscInt, Vector};
+use super::{handle, sys, Ksp, Matrix, Petsc, PetscInt, Vector};
 use mpi::raw::AsRaw;
 use std::ffi::{c_void, CStr};
 use std::marker::PhantomData;
@@ -146,13 +146,13 @@ impl<'p> Snes<'p> {
         unsafe {
             call!(SNESCreate(petsc.comm().as_raw(), &mut raw))?;
             call!(SNESSetType(raw, sys::SNESNEWTONLS.as_ptr()))?;
-            let mut ksp = std::ptr::null_mut();
-            call!(SNESGetKSP(raw, &mut ksp))?;
-            call!(KSPSetType(ksp, sys::KSPPREONLY.as_ptr()))?;
-            let mut pc = std::ptr::null_mut();
-            call!(KSPGetPC(ksp, &mut pc))?;
-            call!(PCSetType(pc, sys::PCLU.as_ptr()))?;
-            call!(PCFactorSetMatSolverType(pc, sys::MATSOLVERMUMPS.as_ptr()))?;
+            let mut ksp_raw = std::ptr::null_mut();
+            call!(SNESGetKSP(raw, &mut ksp_raw))?;
+            let mut ksp = Ksp::borrowed(ksp_raw);
+            ksp.set_type("preonly")?;
+            let mut pc = ksp.pc()?;
+            pc.set_type("lu")?;
+            pc.set_factor_solver_type("mumps")?;
             call!(SNESSetConvergenceHistory(
                 raw,
                 history.as_mut_ptr(),
@@ -168,6 +168,15 @@ impl<'p> Snes<'p> {
             history_its,
             _petsc: PhantomData,
         })
+    }
+
+    /// The linear solver of the Newton steps, borrowed (e.g. to change its type or PC).
+    pub fn ksp(&mut self) -> Result<Ksp<'_>, PetscError> {
+        let mut raw = std::ptr::null_mut();
+        // SAFETY: valid handle; the KSP belongs to the SNES and is not destroyed by the wrapper.
+        unsafe { call!(SNESGetKSP(self.raw, &mut raw))? };
+        // SAFETY: the SNES keeps its KSP alive at least as long as this borrow of the SNES.
+        Ok(unsafe { Ksp::borrowed(raw) })
     }
 
     /// Sets tolerances (absolute, relative, step) and the iteration limit; `-snes_*` options override.

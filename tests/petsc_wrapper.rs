@@ -1,0 +1,193 @@
+//! The safe PETSc wrapper, exercised in-process: vectors and their views, COO and MatSetValues
+//! assembly giving the same matrix, a KSP direct solve, errors carrying PETSc's message, and SNES
+//! driving a Rust problem through the trampolines — including a domain error and a panic in a
+//! callback, which must come back as values, not abort the process.
+//!
+//! MPI can be initialised once per process, so this is one test running its checks in sequence.
+
+use nurbs_contact::petsc::{Ksp, Matrix, NonlinearProblem, Petsc, ProblemError, Snes, Vector};
+
+/// F_i(x) = x_i^3 - 8 (root 2 in every component), with switches for failure modes.
+struct Cubic {
+    domain_error_below: f64,
+    panic: bool,
+}
+
+impl NonlinearProblem for Cubic {
+    fn residual(&mut self, x: &Vector, f: &mut Vector) -> Result<(), ProblemError> {
+        if self.panic {
+            panic!("deliberate panic in a residual");
+        }
+        let xa = x.read().map_err(|e| ProblemError::Fatal(e.to_string()))?;
+        if xa.iter().any(|&v| v < self.domain_error_below) {
+            return Err(ProblemError::Domain("x left the domain".into()));
+        }
+        let mut fa = f.write().map_err(|e| ProblemError::Fatal(e.to_string()))?;
+        for (fi, xi) in fa.iter_mut().zip(xa.iter()) {
+            *fi = xi * xi * xi - 8.0;
+        }
+        Ok(())
+    }
+
+    fn jacobian(&mut self, x: &Vector, j: &mut Matrix) -> Result<(), ProblemError> {
+        let (lo, _) = x
+            .ownership_range()
+            .map_err(|e| ProblemError::Fatal(e.to_string()))?;
+        let xa = x.read().map_err(|e| ProblemError::Fatal(e.to_string()))?;
+        j.zero().map_err(|e| ProblemError::Fatal(e.to_string()))?;
+        for (k, xi) in xa.iter().enumerate() {
+            let g = lo + k as i32;
+            j.add_values(&[g], &[g], &[3.0 * xi * xi])
+                .map_err(|e| ProblemError::Fatal(e.to_string()))?;
+        }
+        j.assemble().map_err(|e| ProblemError::Fatal(e.to_string()))
+    }
+}
+
+fn diagonal_matrix<'p>(petsc: &'p Petsc, n: usize) -> Matrix<'p> {
+    let mut j = Matrix::new_aij(petsc, n).unwrap();
+    let counts = vec![1; n];
+    j.preallocate_aij(&counts, &vec![0; n]).unwrap();
+    j
+}
+
+#[test]
+fn petsc_wrapper_end_to_end() {
+    let universe = mpi::initialize().expect("MPI init");
+    let world = universe.world();
+    let petsc = Petsc::init(&world, &["petsc_wrapper".to_string()]).expect("PETSc init");
+
+    // Vectors: views write and read back, restored on drop; norms and axpy.
+    let mut v = Vector::new_mpi(&petsc, 5).unwrap();
+    v.set(2.0).unwrap();
+    assert!((v.norm2().unwrap() - 20f64.sqrt()).abs() < 1e-14);
+    {
+        let mut w = v.write().unwrap();
+        w[0] = -1.0;
+    }
+    assert_eq!(v.read().unwrap()[0], -1.0);
+    let mut u = v.duplicate().unwrap();
+    v.copy_to(&mut u).unwrap();
+    u.axpy(-1.0, &v).unwrap();
+    assert_eq!(u.norm2().unwrap(), 0.0);
+
+    // The same 4x4 tridiagonal matrix through COO (repeated entries summed, negative indices
+    // dropped) and through MatSetValues.
+    let n = 4;
+    let mut a = Matrix::new_aij(&petsc, n).unwrap();
+    let (mut rows, mut cols, mut vals) = (Vec::new(), Vec::new(), Vec::new());
+    for i in 0..n as i32 {
+        for (j, v) in [(i - 1, -1.0), (i, 1.0), (i, 1.0), (i + 1, -1.0)] {
+            if j >= 0 && j < n as i32 {
+                rows.push(i);
+                cols.push(j);
+                vals.push(v);
+            }
+        }
+        rows.push(-1);
+        cols.push(i);
+        vals.push(1e9); // dropped
+    }
+    a.set_preallocation_coo(&mut rows, &mut cols).unwrap();
+    a.set_values_coo(&vals).unwrap();
+    let mut b = Matrix::new_aij(&petsc, n).unwrap();
+    b.preallocate_aij(&[2, 3, 3, 2], &[0; 4]).unwrap();
+    for i in 0..n as i32 {
+        for (j, v) in [(i - 1, -1.0), (i, 2.0), (i + 1, -1.0)] {
+            if j >= 0 && j < n as i32 {
+                b.add_values(&[i], &[j], &[v]).unwrap();
+            }
+        }
+    }
+    b.assemble().unwrap();
+    assert_eq!(b.assembly_mallocs().unwrap(), 0.0);
+    let mut x = Vector::new_mpi(&petsc, n).unwrap();
+    {
+        let mut w = x.write().unwrap();
+        w.copy_from_slice(&[1.0, -2.0, 3.0, 0.5]);
+    }
+    let (mut ya, mut yb) = (x.duplicate().unwrap(), x.duplicate().unwrap());
+    a.mult(&x, &mut ya).unwrap();
+    b.mult(&x, &mut yb).unwrap();
+    yb.axpy(-1.0, &ya).unwrap();
+    assert!(
+        yb.norm2().unwrap() < 1e-14,
+        "COO and MatSetValues matrices differ"
+    );
+    assert_eq!(a.nonzeros().unwrap(), 10.0);
+
+    // KSP: a direct MUMPS solve of A z = A x recovers x.
+    let mut ksp = Ksp::new(&petsc).unwrap();
+    ksp.set_operators(&a).unwrap();
+    ksp.set_type("preonly").unwrap();
+    {
+        let mut pc = ksp.pc().unwrap();
+        pc.set_type("lu").unwrap();
+        pc.set_factor_solver_type("mumps").unwrap();
+    }
+    let mut z = x.duplicate().unwrap();
+    let out = ksp.solve(&ya, &mut z).unwrap();
+    assert!(out.converged, "{out:?}");
+    z.axpy(-1.0, &x).unwrap();
+    assert!(z.norm2().unwrap() < 1e-12);
+
+    // Errors carry PETSc's message and the function name (PETSc also prints its traceback).
+    let small = Vector::new_seq(&petsc, 3).unwrap();
+    let mut big = Vector::new_seq(&petsc, 4).unwrap();
+    let err = small.copy_to(&mut big).unwrap_err();
+    assert_eq!(err.function, "VecCopy");
+    assert!(!err.message.is_empty() && err.code != 0, "{err}");
+    assert!(Ksp::new(&petsc).unwrap().set_type("no_such_ksp").is_err());
+
+    // SNES on x^3 = 8 from x = 1: converges to 2, quadratically at the end.
+    let mut snes = Snes::new(&petsc).unwrap();
+    snes.set_tolerances(1e-12, 1e-14, 0.0, 50).unwrap();
+    snes.set_from_options().unwrap();
+    let mut jm = diagonal_matrix(&petsc, 3);
+    let mut xs = Vector::new_mpi(&petsc, 3).unwrap();
+    xs.set(1.0).unwrap();
+    let mut problem = Cubic {
+        domain_error_below: -1e9,
+        panic: false,
+    };
+    let out = snes.solve(&mut problem, &mut xs, &mut jm).unwrap();
+    assert!(out.converged, "{out:?}");
+    assert!(xs.read().unwrap().iter().all(|&v| (v - 2.0).abs() < 1e-12));
+    let h = &out.residual_history;
+    assert_eq!(h.len(), out.iterations + 1);
+    let k = h.len() - 2;
+    assert!(
+        h[k] < 1e-4 && h[k] / (h[k - 1] * h[k - 1]) < 10.0,
+        "not quadratic: {h:?}"
+    );
+
+    // A domain error at the start is reported as a diverged solve with the message, not an error.
+    xs.set(1.0).unwrap();
+    let mut problem = Cubic {
+        domain_error_below: 1.5,
+        panic: false,
+    };
+    let out = snes.solve(&mut problem, &mut xs, &mut jm).unwrap();
+    assert!(!out.converged);
+    assert_eq!(out.domain_error.as_deref(), Some("x left the domain"));
+
+    // A panic inside a callback is caught at the FFI boundary and comes back as an error.
+    let mut problem = Cubic {
+        domain_error_below: -1e9,
+        panic: true,
+    };
+    let err = snes.solve(&mut problem, &mut xs, &mut jm).unwrap_err();
+    assert!(err.message.contains("deliberate panic"), "{err}");
+
+    // The solver is still usable afterwards.
+    xs.set(3.0).unwrap();
+    let mut problem = Cubic {
+        domain_error_below: -1e9,
+        panic: false,
+    };
+    assert!(
+        snes.solve(&mut problem, &mut xs, &mut jm)
+            .unwrap()
+            .converged
+    );
+}
