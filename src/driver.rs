@@ -11,6 +11,7 @@ use crate::petsc::{Matrix, Petsc, PetscError, PetscInt, Scatter, Snes, Vector};
 use crate::scene::{load_case, validate, Case, OutputField, SceneError};
 use crate::solver::{run_load_steps, SolverError, StepControl, StepRecord};
 use mpi::collective::SystemOperation;
+use mpi::datatype::PartitionMut;
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
 use std::io::IsTerminal;
@@ -101,6 +102,21 @@ pub enum Error {
     /// Another rank failed and reported its error.
     #[error("stopped because another rank failed")]
     OtherRank,
+    /// Different ranks failed differently: their messages, one per line.
+    #[error("{0}")]
+    Ranks(String),
+    /// A Dirichlet condition whose set holds no node with unknowns (e.g. only display nodes).
+    #[error("{}: `{label}`: set `{set}` of body `{body}` holds no node with unknowns", .file.display())]
+    EmptyCondition {
+        /// The case file.
+        file: PathBuf,
+        /// The condition.
+        label: String,
+        /// Its body.
+        body: String,
+        /// Its set.
+        set: String,
+    },
 }
 
 /// `nurbs-contact check`: everything but the solve, on one process.
@@ -123,6 +139,7 @@ pub fn check_main(
         1,
         0,
     )?;
+    check_conditions_have_unknowns(&case, &model, &dofs)?;
     let sets = model.element_sets(&case.file, &part, 0)?;
     for s in 1..=case.stages.len() {
         prescribed_values(&model.bcs, &dofs, &model.coords, s as f64).map_err(|source| {
@@ -145,6 +162,21 @@ pub fn check_main(
     Ok(())
 }
 
+/// A Dirichlet condition on a set none of whose nodes carries unknowns would silently do nothing.
+fn check_conditions_have_unknowns(case: &Case, model: &Model, dofs: &DofMap) -> Result<(), Error> {
+    for (bc, spec) in model.bcs.iter().zip(&case.bcs) {
+        if !bc.nodes.iter().any(|&n| dofs.global(n, 0).is_some()) {
+            return Err(Error::EmptyCondition {
+                file: case.file.clone(),
+                label: bc.label.clone(),
+                body: spec.body().to_string(),
+                set: spec.set().to_string(),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// `nurbs-contact run`: initialises MPI and PETSc, runs, and prints the error on the rank that has it.
 pub fn run_main(opts: RunOptions) -> Result<(), Error> {
     let universe = mpi::initialize().ok_or(Error::Mpi)?;
@@ -153,13 +185,72 @@ pub fn run_main(opts: RunOptions) -> Result<(), Error> {
     let petsc = Petsc::init(&world, &opts.petsc_args)?;
     let result = run(&petsc, &opts);
     drop(petsc);
+    // Every rank reaches this point (failures are agreed collectively), so the messages can be
+    // gathered: rank 0 reports each distinct one once, the other ranks stay silent.
+    let messages = gather_errors(&world, &result);
     match result {
-        // Collective errors are the same on every rank: rank 0 reports them, the others stay silent.
-        Err(e) if rank != 0 && !matches!(e, Error::Model(_) | Error::OtherRank) => {
-            Err(Error::OtherRank)
-        }
-        r => r,
+        Ok(()) => Ok(()),
+        Err(_) if rank != 0 => Err(Error::OtherRank),
+        Err(e) if messages.len() <= 1 && !matches!(e, Error::OtherRank) => Err(e),
+        Err(_) => Err(Error::Ranks(messages.join("\n"))),
     }
+}
+
+/// The distinct error messages of all ranks, on rank 0 (empty elsewhere), each prefixed with the
+/// ranks that hold it when they differ between ranks.
+///
+/// Collective.
+fn gather_errors(world: &SimpleCommunicator, result: &Result<(), Error>) -> Vec<String> {
+    let text = match result {
+        Err(e) if !matches!(e, Error::OtherRank) => e.to_string(),
+        _ => String::new(),
+    };
+    // A leading tag byte keeps every contribution non-empty: Open MPI rejects a Gatherv whose
+    // buffers are all empty (MPI_ERR_ARG), which is the all-ranks-succeeded case.
+    let mut bytes = vec![u8::from(!text.is_empty())];
+    bytes.extend(text.into_bytes());
+    let root = world.process_at_rank(0);
+    let len = bytes.len() as i32;
+    if world.rank() != 0 {
+        root.gather_into(&len);
+        root.gather_varcount_into(&bytes[..]);
+        return Vec::new();
+    }
+    let size = world.size() as usize;
+    let mut lens = vec![0i32; size];
+    root.gather_into_root(&len, &mut lens[..]);
+    let displs: Vec<i32> = lens
+        .iter()
+        .scan(0, |acc, &l| {
+            let d = *acc;
+            *acc += l;
+            Some(d)
+        })
+        .collect();
+    let mut buf = vec![0u8; lens.iter().sum::<i32>() as usize];
+    {
+        let mut part = PartitionMut::new(&mut buf[..], &lens[..], &displs[..]);
+        root.gather_varcount_into_root(&bytes[..], &mut part);
+    }
+    let mut distinct: Vec<(String, Vec<usize>)> = Vec::new();
+    for r in 0..size {
+        let (a, b) = (displs[r] as usize + 1, (displs[r] + lens[r]) as usize);
+        if buf[a - 1] == 0 {
+            continue;
+        }
+        let m = String::from_utf8_lossy(&buf[a..b]).into_owned();
+        match distinct.iter_mut().find(|(t, _)| *t == m) {
+            Some((_, ranks)) => ranks.push(r),
+            None => distinct.push((m, vec![r])),
+        }
+    }
+    if distinct.len() <= 1 {
+        return distinct.into_iter().map(|(m, _)| m).collect();
+    }
+    distinct
+        .into_iter()
+        .map(|(m, ranks)| format!("[rank {ranks:?}] {m}"))
+        .collect()
 }
 
 /// Makes a rank-local failure collective, so no rank waits forever in a collective call.
@@ -186,10 +277,16 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
     let (rank, size) = (comm.rank(), comm.size() as usize);
     let v = opts.verbosity;
 
-    // Every rank reads and builds the same model; any failure here is identical on all ranks.
-    let case = load_case(&opts.case, &opts.sets)?;
-    validate(&case)?;
-    let model = Model::build(&case)?;
+    // Every rank reads and builds the same model. A failure is normally the same on all ranks, but a
+    // rank that cannot read a file (a node without the shared file system) must not leave the others
+    // waiting: agree on the outcome.
+    let setup = (|| -> Result<(Case, Model), Error> {
+        let case = load_case(&opts.case, &opts.sets)?;
+        validate(&case)?;
+        let model = Model::build(&case)?;
+        Ok((case, model))
+    })();
+    let (case, model) = agree(comm, setup)?;
     let out_dir = opts
         .out
         .clone()
@@ -227,6 +324,7 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
             }
         })?;
     }
+    check_conditions_have_unknowns(&case, &model, &dofs)?;
     let sets = agree(
         comm,
         model
@@ -253,9 +351,8 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
     if opts.matsetvalues {
         asm.use_preallocated(model.cell_offsets.clone(), model.cell_nodes.clone());
     }
-    let mut jac = Matrix::new_aij(petsc, n_owned)?;
-
-    // Options: code defaults (in Snes::new), then the case's petsc_options, then the command line.
+    // Options: code defaults (in Snes::new), then the case's petsc_options, then the command line;
+    // inserted before any object reads them (the matrix reads -mat_* at creation).
     let cmdline = opts
         .petsc_args
         .iter()
@@ -264,6 +361,7 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
         .collect::<Vec<_>>()
         .join(" ");
     petsc.insert_options(&case.solver.petsc_options, &cmdline)?;
+    let mut jac = Matrix::new_aij(petsc, n_owned)?;
     let mut snes = Snes::new(petsc)?;
     snes.set_tolerances(1e-11, 1e-10, 1e-14, 30)?;
     snes.set_from_options()?;
@@ -369,6 +467,12 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
     ];
     let local = times;
     comm.all_reduce_into(&local[..], &mut times[..], SystemOperation::max());
+    let mut peak_memory_mb = 0.0;
+    comm.all_reduce_into(
+        &(petsc.max_memory_bytes() / 1e6),
+        &mut peak_memory_mb,
+        SystemOperation::max(),
+    );
     let summary = Summary {
         case: case.case.name.clone(),
         git_revision: option_env!("NURBS_CONTACT_GIT_REV")
@@ -387,7 +491,7 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
             output: times[2],
             total: t_start.elapsed().as_secs_f64(),
         },
-        peak_memory_mb: petsc.max_memory_bytes() / 1e6,
+        peak_memory_mb,
         steps: step_log,
         status,
     };
@@ -417,6 +521,9 @@ struct Output<'p> {
     /// Gathers the whole displacement on rank 0, in node order.
     gather: Scatter<'p>,
     u_root: Vector<'p>,
+    /// Nodes that carry no unknowns (display nodes, nodes in no cell): zeroed after the gather,
+    /// before display nodes are interpolated. [n_nodes]
+    without_unknowns: Vec<bool>,
     /// Cells of each body start here in the global cell numbering.
     cell_offset: Vec<usize>,
     case_toml: String,
@@ -438,6 +545,9 @@ impl<'p> Output<'p> {
         let (dim, n_nodes) = (model.dim, model.n_nodes());
         // Rank 0 asks for every unknown in node order; nodes outside every cell read entry 0 and are
         // zeroed after the gather.
+        let without_unknowns: Vec<bool> = (0..n_nodes as u32)
+            .map(|n| dofs.global(n, 0).is_none())
+            .collect();
         let idx: Vec<PetscInt> = if root {
             (0..n_nodes as u32)
                 .flat_map(|n| (0..dim).map(move |c| (n, c)))
@@ -462,18 +572,44 @@ impl<'p> Output<'p> {
             u_root,
             cell_offset: model.bodies.iter().map(|b| b.cell_offset).collect(),
             case_toml: case.to_toml_string()?,
+            without_unknowns: Vec::new(),
             display: model.display_interpolation(),
             sampled: [model.surface_grid(SURFACE_SAMPLES), model.control_net()]
                 .into_iter()
                 .flatten()
                 .collect(),
         };
-        if root {
+        let created = if root {
+            out.create_files(model, case, out_dir)
+        } else {
+            Ok(())
+        };
+        agree(petsc.comm(), created)?;
+        out.without_unknowns = without_unknowns;
+        Ok(out)
+    }
+
+    /// Rank 0: the output directory and writers; results of an earlier run there are removed first,
+    /// so a rerun that dies cannot leave an old summary beside its new history.
+    fn create_files(&mut self, model: &Model, case: &Case, out_dir: &Path) -> Result<(), Error> {
+        let dim = self.dim;
+        let out = self;
+        {
             std::fs::create_dir_all(out_dir).map_err(|source| io::IoError::File {
                 path: out_dir.to_path_buf(),
                 op: "create the output directory",
                 source,
             })?;
+            for stale in ["summary.json", "case.toml"] {
+                let p = out_dir.join(stale);
+                if p.exists() {
+                    std::fs::remove_file(&p).map_err(|source| io::IoError::File {
+                        path: p.clone(),
+                        op: "remove the result of an earlier run",
+                        source,
+                    })?;
+                }
+            }
             // linear parents; on enriched surfaces their corners are display nodes
             let conn = model.parent_connectivity();
             let kind = if dim == 2 {
@@ -505,7 +641,7 @@ impl<'p> Output<'p> {
                 .collect();
             out.history = Some(HistoryWriter::create(out_dir, dim, &labels)?);
         }
-        Ok(out)
+        Ok(())
     }
 
     /// Records one converged step (history row; results when `write`). Collective.
@@ -518,66 +654,81 @@ impl<'p> Output<'p> {
         x: &Vector,
         asm: &mut Assembler,
     ) -> Result<(), Error> {
+        // Rank-local failures (a full disk on rank 0) are kept until every rank has been through the
+        // collectives below, then agreed, so that all ranks stop together.
+        let mut local: Result<(), Error> = Ok(());
         if let Some(h) = &mut self.history {
-            h.write_row(&HistoryRow {
-                step: rec.step,
-                stage: rec.stage,
-                load_factor: rec.load,
-                newton_iterations: rec.iterations as u32,
-                residual: rec.residual,
-                cutbacks: rec.cutbacks as u32,
-                reactions,
-                wall_time: wall,
-            })?;
+            local = h
+                .write_row(&HistoryRow {
+                    step: rec.step,
+                    stage: rec.stage,
+                    load_factor: rec.load,
+                    newton_iterations: rec.iterations as u32,
+                    residual: rec.residual,
+                    cutbacks: rec.cutbacks as u32,
+                    reactions,
+                    wall_time: wall,
+                })
+                .map_err(Error::from);
         }
-        if !write {
-            return Ok(());
+        if write {
+            self.gather.gather(x, &mut self.u_root)?;
+            // Element measures: each rank fills its cells, a sum-reduction assembles them on rank 0.
+            let measures = asm.stress_measures(x)?;
+            let comm = asm.comm();
+            let mut cells = vec![0.0; 3 * self.n_cells];
+            let rank = comm.rank() as f64;
+            for (body, cell, tr, vm) in measures {
+                let g = self.cell_offset[body] + cell;
+                cells[g] = tr;
+                cells[self.n_cells + g] = vm;
+                cells[2 * self.n_cells + g] = rank;
+            }
+            let root_proc = comm.process_at_rank(0);
+            if self.root {
+                let mut global = vec![0.0; 3 * self.n_cells];
+                root_proc.reduce_into_root(&cells[..], &mut global[..], SystemOperation::sum());
+                if local.is_ok() {
+                    local = self.write_results(rec.load, &global);
+                }
+            } else {
+                root_proc.reduce_into(&cells[..], SystemOperation::sum());
+            }
         }
-        self.gather.gather(x, &mut self.u_root)?;
-        // Element measures: each rank fills its cells, a sum-reduction assembles them on rank 0.
-        let measures = asm.stress_measures(x)?;
-        let comm = asm_comm(asm);
-        let mut local = vec![0.0; 3 * self.n_cells];
-        let rank = comm.rank() as f64;
-        for (body, cell, tr, vm) in measures {
-            let g = self.cell_offset[body] + cell;
-            local[g] = tr;
-            local[self.n_cells + g] = vm;
-            local[2 * self.n_cells + g] = rank;
+        agree(asm.comm(), local)
+    }
+
+    /// Rank 0: writes one output step from the gathered displacement and cell measures.
+    fn write_results(&mut self, load: f64, cell_measures: &[f64]) -> Result<(), Error> {
+        let mut u = self.u_root.read()?.to_vec();
+        for (n, _) in self.without_unknowns.iter().enumerate().filter(|(_, &w)| w) {
+            u[n * self.dim..(n + 1) * self.dim].fill(0.0);
         }
-        let root_proc = comm.process_at_rank(0);
-        if self.root {
-            let mut global = vec![0.0; 3 * self.n_cells];
-            root_proc.reduce_into_root(&local[..], &mut global[..], SystemOperation::sum());
-            let mut u = self.u_root.read()?.to_vec();
-            crate::model::apply_display(&self.display, self.dim, &mut u);
-            let sampled_u: Vec<Vec<f64>> = self
-                .sampled
-                .iter()
-                .map(|g| g.interpolate(self.dim, &u))
-                .collect();
-            let (i1, rest) = global.split_at(self.n_cells);
-            let (vm, ranks) = rest.split_at(self.n_cells);
-            let mut fields = Vec::new();
-            for f in &self.fields {
-                fields.push(match f {
-                    OutputField::Displacement => {
-                        FieldData::node_vector("bulk", "displacement", self.dim, &u)
-                    }
-                    OutputField::I1 => FieldData::cell_scalar("bulk", "I1", i1),
-                    OutputField::VonMises => FieldData::cell_scalar("bulk", "von_mises", vm),
-                    OutputField::Rank => FieldData::cell_scalar("bulk", "rank", ranks),
-                });
-            }
-            for (g, v) in self.sampled.iter().zip(&sampled_u) {
-                fields.push(FieldData::node_vector(g.name, "displacement", self.dim, v));
-            }
-            debug_assert_eq!(u.len(), self.n_nodes * self.dim);
-            if let Some(r) = &mut self.results {
-                r.write_step(rec.load, &fields)?;
-            }
-        } else {
-            root_proc.reduce_into(&local[..], SystemOperation::sum());
+        crate::model::apply_display(&self.display, self.dim, &mut u);
+        let sampled_u: Vec<Vec<f64>> = self
+            .sampled
+            .iter()
+            .map(|g| g.interpolate(self.dim, &u))
+            .collect();
+        let (i1, rest) = cell_measures.split_at(self.n_cells);
+        let (vm, ranks) = rest.split_at(self.n_cells);
+        let mut fields = Vec::new();
+        for f in &self.fields {
+            fields.push(match f {
+                OutputField::Displacement => {
+                    FieldData::node_vector("bulk", "displacement", self.dim, &u)
+                }
+                OutputField::I1 => FieldData::cell_scalar("bulk", "I1", i1),
+                OutputField::VonMises => FieldData::cell_scalar("bulk", "von_mises", vm),
+                OutputField::Rank => FieldData::cell_scalar("bulk", "rank", ranks),
+            });
+        }
+        for (g, v) in self.sampled.iter().zip(&sampled_u) {
+            fields.push(FieldData::node_vector(g.name, "displacement", self.dim, v));
+        }
+        debug_assert_eq!(u.len(), self.n_nodes * self.dim);
+        if let Some(r) = &mut self.results {
+            r.write_step(load, &fields)?;
         }
         Ok(())
     }
@@ -596,8 +747,4 @@ impl<'p> Output<'p> {
         io::write_summary(&self.out_dir, summary)?;
         Ok(())
     }
-}
-
-fn asm_comm<'a>(asm: &'a Assembler) -> &'a SimpleCommunicator {
-    asm.comm()
 }

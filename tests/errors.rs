@@ -188,3 +188,42 @@ fn element_inverted_by_the_load_fails_cleanly_after_cutbacks_on_2_ranks() {
     assert!(s["reason"].as_str().unwrap().contains("load step"));
     assert!(out.join("results.h5").exists() && !out.join("results.h5.partial").exists());
 }
+
+#[test]
+fn unwritable_output_directory_stops_every_rank_with_one_message() {
+    // --out names an existing file: rank 0 cannot create the directory; rank 1 must not hang.
+    let d = scratch("unwritable-out");
+    let blocker = d.join("not_a_dir");
+    std::fs::write(&blocker, "x").unwrap();
+    let p = write_case(&d, BLOCK);
+    let out = run(
+        2,
+        &[
+            "run",
+            p.to_str().unwrap(),
+            "--out",
+            blocker.to_str().unwrap(),
+            "-q",
+        ],
+    );
+    let e = stderr(&out);
+    assert!(!out.status.success() && !e.contains("panicked"), "{e}");
+    assert!(e.contains("not_a_dir"), "names the directory: {e}");
+    assert_eq!(
+        e.matches("error:").count(),
+        1,
+        "one message for the job: {e}"
+    );
+}
+
+#[test]
+fn ambiguous_periodic_tie_is_reported() {
+    let text = std::fs::read_to_string(case("periodic_shear_2d.toml"))
+        .unwrap()
+        .replace(
+            "offset = [4.0, 0.0]",
+            "offset = [4.0, 0.0]\ntolerance = 0.5",
+        );
+    let e = fails_with("ambiguous-tie", &text, 1);
+    assert!(e.contains("ties.0") && e.contains("master"), "{e}");
+}

@@ -119,6 +119,7 @@ fn strip_bending_2d_same_displacement_on_1_and_2_ranks() {
     let u2 = h5_last(&d2, "bulk", "displacement");
     let e = rel_diff(&u1, &u2);
     assert!(e < 1e-10, "1 vs 2 ranks differ by {e:e}");
+    assert!(u1.iter().any(|&u| u.abs() > 0.3), "the strip was bent");
     assert_irregular_partition(&d2, 2);
     let (l1, l2) = (
         history_col(&d1, "load_factor"),

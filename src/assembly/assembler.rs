@@ -162,15 +162,6 @@ impl<'p> Assembler<'p> {
         }
     }
 
-    /// Writes the prescribed values into the owned entries of `x` (an initial guess that meets them).
-    pub fn impose_prescribed(&self, x: &mut Vector) -> Result<(), PetscError> {
-        let mut xa = x.write()?;
-        for &(i, v) in &self.prescribed {
-            xa[i] = v;
-        }
-        Ok(())
-    }
-
     /// Builds (or rebuilds, when contact changes the coupling) the sparsity pattern of `j` and
     /// preallocates it exactly.
     ///
@@ -315,20 +306,51 @@ impl<'p> Assembler<'p> {
         Ok(failure)
     }
 
-    /// Makes an element failure collective: every rank learns whether any rank failed.
-    fn any_failure(&self, local: &Option<ElementFailure>) -> Option<String> {
-        let flag = i32::from(local.is_some());
-        let mut any = 0i32;
+    /// Makes a rank-local outcome collective: every rank learns the worst outcome of any rank
+    /// (ok < domain error < fatal error) and returns it, so that no rank leaves for SNES's next
+    /// collective call while another is still in this one. Called on every path of every evaluation.
+    fn agree(&self, local: Result<(), ProblemError>) -> Result<(), ProblemError> {
+        let code = match &local {
+            Ok(()) => 0i32,
+            Err(ProblemError::Domain(_)) => 1,
+            Err(ProblemError::Fatal(_)) => 2,
+        };
+        let mut worst = 0i32;
         self.petsc
             .comm()
-            .all_reduce_into(&flag, &mut any, SystemOperation::max());
-        if any == 0 {
-            return None;
+            .all_reduce_into(&code, &mut worst, SystemOperation::max());
+        match (worst, local) {
+            (0, _) => Ok(()),
+            (w, Err(e)) if w == code => Err(e),
+            (1, _) => Err(ProblemError::Domain(
+                "an element on another rank failed".into(),
+            )),
+            _ => Err(ProblemError::Fatal(
+                "stopped because of an error on another rank".into(),
+            )),
         }
-        Some(match local {
-            Some(f) => f.to_string(),
-            None => "an element on another rank failed".to_string(),
-        })
+    }
+
+    /// Runs the element loop, turning PETSc errors and panics into a rank-local outcome.
+    fn guarded_loop(
+        &mut self,
+        x: &Vector,
+        sink: Option<&mut dyn MatrixSink>,
+    ) -> Result<(), ProblemError> {
+        let outcome =
+            std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| self.element_loop(x, sink)));
+        match outcome {
+            Ok(Ok(None)) => Ok(()),
+            Ok(Ok(Some(failure))) => Err(ProblemError::Domain(failure.to_string())),
+            Ok(Err(e)) => Err(fatal(e)),
+            Err(p) => Err(ProblemError::Fatal(format!(
+                "panic in an element kernel: {}",
+                p.downcast_ref::<&str>()
+                    .map(|s| s.to_string())
+                    .or_else(|| p.downcast_ref::<String>().cloned())
+                    .unwrap_or_default()
+            ))),
+        }
     }
 
     /// Sum over `nodes` of the internal force at the last residual evaluation: the reaction that the
@@ -402,20 +424,15 @@ impl<'p> Assembler<'p> {
     pub fn comm(&self) -> &mpi::topology::SimpleCommunicator {
         self.petsc.comm()
     }
-
-    /// Number of stored nonzeros the COO pattern lists (before PETSc merges duplicates).
-    pub fn coo_len(&self) -> usize {
-        self.coo_values.len()
-    }
 }
 
 impl NonlinearProblem for Assembler<'_> {
     fn residual(&mut self, x: &Vector, f: &mut Vector) -> Result<(), ProblemError> {
         let t0 = Instant::now();
-        let failure = self.element_loop(x, None).map_err(fatal)?;
-        if let Some(msg) = self.any_failure(&failure) {
+        let local = self.guarded_loop(x, None);
+        if let Err(e) = self.agree(local) {
             self.timers.residual += t0.elapsed().as_secs_f64();
-            return Err(ProblemError::Domain(msg));
+            return Err(e);
         }
         f.set(0.0).map_err(fatal)?;
         self.scatter.add_back(&self.f_local, f).map_err(fatal)?;
@@ -438,7 +455,7 @@ impl NonlinearProblem for Assembler<'_> {
             self.build_pattern(j).map_err(fatal)?;
         }
         let t0 = Instant::now();
-        let failure = match self.mode {
+        let local = match self.mode {
             MatrixAssembly::Coo => {
                 let mut values = std::mem::take(&mut self.coo_values);
                 let offsets = std::mem::take(&mut self.coo_offsets);
@@ -447,37 +464,39 @@ impl NonlinearProblem for Assembler<'_> {
                         offsets: &offsets,
                         values: &mut values,
                     };
-                    self.element_loop(x, Some(&mut sink))
+                    self.guarded_loop(x, Some(&mut sink))
                 };
                 // Identity rows of the constrained unknowns.
                 let tail = offsets[offsets.len() - 2];
                 values[tail..].fill(1.0);
                 self.coo_values = values;
                 self.coo_offsets = offsets;
-                res.map_err(fatal)?
+                res
             }
-            MatrixAssembly::Preallocated => {
-                j.zero().map_err(fatal)?;
-                // The element loop needs `&mut self` while the sink reads `constrained`: move it out.
-                let constrained = std::mem::take(&mut self.constrained);
-                let mut sink = PetscSink {
-                    mat: j,
-                    constrained: &constrained,
-                    rows: Vec::new(),
-                    err: None,
-                };
-                let res = self.element_loop(x, Some(&mut sink));
-                let err = sink.err.take();
-                self.constrained = constrained;
-                if let Some(e) = err {
-                    return Err(fatal(e));
+            MatrixAssembly::Preallocated => match j.zero() {
+                Err(e) => Err(fatal(e)),
+                Ok(()) => {
+                    // The element loop needs `&mut self` while the sink reads `constrained`: move it out.
+                    let constrained = std::mem::take(&mut self.constrained);
+                    let mut sink = PetscSink {
+                        mat: j,
+                        constrained: &constrained,
+                        rows: Vec::new(),
+                        err: None,
+                    };
+                    let res = self.guarded_loop(x, Some(&mut sink));
+                    let err = sink.err.take();
+                    self.constrained = constrained;
+                    match err {
+                        Some(e) => Err(fatal(e)),
+                        None => res,
+                    }
                 }
-                res.map_err(fatal)?
-            }
+            },
         };
-        if let Some(msg) = self.any_failure(&failure) {
+        if let Err(e) = self.agree(local) {
             self.timers.jacobian += t0.elapsed().as_secs_f64();
-            return Err(ProblemError::Domain(msg));
+            return Err(e);
         }
         match self.mode {
             MatrixAssembly::Coo => j.set_values_coo(&self.coo_values).map_err(fatal)?,

@@ -22,9 +22,9 @@ pub struct LocalDof(pub u32);
 /// Errors in building the numbering.
 #[derive(Debug, Clone, thiserror::Error)]
 pub enum DofMapError {
-    /// A tie would make a node its own master through a chain or cycle that cannot be resolved.
-    #[error("periodic tie cycle through node {0}")]
-    TieCycle(u32),
+    /// A tie names a node that does not exist.
+    #[error("periodic tie names node {0}, which does not exist")]
+    TieNode(u32),
     /// The problem is too large for PETSc's 32-bit indices.
     #[error(
         "{0} unknowns do not fit PETSc's 32-bit PetscInt; build PETSc with --with-64-bit-indices"
@@ -41,7 +41,8 @@ pub enum DofMapError {
 pub struct DofMap {
     /// Unknowns per node.
     pub dim: usize,
-    /// Representative node of each node after ties: `rep[n] == n` unless `n` is tied to another node.
+    /// Representative node of each node after ties: the smallest node of its tie group (itself when
+    /// untied).
     /// [n_nodes]
     pub rep: Vec<u32>,
     /// First global unknown of each representative node (`-1` for nodes that are not representatives
@@ -82,22 +83,29 @@ impl DofMap {
                 expected: n_cells,
             });
         }
-        // Resolve tie chains (a slave of a slave) to one representative per group.
+        // Ties join nodes into groups (union-find, so chains, several ties on one node and mutual
+        // pairs all work); a group's representative is its smallest node id.
         let mut rep: Vec<u32> = (0..n_nodes as u32).collect();
-        for &(s, m) in ties {
-            rep[s as usize] = m;
+        fn find(p: &mut [u32], mut x: u32) -> u32 {
+            while p[x as usize] != x {
+                p[x as usize] = p[p[x as usize] as usize];
+                x = p[x as usize];
+            }
+            x
         }
-        for n in 0..n_nodes {
-            let mut r = rep[n];
-            let mut hops = 0;
-            while rep[r as usize] != r {
-                r = rep[r as usize];
-                hops += 1;
-                if hops > n_nodes {
-                    return Err(DofMapError::TieCycle(n as u32));
+        for &(a, b) in ties {
+            for n in [a, b] {
+                if n as usize >= n_nodes {
+                    return Err(DofMapError::TieNode(n));
                 }
             }
-            rep[n] = r;
+            let (ra, rb) = (find(&mut rep, a), find(&mut rep, b));
+            if ra != rb {
+                rep[ra.max(rb) as usize] = ra.min(rb);
+            }
+        }
+        for n in 0..n_nodes as u32 {
+            rep[n as usize] = find(&mut rep, n);
         }
         // Owner of a representative: the lowest rank among the cells touching any node of its group.
         let mut owner = vec![u32::MAX; n_nodes];
@@ -243,9 +251,26 @@ mod tests {
     }
 
     #[test]
-    fn tie_cycle_is_an_error() {
+    fn ties_form_groups_whatever_their_order_and_multiplicity() {
         let (off, nodes) = strip();
-        let e = DofMap::new(2, 8, &off, &nodes, &[0, 0, 0], &[(3, 0), (0, 3)], 1, 0);
-        assert!(matches!(e, Err(DofMapError::TieCycle(_))));
+        // Mutual pair, and node 3 tied twice (to 0 and to 7): all of 0, 3, 7 share unknowns.
+        let m = DofMap::new(
+            2,
+            8,
+            &off,
+            &nodes,
+            &[0, 0, 0],
+            &[(3, 0), (0, 3), (3, 7)],
+            1,
+            0,
+        )
+        .unwrap();
+        assert_eq!(m.n_global(), 12);
+        assert_eq!(m.global(0, 0), m.global(3, 0));
+        assert_eq!(m.global(7, 1), m.global(0, 1));
+        assert!(matches!(
+            DofMap::new(2, 8, &off, &nodes, &[0, 0, 0], &[(3, 99)], 1, 0),
+            Err(DofMapError::TieNode(99))
+        ));
     }
 }

@@ -373,20 +373,47 @@ impl Model {
                     slaves.len()
                 )));
             }
+            // One-to-one: every slave matches exactly one master within the tolerance, and no master
+            // serves two slaves (a loose tolerance would otherwise tie the wrong nodes silently).
+            let mut used = vec![false; masters.len()];
             for &s in &slaves {
                 let xs = &coords[s as usize * dim..(s as usize + 1) * dim];
-                let hit = masters.iter().copied().find(|&m| {
-                    let xm = &coords[m as usize * dim..(m as usize + 1) * dim];
-                    (0..dim).all(|k| (xs[k] - t.offset[k] - xm[k]).abs() <= t.tolerance)
-                });
-                match hit {
-                    Some(m) if m != s => ties.push((s, m)),
-                    Some(_) => {}
-                    None => {
+                let hits: Vec<usize> = (0..masters.len())
+                    .filter(|&i| {
+                        let m = masters[i] as usize;
+                        let xm = &coords[m * dim..(m + 1) * dim];
+                        (0..dim).all(|k| (xs[k] - t.offset[k] - xm[k]).abs() <= t.tolerance)
+                    })
+                    .collect();
+                match hits.as_slice() {
+                    [i] if !used[*i] => {
+                        used[*i] = true;
+                        if masters[*i] != s {
+                            ties.push((s, masters[*i]));
+                        }
+                    }
+                    [i] => {
                         return Err(tie_err(format!(
-                        "slave node at {xs:?} of `{}` has no master node in `{}` at offset {:?}",
-                        t.slave, t.master, t.offset
-                    )))
+                            "master node at {:?} of `{}` would be tied to two slave nodes of `{}`",
+                            &coords[masters[*i] as usize * dim..(masters[*i] as usize + 1) * dim],
+                            t.master,
+                            t.slave
+                        )))
+                    }
+                    [] => {
+                        return Err(tie_err(format!(
+                            "slave node at {xs:?} of `{}` has no master node in `{}` at offset {:?}",
+                            t.slave, t.master, t.offset
+                        )))
+                    }
+                    _ => {
+                        return Err(tie_err(format!(
+                            "slave node at {xs:?} of `{}` matches {} master nodes of `{}` within tolerance {}: use a smaller `tolerance`",
+                            t.slave,
+                            hits.len(),
+                            t.master,
+                            t.tolerance
+                        )))
                     }
                 }
             }

@@ -58,33 +58,6 @@ impl Petsc {
         &self.comm
     }
 
-    /// Sets a default in the options database unless the user already gave that option.
-    pub fn set_default_option(&self, name: &str, value: Option<&str>) -> Result<(), PetscError> {
-        let n = CString::new(name).unwrap_or_default();
-        let mut set = sys::PetscBool(0);
-        // SAFETY: null options means the global database; `n` is a valid C string.
-        unsafe {
-            call!(PetscOptionsHasName(
-                std::ptr::null_mut(),
-                std::ptr::null(),
-                n.as_ptr(),
-                &mut set
-            ))?
-        };
-        if set.0 != 0 {
-            return Ok(());
-        }
-        let v = value.map(|v| CString::new(v).unwrap_or_default());
-        // SAFETY: as above; a null value means a flag option.
-        unsafe {
-            call!(PetscOptionsSetValue(
-                std::ptr::null_mut(),
-                n.as_ptr(),
-                v.as_ref().map_or(std::ptr::null(), |v| v.as_ptr())
-            ))
-        }
-    }
-
     /// Inserts a string of options (from a case file) into the database; command-line options given
     /// at initialisation are inserted again afterwards so they keep precedence.
     pub fn insert_options(&self, options: &str, command_line: &str) -> Result<(), PetscError> {

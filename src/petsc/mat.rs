@@ -10,6 +10,8 @@ use std::marker::PhantomData;
 pub struct Matrix<'p> {
     raw: sys::Mat,
     owned: bool,
+    /// Entries of the last COO preallocation: the length `set_values_coo` must be given.
+    coo_len: Option<usize>,
     _petsc: PhantomData<&'p Petsc>,
 }
 handle!(Matrix, sys::Mat, sys::MatDestroy);
@@ -38,6 +40,7 @@ impl<'p> Matrix<'p> {
         Ok(Matrix {
             raw,
             owned: true,
+            coo_len: None,
             _petsc: PhantomData,
         })
     }
@@ -50,6 +53,7 @@ impl<'p> Matrix<'p> {
         Matrix {
             raw,
             owned: false,
+            coo_len: None,
             _petsc: PhantomData,
         }
     }
@@ -64,11 +68,15 @@ impl<'p> Matrix<'p> {
         rows: &mut [PetscInt],
         cols: &mut [PetscInt],
     ) -> Result<(), PetscError> {
-        assert_eq!(
-            rows.len(),
-            cols.len(),
-            "COO row and column lists differ in length"
-        );
+        if rows.len() != cols.len() {
+            return Err(size_error(
+                "MatSetPreallocationCOO",
+                "row and column lists",
+                rows.len(),
+                cols.len(),
+            ));
+        }
+        self.coo_len = Some(rows.len());
         // SAFETY: both arrays have rows.len() entries; PETSc copies what it needs.
         unsafe {
             call!(MatSetPreallocationCOO(
@@ -85,7 +93,19 @@ impl<'p> Matrix<'p> {
     ///
     /// Collective.
     pub fn set_values_coo(&mut self, values: &[f64]) -> Result<(), PetscError> {
-        // SAFETY: `values` has the length given at preallocation (checked by the caller's pattern).
+        match self.coo_len {
+            Some(n) if n == values.len() => {}
+            Some(n) => return Err(size_error("MatSetValuesCOO", "values", n, values.len())),
+            None => {
+                return Err(size_error(
+                    "MatSetValuesCOO",
+                    "values before any COO preallocation",
+                    0,
+                    values.len(),
+                ))
+            }
+        }
+        // SAFETY: `values` has the length given at preallocation (checked just above).
         unsafe {
             call!(MatSetValuesCOO(
                 self.raw,
@@ -103,7 +123,19 @@ impl<'p> Matrix<'p> {
         d_nnz: &[PetscInt],
         o_nnz: &[PetscInt],
     ) -> Result<(), PetscError> {
-        // SAFETY: arrays have one entry per local row; PETSc ignores the call that does not match the type.
+        let (mut m, mut n) = (0, 0);
+        // SAFETY: valid handle; writes two integers.
+        unsafe { call!(MatGetLocalSize(self.raw, &mut m, &mut n))? };
+        let rows = m.max(0) as usize;
+        if d_nnz.len() != rows || o_nnz.len() != rows {
+            return Err(size_error(
+                "MatMPIAIJSetPreallocation",
+                "per-row counts",
+                rows,
+                d_nnz.len().min(o_nnz.len()),
+            ));
+        }
+        // SAFETY: arrays have one entry per local row (checked just above); PETSc ignores the call that does not match the type.
         unsafe {
             call!(MatSeqAIJSetPreallocation(self.raw, 0, d_nnz.as_ptr()))?;
             call!(MatMPIAIJSetPreallocation(
@@ -135,7 +167,14 @@ impl<'p> Matrix<'p> {
         cols: &[PetscInt],
         vals: &[f64],
     ) -> Result<(), PetscError> {
-        debug_assert_eq!(vals.len(), rows.len() * cols.len());
+        if vals.len() != rows.len() * cols.len() {
+            return Err(size_error(
+                "MatSetValues",
+                "values",
+                rows.len() * cols.len(),
+                vals.len(),
+            ));
+        }
         // SAFETY: sizes match the slices.
         unsafe {
             call!(MatSetValues(
@@ -199,5 +238,14 @@ impl<'p> Matrix<'p> {
     pub fn mult(&self, x: &super::Vector, y: &mut super::Vector) -> Result<(), PetscError> {
         // SAFETY: valid handles with compatible layouts (checked by PETSc).
         unsafe { call!(MatMult(self.raw, x.as_raw(), y.as_raw())) }
+    }
+}
+
+/// PETSc's "nonconforming object sizes" error (PETSC_ERR_ARG_SIZ), raised before calling PETSc.
+fn size_error(function: &'static str, what: &str, expected: usize, got: usize) -> PetscError {
+    PetscError {
+        code: 60,
+        function,
+        message: format!("{what}: expected {expected} entries, got {got}"),
     }
 }

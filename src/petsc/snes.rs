@@ -50,6 +50,9 @@ pub struct Snes<'p> {
     raw: sys::SNES,
     owned: bool,
     history: Vec<f64>,
+    /// Linear iterations per Newton step; PETSc writes here, so the buffer must live as long as
+    /// the SNES even though nothing reads it.
+    #[allow(dead_code)]
     history_its: Vec<PetscInt>,
     _petsc: PhantomData<&'p Petsc>,
 }
@@ -57,6 +60,9 @@ handle!(Snes, sys::SNES, sys::SNESDestroy);
 
 struct Context<'a> {
     problem: &'a mut dyn NonlinearProblem,
+    /// The caller's Jacobian wrapper (type-erased `*mut Matrix`): handed back to the problem so the
+    /// wrapper's own state (its COO size) is the one PETSc's callbacks see.
+    jac: *mut c_void,
     domain: Option<String>,
     fatal: Option<String>,
 }
@@ -113,8 +119,18 @@ unsafe extern "C" fn jacobian_trampoline(
     // SAFETY: as in residual_trampoline; j is the matrix we registered, alive during the call.
     let ctx = unsafe { &mut *(ctx as *mut Context) };
     let xv = unsafe { Vector::borrowed(x) };
-    let mut jm = unsafe { Matrix::borrowed(j) };
-    match catch_unwind(AssertUnwindSafe(|| ctx.problem.jacobian(&xv, &mut jm))) {
+    // SAFETY: ctx.jac points to the `Matrix` the caller passed to `solve`, which is not used by the
+    // caller while SNESSolve runs; SNES hands back the same Mat we registered, checked here.
+    let caller = unsafe { &mut *(ctx.jac as *mut Matrix) };
+    let mut borrowed;
+    let jm: &mut Matrix = if caller.as_raw() == j {
+        caller
+    } else {
+        // SAFETY: j is a valid Mat owned by SNES for the duration of the call.
+        borrowed = unsafe { Matrix::borrowed(j) };
+        &mut borrowed
+    };
+    match catch_unwind(AssertUnwindSafe(|| ctx.problem.jacobian(&xv, jm))) {
         Ok(Ok(())) => 0,
         Ok(Err(ProblemError::Domain(msg))) => {
             ctx.domain = Some(msg);
@@ -218,8 +234,10 @@ impl<'p> Snes<'p> {
         x: &mut Vector,
         jac: &mut Matrix,
     ) -> Result<SolveOutcome, PetscError> {
+        let jac_raw = jac.as_raw();
         let mut ctx = Context {
             problem,
+            jac: jac as *mut Matrix as *mut c_void,
             domain: None,
             fatal: None,
         };
@@ -235,8 +253,8 @@ impl<'p> Snes<'p> {
             ))?;
             call!(SNESSetJacobian(
                 self.raw,
-                jac.as_raw(),
-                jac.as_raw(),
+                jac_raw,
+                jac_raw,
                 Some(jacobian_trampoline),
                 ctx_ptr
             ))?;
@@ -278,7 +296,6 @@ impl<'p> Snes<'p> {
                 .into_owned()
         };
         let n = (n_hist.max(0) as usize).min(self.history.len());
-        let _ = &self.history_its;
         Ok(SolveOutcome {
             converged: reason.0 > 0,
             reason: reason_text,

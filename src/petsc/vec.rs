@@ -102,14 +102,6 @@ impl<'p> Vector<'p> {
         Ok((lo, hi))
     }
 
-    /// Global length. Not collective (cached by PETSc).
-    pub fn global_size(&self) -> Result<usize, PetscError> {
-        let mut n = 0;
-        // SAFETY: valid handle.
-        unsafe { call!(VecGetSize(self.raw, &mut n))? };
-        Ok(n as usize)
-    }
-
     /// Read-only view of the locally owned entries.
     pub fn read(&self) -> Result<VecRead<'_>, PetscError> {
         let mut ptr: *const f64 = std::ptr::null();

@@ -92,70 +92,233 @@ pub fn run_load_steps<'p>(
     let mut x_conv = x.duplicate()?;
     x.copy_to(&mut x_conv)?;
     let mut records = Vec::new();
-    let mut lambda = 0.0f64;
+    let mut sizer = StepSizer::new(control);
     let mut step = 0usize;
-    let mut dl = f64::INFINITY;
-    for (stage, &n_steps) in control.stage_steps.iter().enumerate() {
-        let nominal = 1.0 / n_steps.max(1) as f64;
-        let dl_min = nominal / 2f64.powi(control.max_cutbacks.min(60) as i32);
-        let stage_end = (stage + 1) as f64;
-        dl = dl.min(nominal);
-        while stage_end - lambda > 1e-9 * nominal {
-            let t_step = Instant::now();
-            let mut cutbacks = 0;
-            let outcome = loop {
-                let mut target = (lambda + dl).min(stage_end);
-                // Do not leave a sliver of a step at the end of a stage.
-                if stage_end - target < 1e-6 * nominal {
-                    target = stage_end;
-                }
-                let values = prescribed_values(bcs, &asm.dofs, coords, target)?;
-                asm.set_prescribed(&values);
-                // Newton starts from the converged state: its first iteration lifts the new boundary
-                // values into the interior through the tangent, which inverts far fewer elements than
-                // starting from a guess that moves only the boundary.
-                x_conv.copy_to(x)?;
-                let out = snes.solve(asm, x, jac)?;
-                if out.converged {
-                    break (out, target);
-                }
-                asm.rollback();
-                if dl / 2.0 < dl_min * (1.0 - 1e-9) {
-                    return Err(SolverError::StepFailed {
-                        step: step + 1,
-                        stage,
-                        load: target,
-                        cutbacks,
-                        reason: format!(
-                            "the minimum increment {dl_min:.3e} was reached; last attempt: {}",
-                            out.domain_error.unwrap_or(out.reason)
-                        ),
-                    });
-                }
-                cutbacks += 1;
-                dl /= 2.0;
-            };
-            let (out, target) = outcome;
-            lambda = target;
-            step += 1;
-            asm.commit();
-            x.copy_to(&mut x_conv)?;
-            let rec = StepRecord {
-                step,
-                stage,
-                load: lambda,
-                iterations: out.iterations,
-                residual: out.residual_history.last().copied().unwrap_or(0.0),
-                cutbacks,
-                residual_history: out.residual_history,
-                wall_time: t_step.elapsed().as_secs_f64(),
-            };
-            observer(&rec, x, asm).map_err(SolverError::Observer)?;
-            records.push(rec);
-            if out.iterations <= control.easy_iterations && cutbacks == 0 {
-                dl = (dl * control.growth).min(nominal);
+    while let Some(stage) = sizer.stage() {
+        let t_step = Instant::now();
+        let mut cutbacks = 0;
+        let (out, target) = loop {
+            let target = sizer.target();
+            let values = prescribed_values(bcs, &asm.dofs, coords, target)?;
+            asm.set_prescribed(&values);
+            // Newton starts from the converged state: its first iteration lifts the new boundary
+            // values into the interior through the tangent, which inverts far fewer elements than
+            // starting from a guess that moves only the boundary.
+            x_conv.copy_to(x)?;
+            let out = snes.solve(asm, x, jac)?;
+            if out.converged {
+                break (out, target);
             }
-        }
+            asm.rollback();
+            if let Err(min) = sizer.cut_back() {
+                return Err(SolverError::StepFailed {
+                    step: step + 1,
+                    stage,
+                    load: target,
+                    cutbacks,
+                    reason: format!(
+                        "the minimum increment {min:.3e} was reached; last attempt: {}",
+                        out.domain_error.unwrap_or(out.reason)
+                    ),
+                });
+            }
+            cutbacks += 1;
+        };
+        sizer.accept(target, out.iterations, cutbacks);
+        step += 1;
+        asm.commit();
+        x.copy_to(&mut x_conv)?;
+        let rec = StepRecord {
+            step,
+            stage,
+            load: target,
+            iterations: out.iterations,
+            residual: out.residual_history.last().copied().unwrap_or(0.0),
+            cutbacks,
+            residual_history: out.residual_history,
+            wall_time: t_step.elapsed().as_secs_f64(),
+        };
+        observer(&rec, x, asm).map_err(SolverError::Observer)?;
+        records.push(rec);
     }
     Ok(records)
+}
+
+/// The step-size logic of the load stepping, apart from any solver so it can be tested alone.
+///
+/// Increments are in units of the load parameter; each stage starts from its own nominal increment
+/// `1 / steps`. A cutback halves the increment actually tried (which may have been clipped to the
+/// stage end), never below `nominal / 2^max_cutbacks`. After an easy step without cutbacks the
+/// increment grows by `growth`, up to the nominal one. A remainder of a stage smaller than a quarter
+/// of the current increment is taken together with the step before it, so no sliver steps remain.
+#[derive(Debug, Clone)]
+pub struct StepSizer {
+    steps: Vec<usize>,
+    max_cutbacks: usize,
+    growth: f64,
+    easy_iterations: usize,
+    stage: usize,
+    lambda: f64,
+    dl: f64,
+}
+
+impl StepSizer {
+    /// A sizer at load 0, stage 0.
+    pub fn new(control: &StepControl) -> Self {
+        let mut s = StepSizer {
+            steps: control.stage_steps.clone(),
+            max_cutbacks: control.max_cutbacks.min(60),
+            growth: control.growth.max(1.0),
+            easy_iterations: control.easy_iterations,
+            stage: 0,
+            lambda: 0.0,
+            dl: 0.0,
+        };
+        s.dl = s.nominal();
+        s
+    }
+
+    fn nominal(&self) -> f64 {
+        1.0 / self.steps.get(self.stage).copied().unwrap_or(1).max(1) as f64
+    }
+
+    fn minimum(&self) -> f64 {
+        self.nominal() / 2f64.powi(self.max_cutbacks as i32)
+    }
+
+    fn stage_end(&self) -> f64 {
+        (self.stage + 1) as f64
+    }
+
+    /// The stage of the next step, or `None` when all stages are done.
+    pub fn stage(&self) -> Option<usize> {
+        (self.stage < self.steps.len()).then_some(self.stage)
+    }
+
+    /// The load the next attempt should reach.
+    pub fn target(&self) -> f64 {
+        let end = self.stage_end();
+        let t = self.lambda + self.dl;
+        if end - t < 0.25 * self.dl {
+            end
+        } else {
+            t
+        }
+    }
+
+    /// The attempt at [`target`](Self::target) failed: halve the increment actually tried. Returns
+    /// the minimum increment as the error when the halved increment would be below it.
+    pub fn cut_back(&mut self) -> Result<(), f64> {
+        let tried = self.target() - self.lambda;
+        let min = self.minimum();
+        if tried / 2.0 < min * (1.0 - 1e-9) {
+            return Err(min);
+        }
+        self.dl = tried / 2.0;
+        Ok(())
+    }
+
+    /// The attempt converged at `target` in `iterations` Newton iterations after `cutbacks` failures.
+    pub fn accept(&mut self, target: f64, iterations: usize, cutbacks: usize) {
+        self.lambda = target;
+        if iterations <= self.easy_iterations && cutbacks == 0 {
+            self.dl = (self.dl * self.growth).min(self.nominal());
+        }
+        if self.stage_end() - self.lambda <= 1e-12 * self.stage_end() {
+            self.lambda = self.stage_end();
+            self.stage += 1;
+            // Each stage starts from its own nominal increment.
+            self.dl = self.nominal();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn control(steps: Vec<usize>, max_cutbacks: usize) -> StepControl {
+        StepControl {
+            stage_steps: steps,
+            max_cutbacks,
+            growth: 2.0,
+            easy_iterations: 4,
+        }
+    }
+
+    /// Drives the sizer with a rule deciding which targets fail; returns the accepted loads.
+    fn drive(c: &StepControl, mut fails: impl FnMut(f64, f64) -> bool) -> Result<Vec<f64>, f64> {
+        let mut s = StepSizer::new(c);
+        let mut loads = Vec::new();
+        let mut lambda = 0.0;
+        while s.stage().is_some() {
+            let mut cut = 0;
+            loop {
+                let t = s.target();
+                if !fails(lambda, t) {
+                    s.accept(t, 3, cut);
+                    lambda = t;
+                    loads.push(t);
+                    break;
+                }
+                s.cut_back()?;
+                cut += 1;
+            }
+            assert!(loads.len() < 10_000, "runaway");
+        }
+        Ok(loads)
+    }
+
+    #[test]
+    fn nominal_steps_reach_every_stage_end_exactly() {
+        let loads = drive(&control(vec![4, 2], 3), |_, _| false).unwrap();
+        assert_eq!(loads, vec![0.25, 0.5, 0.75, 1.0, 1.5, 2.0]);
+    }
+
+    #[test]
+    fn a_cutback_halves_the_increment_actually_tried_at_a_stage_end() {
+        // From 0.75 the clipped attempt to 1.0 fails once: the retry must be 0.875, not 1.0 again.
+        // With max_cutbacks = 1 a repeat of the same 0.25 attempt would exhaust the budget.
+        let c = control(vec![4], 1);
+        let mut failed = false;
+        let loads = drive(&c, |from, to| {
+            let fail = !failed && (from - 0.75).abs() < 1e-12 && (to - 1.0).abs() < 1e-12;
+            failed |= fail;
+            fail
+        });
+        assert_eq!(loads.unwrap(), vec![0.25, 0.5, 0.75, 0.875, 1.0]);
+    }
+
+    #[test]
+    fn each_stage_starts_from_its_own_nominal_increment() {
+        // Stage 0 has 100 tiny steps; stage 1 has 2, which must be 2 steps, not 50.
+        let loads = drive(&control(vec![100, 2], 4), |_, _| false).unwrap();
+        assert_eq!(loads.len(), 102);
+        assert!((loads[100] - 1.5).abs() < 1e-12 && (loads[101] - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_minimum_increment_stops_a_step_that_always_fails() {
+        let err = drive(&control(vec![2], 3), |from, _| from >= 0.5).unwrap_err();
+        assert!((err - 0.5 / 8.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn increments_grow_back_after_easy_steps_and_leave_no_slivers() {
+        // One failure at the first attempt from 0: cut to 0.125; the next step (no cutback, easy)
+        // keeps 0.125 and then grows back to the nominal 0.25.
+        let mut failed = false;
+        let loads = drive(&control(vec![4], 4), |from, _| {
+            if from == 0.0 && !failed {
+                failed = true;
+                return true;
+            }
+            false
+        })
+        .unwrap();
+        assert_eq!(loads, vec![0.125, 0.25, 0.5, 0.75, 1.0]);
+        for w in loads.windows(2) {
+            assert!(w[1] - w[0] >= 0.125 - 1e-12, "sliver step in {loads:?}");
+        }
+    }
 }

@@ -3,4 +3,4 @@
 
 pub mod load_stepping;
 
-pub use load_stepping::{run_load_steps, SolverError, StepControl, StepRecord};
+pub use load_stepping::{run_load_steps, SolverError, StepControl, StepRecord, StepSizer};

@@ -36,8 +36,14 @@ fn mpi_env(cmd: &mut Command) {
         .env("OMPI_MCA_rmaps_base_oversubscribe", "1");
 }
 
-/// Runs `nurbs-contact args...` on `np` ranks (np = 1 runs it directly, without mpirun).
+/// Longest a single solver run may take in the tests: a run that exceeds it is treated as a hang
+/// (e.g. a rank waiting in a collective call another rank never makes) and fails the test.
+const RUN_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(300);
+
+/// Runs `nurbs-contact args...` on `np` ranks (np = 1 runs it directly, without mpirun); kills it
+/// and fails the test if it runs past [`RUN_TIMEOUT`].
 pub fn run(np: usize, args: &[&str]) -> Output {
+    use std::io::Read;
     let mut cmd = if np == 1 {
         Command::new(bin())
     } else {
@@ -45,9 +51,43 @@ pub fn run(np: usize, args: &[&str]) -> Output {
         c.args(["--oversubscribe", "-np", &np.to_string(), bin()]);
         c
     };
-    cmd.args(args);
+    cmd.args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped());
     mpi_env(&mut cmd);
-    cmd.output().expect("failed to start nurbs-contact")
+    let mut child = cmd.spawn().expect("failed to start nurbs-contact");
+    // Drain both pipes on threads so a chatty run cannot block on a full pipe.
+    let mut out_pipe = child.stdout.take().expect("stdout pipe");
+    let mut err_pipe = child.stderr.take().expect("stderr pipe");
+    let out_t = std::thread::spawn(move || {
+        let mut b = Vec::new();
+        let _ = out_pipe.read_to_end(&mut b);
+        b
+    });
+    let err_t = std::thread::spawn(move || {
+        let mut b = Vec::new();
+        let _ = err_pipe.read_to_end(&mut b);
+        b
+    });
+    let t0 = std::time::Instant::now();
+    let status = loop {
+        if let Some(st) = child.try_wait().expect("wait for nurbs-contact") {
+            break st;
+        }
+        if t0.elapsed() > RUN_TIMEOUT {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!(
+                "nurbs-contact {args:?} on {np} ranks did not finish in {RUN_TIMEOUT:?}: a hang?"
+            );
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    };
+    Output {
+        status,
+        stdout: out_t.join().unwrap_or_default(),
+        stderr: err_t.join().unwrap_or_default(),
+    }
 }
 
 /// Runs and asserts success, printing the output otherwise.
