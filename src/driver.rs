@@ -424,12 +424,25 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
                 rec.load, rec.step, rec.iterations, rec.residual
             ));
         }
-        log(rank, v, Verbosity::Verbose, || {
-            format!(
-                "step {:4}  stage {}  load {:.6}  newton {:2}  |F| {:.3e}  cutbacks {}",
-                rec.step, rec.stage, rec.load, rec.iterations, rec.residual, rec.cutbacks
-            )
-        });
+        // Without a progress bar (not a terminal, or -v), one plain line per step; with -v the line
+        // also carries the Newton residual history of the step.
+        if bar.is_none() {
+            log(rank, v, Verbosity::Normal, || {
+                let mut line = format!(
+                    "step {:4}  stage {}  load {:.6}  newton {:2}  |F| {:.3e}  cutbacks {}",
+                    rec.step, rec.stage, rec.load, rec.iterations, rec.residual, rec.cutbacks
+                );
+                if v >= Verbosity::Verbose {
+                    let h: Vec<String> = rec
+                        .residual_history
+                        .iter()
+                        .map(|r| format!("{r:.2e}"))
+                        .collect();
+                    line += &format!("  history [{}]", h.join(" "));
+                }
+                line
+            });
+        }
         Ok(())
     };
     let t_solve = Instant::now();
