@@ -398,6 +398,7 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
             iterations: rec.iterations as u32,
             cutbacks: rec.cutbacks as u32,
             residual_history: rec.residual_history.clone(),
+            failed_attempts: rec.failed_attempts.clone(),
         });
         let reactions: Vec<f64> = model
             .reactions
@@ -425,7 +426,12 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
             ));
         }
         // Without a progress bar (not a terminal, or -v), one plain line per step; with -v the line
-        // also carries the Newton residual history of the step.
+        // also carries the Newton residual history of the step, after a line per cutback.
+        for (load, why) in &rec.failed_attempts {
+            log(rank, v, Verbosity::Verbose, || {
+                format!("  cutback: load {load:.6} failed: {why}")
+            });
+        }
         if bar.is_none() {
             log(rank, v, Verbosity::Normal, || {
                 let mut line = format!(

@@ -57,6 +57,9 @@ pub struct StepLog {
     pub cutbacks: u32,
     /// Residual norm before each Newton iteration and after the last.
     pub residual_history: Vec<f64>,
+    /// Attempts cut back before the step converged: `[load tried, reason]`.
+    #[serde(default)]
+    pub failed_attempts: Vec<(f64, String)>,
 }
 
 /// How the run ended: `"status": "converged"` or `"status": "failed", "reason": "..."`.
@@ -131,6 +134,7 @@ mod tests {
                 iterations: 4,
                 cutbacks: 1,
                 residual_history: vec![1.0, 1e-3, 1e-9],
+                failed_attempts: vec![(1.0, "DIVERGED_LINE_SEARCH".into())],
             }],
             status,
         }

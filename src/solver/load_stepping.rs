@@ -42,6 +42,8 @@ pub struct StepRecord {
     pub cutbacks: usize,
     /// Residual norm before each Newton iteration of the converged attempt.
     pub residual_history: Vec<f64>,
+    /// The attempts cut back before this step converged: (load tried, why it failed).
+    pub failed_attempts: Vec<(f64, String)>,
     /// Wall time of this step, all attempts (s).
     pub wall_time: f64,
 }
@@ -97,6 +99,7 @@ pub fn run_load_steps<'p>(
     while let Some(stage) = sizer.stage() {
         let t_step = Instant::now();
         let mut cutbacks = 0;
+        let mut failed_attempts = Vec::new();
         let (out, target) = loop {
             let target = sizer.target();
             let values = prescribed_values(bcs, &asm.dofs, coords, target)?;
@@ -110,6 +113,11 @@ pub fn run_load_steps<'p>(
                 break (out, target);
             }
             asm.rollback();
+            let why = out
+                .domain_error
+                .clone()
+                .unwrap_or_else(|| out.reason.clone());
+            failed_attempts.push((target, why));
             if let Err(min) = sizer.cut_back() {
                 return Err(SolverError::StepFailed {
                     step: step + 1,
@@ -136,6 +144,7 @@ pub fn run_load_steps<'p>(
             residual: out.residual_history.last().copied().unwrap_or(0.0),
             cutbacks,
             residual_history: out.residual_history,
+            failed_attempts,
             wall_time: t_step.elapsed().as_secs_f64(),
         };
         observer(&rec, x, asm).map_err(SolverError::Observer)?;
