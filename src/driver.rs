@@ -125,30 +125,10 @@ pub fn check_main(
     sets: &[String],
     _petsc_args: Vec<String>,
 ) -> Result<(), Error> {
-    let case = load_case(case_path, sets)?;
-    validate(&case)?;
-    let model = Model::build(&case)?;
+    let (case, model) = load_and_build(case_path, sets)?;
     let part = vec![0u32; model.n_cells()];
-    let dofs = DofMap::new(
-        model.dim,
-        model.n_nodes(),
-        &model.cell_offsets,
-        &model.cell_nodes,
-        &part,
-        &model.ties,
-        1,
-        0,
-    )?;
-    check_conditions_have_unknowns(&case, &model, &dofs)?;
+    let dofs = number_and_check(&case, &model, &part, 1, 0)?;
     let sets = model.element_sets(&case.file, &part, 0)?;
-    for s in 1..=case.stages.len() {
-        prescribed_values(&model.bcs, &dofs, &model.coords, s as f64).map_err(|source| {
-            Error::Conflict {
-                file: case.file.clone(),
-                source,
-            }
-        })?;
-    }
     println!(
         "{}: ok ({} bodies, {} elements in {} sets, {} nodes, {} unknowns, {} stages)",
         case_path.display(),
@@ -160,6 +140,46 @@ pub fn check_main(
         case.stages.len()
     );
     Ok(())
+}
+
+/// Reads, validates and builds a case: the first thing `check` and `run` do.
+fn load_and_build(case_path: &Path, sets: &[String]) -> Result<(Case, Model), Error> {
+    let case = load_case(case_path, sets)?;
+    validate(&case)?;
+    let model = Model::build(&case)?;
+    Ok((case, model))
+}
+
+/// Numbers the unknowns for `part` and checks the Dirichlet conditions against the numbering: no
+/// two conditions may prescribe one unknown differently at any stage end, and every condition must
+/// reach at least one unknown.
+fn number_and_check(
+    case: &Case,
+    model: &Model,
+    part: &[u32],
+    size: usize,
+    rank: usize,
+) -> Result<DofMap, Error> {
+    let dofs = DofMap::new(
+        model.dim,
+        model.n_nodes(),
+        &model.cell_offsets,
+        &model.cell_nodes,
+        part,
+        &model.ties,
+        size,
+        rank,
+    )?;
+    for s in 1..=case.stages.len() {
+        prescribed_values(&model.bcs, &dofs, &model.coords, s as f64).map_err(|source| {
+            Error::Conflict {
+                file: case.file.clone(),
+                source,
+            }
+        })?;
+    }
+    check_conditions_have_unknowns(case, model, &dofs)?;
+    Ok(dofs)
 }
 
 /// A Dirichlet condition on a set none of whose nodes carries unknowns would silently do nothing.
@@ -280,13 +300,7 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
     // Every rank reads and builds the same model. A failure is normally the same on all ranks, but a
     // rank that cannot read a file (a node without the shared file system) must not leave the others
     // waiting: agree on the outcome.
-    let setup = (|| -> Result<(Case, Model), Error> {
-        let case = load_case(&opts.case, &opts.sets)?;
-        validate(&case)?;
-        let model = Model::build(&case)?;
-        Ok((case, model))
-    })();
-    let (case, model) = agree(comm, setup)?;
+    let (case, model) = agree(comm, load_and_build(&opts.case, &opts.sets))?;
     let out_dir = opts
         .out
         .clone()
@@ -306,25 +320,8 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
         }
         comm.process_at_rank(0).broadcast_into(&mut part[..]);
     }
-    let dofs = DofMap::new(
-        model.dim,
-        model.n_nodes(),
-        &model.cell_offsets,
-        &model.cell_nodes,
-        &part,
-        &model.ties,
-        size,
-        rank as usize,
-    )?;
-    for s in 1..=case.stages.len() {
-        prescribed_values(&model.bcs, &dofs, &model.coords, s as f64).map_err(|source| {
-            Error::Conflict {
-                file: case.file.clone(),
-                source,
-            }
-        })?;
-    }
-    check_conditions_have_unknowns(&case, &model, &dofs)?;
+    // Deterministic on every rank (same model, same partition): no agreement needed.
+    let dofs = number_and_check(&case, &model, &part, size, rank as usize)?;
     let sets = agree(
         comm,
         model
