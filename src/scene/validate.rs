@@ -190,7 +190,7 @@ fn check_meshes(case: &Case, dim_ok: bool, v: &mut Issues) {
                         }
                         v.divisions(k("divisions"), &p.divisions);
                     }
-                    Generator::Hemisphere(p) => {
+                    Generator::Hemisphere(p) | Generator::HemisphereNurbs(p) => {
                         v.finite(k("center"), &p.center);
                         v.positive(k("outer_radius"), p.outer_radius);
                         if !(p.thickness > 0.0 && p.thickness < p.outer_radius) {
@@ -203,6 +203,18 @@ fn check_meshes(case: &Case, dim_ok: bool, v: &mut Issues) {
                             );
                         }
                         v.divisions(k("n_surface"), &[p.n_surface]);
+                        if matches!(g, Generator::HemisphereNurbs(_))
+                            && !p.n_surface.is_multiple_of(2)
+                        {
+                            v.push(
+                                k("n_surface"),
+                                format!(
+                                    "must be even for hemisphere_nurbs (2 exact base elements per \
+                                     direction), got {}",
+                                    p.n_surface
+                                ),
+                            );
+                        }
                         v.divisions(k("n_thickness"), &[p.n_thickness]);
                     }
                 }
