@@ -3,6 +3,9 @@
 use super::{CellKind, ExactPatch, Mesh, MeshError};
 use crate::geometry::conics::hollow_hemisphere;
 
+/// Half opening angle (degrees, from the downward axis through the centre) of the `cap` node set.
+pub const CAP_HALF_ANGLE_DEG: f64 = 35.0;
+
 /// Hollow lower hemisphere around `center` = (cx, cy, cz) with outer radius `R` and wall thickness
 /// `h` (rim ring in the plane z = cz, cap pointing down), `n x n` cells over the surface (`n` even,
 /// >= 2) and `m` layers through the thickness.
@@ -36,7 +39,10 @@ use crate::geometry::conics::hollow_hemisphere;
 ///   (u, v) element order (i fastest), and node sets; `outer` carries the exact surface
 ///   ([`Mesh::exact_surfaces`]) for the enriched layer;
 /// - `rim`: node set of the top ring, all nodes through the thickness (z = cz exactly);
-/// - `pole`: node set of the outer pole node (the lowest point, grid point (n/2, n/2)).
+/// - `pole`: node set of the outer pole node (the lowest point, grid point (n/2, n/2));
+/// - `cap`: node set of the outer nodes within [`CAP_HALF_ANGLE_DEG`] of the pole (seen from the
+///   centre): a small loading patch around the first contact point; `inner_cap`: the inner nodes
+///   in the same directions (a patch that a linear and an enriched outer layer share).
 #[allow(non_snake_case)]
 pub fn hemisphere_nurbs(
     center: [f64; 3],
@@ -167,6 +173,16 @@ pub fn hemisphere_nurbs(
         .collect();
     mesh.insert_node_set("rim", rim);
     mesh.insert_node_set("pole", vec![node(n / 2, n / 2, 0)]);
+    // d[2] = -cos(angle from the downward axis)
+    let cap: Vec<u32> = (0..per_layer)
+        .filter(|&a| -dirs[a][2] >= CAP_HALF_ANGLE_DEG.to_radians().cos() - 1e-12)
+        .map(|a| a as u32)
+        .collect();
+    mesh.insert_node_set(
+        "inner_cap",
+        cap.iter().map(|&a| a + (m * per_layer) as u32).collect(),
+    );
+    mesh.insert_node_set("cap", cap);
     mesh.exact_surfaces.insert(
         "outer".into(),
         ExactPatch {
@@ -243,6 +259,33 @@ mod tests {
         assert_eq!(rim.len(), (2 * (n - 1) + 2) * (m + 1));
         for &a in rim {
             assert_eq!(mesh.node(a)[2], C[2], "rim node {a} off the plane z = cz");
+        }
+        for &a in &mesh.node_sets["cap"] {
+            let z = mesh.node(a)[2] - C[2];
+            assert!((radius(&mesh, a) - R).abs() < 1e-12);
+            assert!(
+                -z / R >= 35f64.to_radians().cos() - 1e-12,
+                "cap node {a} too far out"
+            );
+        }
+        // n = 6: the pole and its 4 grid neighbours (29.3 degrees out; the diagonal ones are at 40.4)
+        assert_eq!(mesh.node_sets["cap"].len(), 5);
+        let n8 = hemisphere_nurbs(C, R, h, 8, 1).unwrap();
+        // n = 8: the pole and its first ring (21.6 degrees along the grid lines, 30.2 diagonally)
+        assert_eq!(n8.node_sets["cap"].len(), 9);
+        for (&a, &b) in mesh.node_sets["cap"]
+            .iter()
+            .zip(&mesh.node_sets["inner_cap"])
+        {
+            assert!((radius(&mesh, b) - (R - h)).abs() < 1e-12);
+            let (xa, xb) = (mesh.node(a), mesh.node(b));
+            let d: Vec<f64> = (0..3)
+                .map(|k| (xa[k] - C[k]) / R - (xb[k] - C[k]) / (R - h))
+                .collect();
+            assert!(
+                d.iter().all(|x| x.abs() < 1e-12),
+                "inner cap node {b} not below {a}"
+            );
         }
         let pole = mesh.node_sets["pole"][0];
         let x = mesh.node(pole);
