@@ -126,8 +126,9 @@ impl Mesh {
     ///
     /// A corner Jacobian that is zero up to `1e-10 h^dim` (h = cell diameter) is accepted:
     /// the hemisphere's four rim-corner cells (see [`hemisphere`]) have collinear rim edges
-    /// and therefore det J = 0 exactly at their rim corner nodes, while it stays positive at
-    /// the centre and all Gauss points. A negative corner Jacobian beyond that tolerance is an
+    /// and therefore det J = 0 exactly at their rim corner nodes, and the degenerate hexes of
+    /// [`hemisphere_nurbs`] (a repeated node pair at a collapsed rim point) have det J = 0 on that
+    /// collapsed face, while it stays positive at the centre and all Gauss points. A negative corner Jacobian beyond that tolerance is an
     /// [`MeshError::InvertedCell`].
     pub fn validate(&self) -> Result<(), MeshError> {
         if self.dim != 2 && self.dim != 3 {

@@ -499,3 +499,31 @@ fn patch_test_on_the_hemisphere_shell_is_exact_for_q1c1_and_converges_for_ration
         );
     }
 }
+
+#[test]
+fn exact_surface_follows_mesh_transforms_and_a_node_off_it_is_reported() {
+    use super::enrich::build_enrichment;
+    use crate::mesh::{hemisphere_nurbs::hemisphere_nurbs, transform};
+    use crate::scene::ElementFamily;
+    let q1n2 = ElementFamily::Q1N { p: 2, t: 0 };
+    let mut mesh = hemisphere_nurbs([0.0, 0.0, 1.0], 1.0, 0.3, 4, 1).unwrap();
+    transform::scale(&mut mesh, 2.0).unwrap();
+    transform::translate(&mut mesh, &[0.5, -1.0, 3.0]).unwrap();
+    let e = build_enrichment(&mut mesh.clone(), "outer", q1n2).unwrap();
+    let ExactSurface::Surface(s) = &e.exact else {
+        panic!("3D layer without a surface")
+    };
+    let x = s.point(0.5, 0.5);
+    assert!((x[0] - 0.5).abs() < 1e-14 && (x[1] + 1.0).abs() < 1e-14);
+    assert!((x[2] - 3.0).abs() < 1e-14, "pole at {x:?}");
+    // push the pole node 1e-6 off the sphere
+    let pole = mesh.node_sets["pole"][0] as usize;
+    mesh.coords[3 * pole + 2] -= 1e-6;
+    let err = build_enrichment(&mut mesh, "outer", q1n2)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("away from the exact surface") && err.contains("outer"),
+        "{err}"
+    );
+}

@@ -464,6 +464,22 @@ mod tests {
     }
 
     #[test]
+    fn hemisphere_nurbs_rejects_odd_n_surface() {
+        let text = include_str!("../../cases/hemisphere_rotate_3d.toml");
+        let i = issues(text, &["meshes.shell.n_surface=7"]);
+        assert!(
+            has(
+                &i,
+                "meshes.shell.n_surface",
+                "must be even for hemisphere_nurbs"
+            ),
+            "{i:?}"
+        );
+        let o = ["meshes.shell.n_surface=6".to_string()];
+        assert!(parse_case(text, Path::new("c.toml"), &o).is_ok());
+    }
+
+    #[test]
     fn two_d_only_families_are_rejected_in_3d() {
         for fam in ["Q1E4", "Q1C2", "Q1CH"] {
             let i = issues(
