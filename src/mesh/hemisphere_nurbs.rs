@@ -23,8 +23,11 @@ pub const CAP_HALF_ANGLE_DEG: f64 = 35.0;
 /// the `2 n m` cells along these edges are degenerate hexes with a repeated node pair (a collapsed
 /// through-thickness face); their Jacobian vanishes only on that face (tested positive at all
 /// 2x2x2 Gauss points), and the collapsed points lie on the rim, where section 4.4 prescribes the
-/// displacement, while the pole (the first contact point) is a regular C1 point — the principle the
-/// paper states for its own degenerate elements. The paper's layout (3 x 3, 7 x 7, 11 x 11 cells
+/// displacement, while the pole (the first contact point) is a regular point (S_u x S_v != 0) —
+/// the principle the paper states for its own degenerate elements. (The pole lies on the knot
+/// lines u = 1/2 and v = 1/2, where the exact base joins its 90 degree segments: the reference
+/// surface is smooth there, but the enriched layer's continuity across these two lines is C0, as
+/// at the joints of a 2D arc; every other element boundary has the continuity of Table 1.) The paper's layout (3 x 3, 7 x 7, 11 x 11 cells
 /// over a square with four degenerate rim corners, see [`super::hemisphere`]) has no exact
 /// biquadratic NURBS representation we know of, so we use this exact one; odd `n` is not reachable
 /// with equal elements and the two exact base segments per direction.
