@@ -15,9 +15,11 @@
 //! Node sets ([`Enrichment::remap`]): a replaced surface node in a set is replaced by the
 //! position-type nodes (control points / mid nodes, never tangent pseudo-nodes) of every enriched
 //! element whose basis is nonzero at that node, and every enriched element whose whole linear face
-//! lies in the set brings all its position-type nodes. So a set holding a whole enriched surface gets
-//! all its control points, a patch edge gets the control points of that edge row, and a single
-//! interior node gets the `p` control points whose functions are nonzero there.
+//! lies in the set brings all its position-type nodes; in 3D, a face edge whose two corners lie in the
+//! set brings the control points of that edge row (with t >= 1 some vanish at both corners). So a
+//! set holding a whole enriched surface gets all its control points, a patch edge gets the control
+//! points of that edge row, and a single interior node gets the `p` control points whose functions
+//! are nonzero there.
 //!
 //! Exact geometry and its limits: a 2D arc is split into the fewest equal rational quadratic
 //! segments (< 180 degrees) whose joints are mesh nodes; those joints stay C^0 knots (multiplicity
@@ -209,11 +211,26 @@ impl Enrichment {
                 out.extend(&c.nodes[..c.n_position]);
                 continue;
             }
+            let mut points: Vec<Vec<f64>> = Vec::new();
             for (k, corner) in c.corners.iter().enumerate() {
-                if !set.contains(corner) {
-                    continue;
+                if set.contains(corner) {
+                    points.push(c.corner_reference(k));
                 }
-                c.shape(&c.corner_reference(k), &mut N[..n], &mut dN[..3 * n]);
+            }
+            // a 3D face edge with both ends in the set brings its whole control row: with t >= 1
+            // some of its functions vanish at both corners, but none at the edge's midpoint
+            // (B-spline functions are positive inside their support)
+            if c.corners.len() == 4 {
+                for k in 0..4 {
+                    let l = (k + 1) % 4;
+                    if set.contains(&c.corners[k]) && set.contains(&c.corners[l]) {
+                        let (a, b) = (c.corner_reference(k), c.corner_reference(l));
+                        points.push(a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect());
+                    }
+                }
+            }
+            for xi in &points {
+                c.shape(xi, &mut N[..n], &mut dN[..3 * n]);
                 for a in 0..c.n_position {
                     if N[a].abs() > 1e-14 {
                         out.insert(c.nodes[a]);

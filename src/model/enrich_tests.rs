@@ -527,3 +527,19 @@ fn exact_surface_follows_mesh_transforms_and_a_node_off_it_is_reported() {
         "{err}"
     );
 }
+
+#[test]
+fn hemisphere_rim_set_holds_every_rim_control_point_for_every_family() {
+    for family in ["Q1N2", "Q1N2.1", "Q1N3", "Q1N2.2"] {
+        let m = hemisphere(4, 1, family);
+        let rim = m.set_nodes("b", "rim").unwrap();
+        let mut used = vec![false; m.n_nodes()];
+        m.cell_nodes.iter().for_each(|&a| used[a as usize] = true);
+        // every node with unknowns on the rim plane z = cz (nodes and control points)
+        let on_rim: Vec<u32> = (0..m.n_nodes())
+            .filter(|&a| used[a] && (m.coords[3 * a + 2] - 1.0).abs() < 1e-12)
+            .map(|a| a as u32)
+            .collect();
+        assert_eq!(rim, on_rim, "{family}");
+    }
+}
