@@ -1,7 +1,9 @@
 //! Mesh layer: the unstructured [`Mesh`] of linear parent cells (Quad4 / Hex8) with named node
 //! and face sets, the structured generators for the cases of Corbett & Sauer 2014, section 4
-//! ([`rectangle`], [`half_disk`], [`sector`], [`box3d`], [`hemisphere`]), a Gmsh MSH 4.1 reader
-//! ([`gmsh`]) and rigid helpers ([`transform`]: translate, scale, merge).
+//! ([`rectangle`], [`half_disk`], [`sector`], [`box3d`], [`hemisphere`], [`hemisphere_nurbs`]), a
+//! Gmsh MSH 4.1 reader ([`gmsh`]) and rigid helpers ([`transform`]: translate, scale, merge).
+//! A generator that knows the exact geometry of a contact surface attaches it to the face set as an
+//! [`ExactPatch`] ([`Mesh::exact_surfaces`]), which the enriched layer then uses as is.
 //!
 //! Generators orient every cell that has a face on a contact surface so that this face is
 //! local face 0 (quad: eta = -1; hex: zeta = -1); the NURBS enrichment of a later stage relies
@@ -12,15 +14,18 @@ use std::collections::{BTreeMap, HashMap};
 pub mod box3d;
 mod cell_kind;
 mod error;
+mod exact_patch;
 pub mod gmsh;
 pub mod half_disk;
 pub mod hemisphere;
+pub mod hemisphere_nurbs;
 pub mod rectangle;
 pub mod sector;
 pub mod transform;
 
 pub use cell_kind::CellKind;
 pub use error::MeshError;
+pub use exact_patch::ExactPatch;
 
 /// A mesh of linear parent cells with named node and face sets.
 #[derive(Debug, Clone, PartialEq)]
@@ -41,6 +46,9 @@ pub struct Mesh {
     /// Named face sets of (cell, local face), ordered along the surface where it is a curve
     /// or a patch.
     pub face_sets: BTreeMap<String, Vec<(u32, u8)>>,
+    /// Exact surfaces of face sets, keyed by face-set name (generators that know them, e.g.
+    /// [`hemisphere_nurbs`]); the enriched layer uses them instead of recognising the geometry.
+    pub exact_surfaces: BTreeMap<String, ExactPatch>,
 }
 
 /// Relative tolerance, in units of the cell's own scale `h^dim`, below which a corner Jacobian
@@ -58,6 +66,7 @@ impl Mesh {
             cell_kind: Vec::new(),
             node_sets: BTreeMap::new(),
             face_sets: BTreeMap::new(),
+            exact_surfaces: BTreeMap::new(),
         }
     }
 
@@ -117,8 +126,9 @@ impl Mesh {
     ///
     /// A corner Jacobian that is zero up to `1e-10 h^dim` (h = cell diameter) is accepted:
     /// the hemisphere's four rim-corner cells (see [`hemisphere`]) have collinear rim edges
-    /// and therefore det J = 0 exactly at their rim corner nodes, while it stays positive at
-    /// the centre and all Gauss points. A negative corner Jacobian beyond that tolerance is an
+    /// and therefore det J = 0 exactly at their rim corner nodes, and the degenerate hexes of
+    /// [`hemisphere_nurbs`] (a repeated node pair at a collapsed rim point) have det J = 0 on that
+    /// collapsed face, while it stays positive at the centre and all Gauss points. A negative corner Jacobian beyond that tolerance is an
     /// [`MeshError::InvertedCell`].
     pub fn validate(&self) -> Result<(), MeshError> {
         if self.dim != 2 && self.dim != 3 {
@@ -188,6 +198,19 @@ impl Mesh {
                     set: set.clone(),
                     position: p + 1,
                 });
+            }
+        }
+        for (set, patch) in &self.exact_surfaces {
+            let (nu, nv) = patch.n_faces();
+            let n_faces = self.face_sets.get(set).map(|f| f.len());
+            if n_faces != Some(nu * nv)
+                || patch.nodes.len() != (nu + 1) * (nv + 1)
+                || patch.nodes.iter().any(|&n| n as usize >= n_nodes)
+            {
+                return Err(MeshError::Inconsistent(format!(
+                    "exact surface of face set '{set}' does not match the set ({nu} x {nv} faces \
+                     expected) or refers to missing nodes"
+                )));
             }
         }
         for (set, faces) in &self.face_sets {

@@ -13,6 +13,9 @@ pub fn translate(mesh: &mut Mesh, offset: &[f64]) -> Result<(), MeshError> {
     for x in mesh.coords.chunks_mut(mesh.dim) {
         x.iter_mut().zip(offset).for_each(|(a, b)| *a += b);
     }
+    mesh.exact_surfaces
+        .values_mut()
+        .for_each(|p| p.translate(offset));
     Ok(())
 }
 
@@ -26,6 +29,9 @@ pub fn scale(mesh: &mut Mesh, factor: f64) -> Result<(), MeshError> {
         });
     }
     mesh.coords.iter_mut().for_each(|x| *x *= factor);
+    mesh.exact_surfaces
+        .values_mut()
+        .for_each(|p| p.scale(factor));
     Ok(())
 }
 
@@ -86,6 +92,11 @@ pub fn merge(parts: &[(&str, &Mesh)]) -> Result<(Mesh, Vec<PartRange>), MeshErro
             }
             out.face_sets
                 .insert(key, faces.iter().map(|&(c, f)| (c + c0, f)).collect());
+        }
+        for (name, patch) in &part.exact_surfaces {
+            let mut p = patch.clone();
+            p.nodes.iter_mut().for_each(|n| *n += n0);
+            out.exact_surfaces.insert(rename(name), p);
         }
         ranges.push(PartRange {
             first_node: n0,

@@ -187,6 +187,13 @@ fn generate(case: &Case, name: &str, spec: &MeshSpec) -> Result<Mesh, ModelError
                 p.n_surface,
                 p.n_thickness,
             ),
+            Generator::HemisphereNurbs(p) => mesh::hemisphere_nurbs::hemisphere_nurbs(
+                p.center,
+                p.outer_radius,
+                p.thickness,
+                p.n_surface,
+                p.n_thickness,
+            ),
         },
         MeshSpec::File(f) => mesh::gmsh::read_gmsh(&case.resolve_path(&f.file)),
     }

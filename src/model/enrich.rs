@@ -1,6 +1,8 @@
 //! The enriched layer of a body (Corbett & Sauer 2014, sections 3.1-3.6): from the linear mesh's
 //! ordered contact faces, the exact surface geometry (a straight line or circular arc in 2D, a plane
-//! in 3D), refined to the body's family, and the node lists of the enriched cells.
+//! in 3D, or in 3D the exact surface a generator attached to the face set, e.g. the hemisphere of
+//! `crate::mesh::hemisphere_nurbs`), refined to the body's family, and the node lists of the
+//! enriched cells.
 //!
 //! Numbering (body-local, before global numbering): the mesh nodes keep their ids; new nodes
 //! (control points, Q1C2 mid-face nodes, Q1CH tangent pseudo-nodes) are appended after them, with
@@ -13,16 +15,23 @@
 //! Node sets ([`Enrichment::remap`]): a replaced surface node in a set is replaced by the
 //! position-type nodes (control points / mid nodes, never tangent pseudo-nodes) of every enriched
 //! element whose basis is nonzero at that node, and every enriched element whose whole linear face
-//! lies in the set brings all its position-type nodes. So a set holding a whole enriched surface gets
-//! all its control points, a patch edge gets the control points of that edge row, and a single
-//! interior node gets the `p` control points whose functions are nonzero there.
+//! lies in the set brings all its position-type nodes; in 3D, a face edge whose two corners lie in the
+//! set brings the control points of that edge row (with t >= 1 some vanish at both corners). So a
+//! set holding a whole enriched surface gets all its control points, a patch edge gets the control
+//! points of that edge row, and a single interior node gets the `p` control points whose functions
+//! are nonzero there.
 //!
 //! Exact geometry and its limits: a 2D arc is split into the fewest equal rational quadratic
 //! segments (< 180 degrees) whose joints are mesh nodes; those joints stay C^0 knots (multiplicity
-//! p+t) of the refined curve, every other element boundary has the continuity of Table 1. Curves
-//! other than lines and circles, closed curves and non-planar or non-rectangular 3D patches are
-//! reported as unsupported: in particular the hemisphere, whose NURBS parametrisation in
-//! `geometry::conics::hollow_hemisphere` does not match the hemisphere mesh generator's cells.
+//! p+t) of the refined curve, every other element boundary has the continuity of Table 1; the same
+//! holds for the C^0 knot lines of a generator's exact 3D surface. Curves other than lines and
+//! circles, closed curves, and non-planar or non-rectangular 3D patches without an exact surface
+//! from the generator ([`Mesh::exact_surfaces`]) are reported as unsupported: in particular the
+//! Coons-map `hemisphere` generator's surface (use `hemisphere_nurbs`).
+//!
+//! Degenerate patches: where an edge of the exact surface collapses to a point (the hemisphere's two
+//! rim points), its coincident control points become one node, as the generator merged its mesh
+//! nodes there; an element then lists that node several times, which assembly sums.
 //! The bulk of an enriched body is Q1C1.
 #![allow(clippy::needless_range_loop)] // index loops mirror the equations
 use crate::fem::enriched::{q1c2_2d, q1ch_2d, q1np_2d, q1np_3d, EnrichedElementData};
@@ -31,7 +40,7 @@ use crate::geometry::knots::KnotVector;
 use crate::geometry::nurbs::{NurbsCurve, NurbsSurface};
 use crate::geometry::refine::Direction;
 use crate::geometry::GeometryError;
-use crate::mesh::{CellKind, Mesh};
+use crate::mesh::{CellKind, ExactPatch, Mesh};
 use crate::scene::ElementFamily;
 use std::collections::{BTreeMap, BTreeSet};
 use std::f64::consts::PI;
@@ -143,7 +152,8 @@ pub enum ExactSurface {
     /// 2D: the curve in traversal order of the face set; for Q1Np refined so that knot spans
     /// are the enriched elements.
     Curve(NurbsCurve),
-    /// 3D plane, refined; element `e_u + n_el_u e_v` is face `(e_u, e_v)` of the face grid.
+    /// 3D plane or generator-provided exact surface, refined; element `e_u + n_el_u e_v` is face
+    /// `(e_u, e_v)` of the face grid.
     Surface(NurbsSurface),
 }
 
@@ -201,11 +211,26 @@ impl Enrichment {
                 out.extend(&c.nodes[..c.n_position]);
                 continue;
             }
+            let mut points: Vec<Vec<f64>> = Vec::new();
             for (k, corner) in c.corners.iter().enumerate() {
-                if !set.contains(corner) {
-                    continue;
+                if set.contains(corner) {
+                    points.push(c.corner_reference(k));
                 }
-                c.shape(&c.corner_reference(k), &mut N[..n], &mut dN[..3 * n]);
+            }
+            // a 3D face edge with both ends in the set brings its whole control row: with t >= 1
+            // some of its functions vanish at both corners, but none at the edge's midpoint
+            // (B-spline functions are positive inside their support)
+            if c.corners.len() == 4 {
+                for k in 0..4 {
+                    let l = (k + 1) % 4;
+                    if set.contains(&c.corners[k]) && set.contains(&c.corners[l]) {
+                        let (a, b) = (c.corner_reference(k), c.corner_reference(l));
+                        points.push(a.iter().zip(&b).map(|(x, y)| 0.5 * (x + y)).collect());
+                    }
+                }
+            }
+            for xi in &points {
+                c.shape(xi, &mut N[..n], &mut dN[..3 * n]);
                 for a in 0..c.n_position {
                     if N[a].abs() > 1e-14 {
                         out.insert(c.nodes[a]);
@@ -711,25 +736,114 @@ fn cluster(values: &mut Vec<f64>, tol: f64) {
     values.dedup_by(|a, b| (*a - *b).abs() <= tol);
 }
 
+/// A structured grid of contact faces on an exact surface: what the 3D layer is built from.
+struct FaceGrid {
+    /// The exact geometry at its lowest order (a bilinear plane, the biquadratic hemisphere).
+    base: NurbsSurface,
+    /// Faces per direction.
+    nu: usize,
+    nv: usize,
+    /// Parameters of the interior grid lines: [nu - 1], [nv - 1].
+    xu: Vec<f64>,
+    xv: Vec<f64>,
+    /// Cell of face `(i, j)`: [nv][nu].
+    face_of: Vec<usize>,
+    /// Mesh node of grid point `(i, j)`: [nv + 1][nu + 1]; coincident points share one node.
+    node_of: Vec<u32>,
+    /// Absolute tolerance for "the same point".
+    tol: f64,
+}
+
 fn build_3d(
     mesh: &Mesh,
     set: &str,
     cells: &[usize],
     family: ElementFamily,
 ) -> Result<Enrichment, EnrichError> {
-    let geo = |source| EnrichError::Geometry {
-        set: set.to_string(),
-        source,
-    };
     let ElementFamily::Q1N { p, t } = family else {
         return Err(unsupported(set, format!("{family} is 2D only")));
     };
-    let (p, t) = (p as usize, t as usize);
     for &c in cells {
         if mesh.cell_kind[c] != CellKind::Hex8 {
             return Err(faces_err(set, format!("cell {c} is not a Hex8")));
         }
     }
+    let grid = match mesh.exact_surfaces.get(set) {
+        Some(patch) => exact_grid(mesh, set, cells, patch)?,
+        None => plane_grid(mesh, set, cells)?,
+    };
+    build_3d_on_grid(mesh, set, p as usize, t as usize, grid)
+}
+
+/// The face grid of a generator-provided exact surface, checked against the mesh: face set entry
+/// `i + nu j` must be the cell whose face 0 has the grid corners of face `(i, j)`, and every grid
+/// node must lie on the surface at its parameters.
+fn exact_grid(
+    mesh: &Mesh,
+    set: &str,
+    cells: &[usize],
+    patch: &ExactPatch,
+) -> Result<FaceGrid, EnrichError> {
+    let (nu, nv) = patch.n_faces();
+    if nu * nv != cells.len() || patch.nodes.len() != (nu + 1) * (nv + 1) {
+        return Err(faces_err(
+            set,
+            format!(
+                "the exact surface has {nu} x {nv} faces but the set has {}",
+                cells.len()
+            ),
+        ));
+    }
+    let g = |i: usize, j: usize| patch.nodes[i + (nu + 1) * j];
+    for (e, &c) in cells.iter().enumerate() {
+        let (i, j) = (e % nu, e / nu);
+        if mesh.cell(c)[..4] != [g(i, j), g(i + 1, j), g(i + 1, j + 1), g(i, j + 1)] {
+            return Err(faces_err(
+                set,
+                format!("cell {c} is not face ({i}, {j}) of the exact surface's grid"),
+            ));
+        }
+    }
+    let o = mesh.node(patch.nodes[0]).to_vec();
+    let size = patch
+        .nodes
+        .iter()
+        .map(|&n| dist(mesh.node(n), &o))
+        .fold(0.0, f64::max);
+    let tol = GEOMETRY_TOL * size.max(1.0);
+    for j in 0..=nv {
+        for i in 0..=nu {
+            let x = patch.surface.point(patch.params_u[i], patch.params_v[j]);
+            let d = dist(mesh.node(g(i, j)), &x);
+            if d > tol {
+                return Err(unsupported(
+                    set,
+                    format!(
+                        "node {} is {d:e} away from the exact surface at its grid point ({i}, {j})",
+                        g(i, j)
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(FaceGrid {
+        base: patch.surface.clone(),
+        nu,
+        nv,
+        xu: patch.params_u[1..nu].to_vec(),
+        xv: patch.params_v[1..nv].to_vec(),
+        face_of: cells.to_vec(),
+        node_of: patch.nodes.clone(),
+        tol,
+    })
+}
+
+/// The face grid of a planar rectangular patch, recognised from the nodes.
+fn plane_grid(mesh: &Mesh, set: &str, cells: &[usize]) -> Result<FaceGrid, EnrichError> {
+    let geo = |source| EnrichError::Geometry {
+        set: set.to_string(),
+        source,
+    };
     let x = |n: u32| -> [f64; 3] {
         let v = mesh.node(n);
         [v[0], v[1], v[2]]
@@ -764,8 +878,8 @@ fn build_3d(
     if surf.iter().any(|&n| dot(sub(x(n), o), nrm).abs() > tol) {
         return Err(unsupported(
             set,
-            "the surface nodes are not on a plane (within 1e-10); curved 3D surfaces are not \
-             supported yet (the hemisphere NURBS parametrisation does not match the hemisphere mesh)",
+            "the surface nodes are not on a plane (within 1e-10); other curved 3D surfaces need \
+             their exact geometry from the mesh generator (e.g. `hemisphere_nurbs`)",
         ));
     }
     let st = |n: u32| (dot(sub(x(n), o), e1), dot(sub(x(n), o), e2));
@@ -822,47 +936,120 @@ fn build_3d(
         o[1] + su[0] * e1[1] + sv[0] * e2[1],
         o[2] + su[0] * e1[2] + sv[0] * e2[2],
     ];
-    let s0 = plane_patch(origin, e1.map(|c| c * lu), e2.map(|c| c * lv)).map_err(geo)?;
-    let xu: Vec<f64> = su[1..nu].iter().map(|s| (s - su[0]) / lu).collect();
-    let xv: Vec<f64> = sv[1..nv].iter().map(|s| (s - sv[0]) / lv).collect();
-    let s = s0
-        .elevate(Direction::U, p - 1)
-        .and_then(|s| s.elevate(Direction::V, p - 1))
-        .and_then(|s| s.insert_knots(Direction::U, &xu))
+    let base = plane_patch(origin, e1.map(|c| c * lu), e2.map(|c| c * lv)).map_err(geo)?;
+    Ok(FaceGrid {
+        base,
+        nu,
+        nv,
+        xu: su[1..nu].iter().map(|s| (s - su[0]) / lu).collect(),
+        xv: sv[1..nv].iter().map(|s| (s - sv[0]) / lv).collect(),
+        face_of,
+        node_of,
+        tol,
+    })
+}
+
+/// Refines the grid's exact surface to Q1Np.t (section 3.3: elevate to `p`, insert the grid lines
+/// not yet knots, so each face is one element of continuity C^{p-1} except at the base's own C^0
+/// joints, then elevate `t`) and numbers its control points: the four patch corners are the mesh's
+/// corner nodes (they interpolate), and control points that coincide on the patch boundary (a
+/// collapsed edge of a degenerate patch) are one node, like the mesh's merged nodes there, so the
+/// surface cannot tear; every other grid node becomes a display node.
+fn build_3d_on_grid(
+    mesh: &Mesh,
+    set: &str,
+    p: usize,
+    t: usize,
+    g: FaceGrid,
+) -> Result<Enrichment, EnrichError> {
+    let geo = |source| EnrichError::Geometry {
+        set: set.to_string(),
+        source,
+    };
+    let (nu, nv) = (g.nu, g.nv);
+    let (du, dv) = (g.base.knots_u.degree(), g.base.knots_v.degree());
+    if p < du.max(dv) {
+        return Err(unsupported(
+            set,
+            format!(
+                "Q1N{p} cannot represent this surface exactly (its exact NURBS has order {})",
+                du.max(dv)
+            ),
+        ));
+    }
+    let new_knots = |x: &[f64], kv: &KnotVector| -> Vec<f64> {
+        let knots = kv.unique_with_multiplicity();
+        x.iter()
+            .copied()
+            .filter(|&u| knots.iter().all(|&(k, _)| (k - u).abs() > 1e-12))
+            .collect()
+    };
+    let e = g
+        .base
+        .elevate(Direction::U, p - du)
+        .and_then(|s| s.elevate(Direction::V, p - dv))
+        .map_err(geo)?;
+    let (xu, xv) = (new_knots(&g.xu, &e.knots_u), new_knots(&g.xv, &e.knots_v));
+    let s = e
+        .insert_knots(Direction::U, &xu)
         .and_then(|s| s.insert_knots(Direction::V, &xv))
         .and_then(|s| s.elevate(Direction::U, t))
         .and_then(|s| s.elevate(Direction::V, t))
         .map_err(geo)?;
+    if s.knots_u.n_elements() != nu || s.knots_v.n_elements() != nv {
+        return Err(faces_err(
+            set,
+            format!(
+                "refined surface has {} x {} elements for {nu} x {nv} faces",
+                s.knots_u.n_elements(),
+                s.knots_v.n_elements()
+            ),
+        ));
+    }
     let data = EnrichedElementData::elements_from_surface(&s)
         .map_err(|e| faces_err(set, e.to_string()))?;
     let (ncu, ncv) = s.n_ctrl();
     let n_mesh = mesh.n_nodes();
+    let node_of = &g.node_of;
+    let corner_nodes = [
+        node_of[0],
+        node_of[nu],
+        node_of[(nu + 1) * nv],
+        node_of[nu + (nu + 1) * nv],
+    ];
+    let ctrl = |a: usize| -> &[f64] { &s.ctrl[3 * a..3 * a + 3] };
+    // boundary control points already numbered: (coordinates, node)
+    let mut boundary: Vec<([f64; 3], u32)> = [
+        (0, corner_nodes[0]),
+        (ncu - 1, corner_nodes[1]),
+        (ncu * (ncv - 1), corner_nodes[2]),
+        (ncu * ncv - 1, corner_nodes[3]),
+    ]
+    .iter()
+    .map(|&(a, n)| ([ctrl(a)[0], ctrl(a)[1], ctrl(a)[2]], n))
+    .collect();
     let mut extra = Vec::new();
     let mut ids = Vec::with_capacity(ncu * ncv);
     for j in 0..ncv {
         for i in 0..ncu {
             let a = i + ncu * j;
-            let corner = match (i, j) {
-                (0, 0) => Some(node_of[0]),
-                (i, 0) if i + 1 == ncu => Some(node_of[nu]),
-                (0, j) if j + 1 == ncv => Some(node_of[(nu + 1) * nv]),
-                (i, j) if i + 1 == ncu && j + 1 == ncv => Some(node_of[nu + (nu + 1) * nv]),
-                _ => None,
-            };
-            ids.push(corner.unwrap_or_else(|| {
-                extra.extend_from_slice(&s.ctrl[3 * a..3 * a + 3]);
+            let on_boundary = i == 0 || j == 0 || i + 1 == ncu || j + 1 == ncv;
+            let x = ctrl(a);
+            let same = on_boundary
+                .then(|| boundary.iter().find(|(y, _)| dist(x, y) <= g.tol))
+                .flatten()
+                .map(|&(_, n)| n);
+            let id = same.unwrap_or_else(|| {
+                extra.extend_from_slice(x);
                 (n_mesh + extra.len() / 3 - 1) as u32
-            }));
+            });
+            if on_boundary && same.is_none() {
+                boundary.push(([x[0], x[1], x[2]], id));
+            }
+            ids.push(id);
         }
     }
-    let corners_kept: BTreeSet<u32> = [
-        node_of[0],
-        node_of[nu],
-        node_of[(nu + 1) * nv],
-        node_of[nu + (nu + 1) * nv],
-    ]
-    .into_iter()
-    .collect();
+    let corners_kept: BTreeSet<u32> = corner_nodes.into_iter().collect();
     let replaced: Vec<u32> = node_of
         .iter()
         .copied()
@@ -870,7 +1057,7 @@ fn build_3d(
         .collect();
     let mut out_cells = Vec::with_capacity(nu * nv);
     for (e, d) in data.into_iter().enumerate() {
-        let c = face_of[e];
+        let c = g.face_of[e];
         let cn = mesh.cell(c);
         let mut nodes: Vec<u32> = d.ctrl_ids.iter().map(|&a| ids[a]).collect();
         let n_position = nodes.len();

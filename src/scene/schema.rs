@@ -97,17 +97,25 @@ pub enum Generator {
     Sector(SectorParams),
     Box(BoxParams),
     Hemisphere(HemisphereParams),
+    HemisphereNurbs(HemisphereParams),
 }
 
 impl Generator {
     /// Names accepted for `generator`.
-    pub const NAMES: [&'static str; 5] = ["rectangle", "half_disk", "sector", "box", "hemisphere"];
+    pub const NAMES: [&'static str; 6] = [
+        "rectangle",
+        "half_disk",
+        "sector",
+        "box",
+        "hemisphere",
+        "hemisphere_nurbs",
+    ];
 
     /// The spatial dimension of the mesh this generator builds.
     pub fn dim(&self) -> usize {
         match self {
             Generator::Rectangle(_) | Generator::HalfDisk(_) | Generator::Sector(_) => 2,
-            Generator::Box(_) | Generator::Hemisphere(_) => 3,
+            Generator::Box(_) | Generator::Hemisphere(_) | Generator::HemisphereNurbs(_) => 3,
         }
     }
 
@@ -119,6 +127,7 @@ impl Generator {
             Generator::Sector(_) => "sector",
             Generator::Box(_) => "box",
             Generator::Hemisphere(_) => "hemisphere",
+            Generator::HemisphereNurbs(_) => "hemisphere_nurbs",
         }
     }
 }
@@ -171,14 +180,18 @@ pub struct BoxParams {
 }
 
 /// `generator = "hemisphere"`: hollow lower hemisphere (opening up) of `outer_radius` and wall
-/// `thickness` around `center` (section 4.4).
+/// `thickness` around `center` (section 4.4). `generator = "hemisphere_nurbs"` takes the same
+/// parameters and builds the shell from the exact NURBS outer surface (`n_surface` even: elements
+/// per parametric direction, i.e. along a half great circle; see `crate::mesh::hemisphere_nurbs`),
+/// whose `outer` face set carries the exact geometry for an enriched layer.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct HemisphereParams {
     pub center: [f64; 3],
     pub outer_radius: f64,
     pub thickness: f64,
-    /// Elements along a quarter great circle of the surface.
+    /// `hemisphere`: elements along a side of the square parametrisation; `hemisphere_nurbs`:
+    /// elements per parametric direction (even).
     pub n_surface: usize,
     /// Elements through the wall.
     pub n_thickness: usize,
@@ -512,6 +525,7 @@ impl<'de> Deserialize<'de> for MeshSpec {
                     "sector" => Generator::Sector(from_table(table)?),
                     "box" => Generator::Box(from_table(table)?),
                     "hemisphere" => Generator::Hemisphere(from_table(table)?),
+                    "hemisphere_nurbs" => Generator::HemisphereNurbs(from_table(table)?),
                     other => {
                         return Err(de::Error::custom(nest_message(
                             &format!(

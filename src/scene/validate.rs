@@ -190,7 +190,7 @@ fn check_meshes(case: &Case, dim_ok: bool, v: &mut Issues) {
                         }
                         v.divisions(k("divisions"), &p.divisions);
                     }
-                    Generator::Hemisphere(p) => {
+                    Generator::Hemisphere(p) | Generator::HemisphereNurbs(p) => {
                         v.finite(k("center"), &p.center);
                         v.positive(k("outer_radius"), p.outer_radius);
                         if !(p.thickness > 0.0 && p.thickness < p.outer_radius) {
@@ -203,6 +203,18 @@ fn check_meshes(case: &Case, dim_ok: bool, v: &mut Issues) {
                             );
                         }
                         v.divisions(k("n_surface"), &[p.n_surface]);
+                        if matches!(g, Generator::HemisphereNurbs(_))
+                            && !p.n_surface.is_multiple_of(2)
+                        {
+                            v.push(
+                                k("n_surface"),
+                                format!(
+                                    "must be even for hemisphere_nurbs (2 exact base elements per \
+                                     direction), got {}",
+                                    p.n_surface
+                                ),
+                            );
+                        }
                         v.divisions(k("n_thickness"), &[p.n_thickness]);
                     }
                 }
@@ -449,6 +461,22 @@ mod tests {
         );
         let i = issues(BLOCK_COMPRESSION_3D, &["case.dim=4"]);
         assert!(has(&i, "case.dim", "must be 2 or 3"), "{i:?}");
+    }
+
+    #[test]
+    fn hemisphere_nurbs_rejects_odd_n_surface() {
+        let text = include_str!("../../cases/hemisphere_rotate_3d.toml");
+        let i = issues(text, &["meshes.shell.n_surface=7"]);
+        assert!(
+            has(
+                &i,
+                "meshes.shell.n_surface",
+                "must be even for hemisphere_nurbs"
+            ),
+            "{i:?}"
+        );
+        let o = ["meshes.shell.n_surface=6".to_string()];
+        assert!(parse_case(text, Path::new("c.toml"), &o).is_ok());
     }
 
     #[test]
