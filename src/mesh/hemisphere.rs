@@ -1,6 +1,7 @@
 //! Hollow hemispherical shell of Hex8 cells (the twisting hemisphere of Corbett & Sauer 2014,
 //! section 4.4).
-use super::{CellKind, Mesh, MeshError};
+use super::spherical_shell::{check_shell_parameters, spherical_shell};
+use super::{Mesh, MeshError};
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
 /// Hollow hemisphere around `center` = (cx, cy, cz) with outer radius `R` and wall thickness
@@ -37,20 +38,7 @@ use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 ///   u = -1 top to bottom), layers innermost-loop.
 #[allow(non_snake_case)]
 pub fn hemisphere(center: [f64; 3], R: f64, h: f64, n: usize, m: usize) -> Result<Mesh, MeshError> {
-    if !(R > 0.0 && R.is_finite()) {
-        return Err(MeshError::InvalidParameter {
-            name: "R",
-            value: R.to_string(),
-            reason: "must be positive and finite",
-        });
-    }
-    if !(h > 0.0 && h < R) {
-        return Err(MeshError::InvalidParameter {
-            name: "h",
-            value: h.to_string(),
-            reason: "must lie in (0, R)",
-        });
-    }
+    check_shell_parameters(R, h, m)?;
     if n < 2 {
         return Err(MeshError::InvalidParameter {
             name: "n",
@@ -59,71 +47,18 @@ pub fn hemisphere(center: [f64; 3], R: f64, h: f64, n: usize, m: usize) -> Resul
                 "need at least 2 cells per side of the square so that no cell has three rim edges",
         });
     }
-    if m == 0 {
-        return Err(MeshError::InvalidParameter {
-            name: "m",
-            value: m.to_string(),
-            reason: "need at least one cell through the thickness",
-        });
-    }
-    let mut mesh = Mesh::new(3);
     let n1 = n + 1;
-    for l in 0..=m {
-        let r = R - h * l as f64 / m as f64;
-        for j in 0..=n {
-            for i in 0..=n {
-                let s = -1.0 + 2.0 * i as f64 / n as f64;
-                let t = -1.0 + 2.0 * j as f64 / n as f64;
-                let on_rim = i == 0 || j == 0 || i == n || j == n;
-                let d = unit_sphere_point(s, t, on_rim);
-                mesh.push_node(&[
-                    center[0] + r * d[0],
-                    center[1] + r * d[1],
-                    center[2] + r * d[2],
-                ]);
-            }
+    let mut dirs = Vec::with_capacity(n1 * n1);
+    for j in 0..=n {
+        for i in 0..=n {
+            let s = -1.0 + 2.0 * i as f64 / n as f64;
+            let t = -1.0 + 2.0 * j as f64 / n as f64;
+            let on_rim = i == 0 || j == 0 || i == n || j == n;
+            dirs.push(unit_sphere_point(s, t, on_rim));
         }
     }
-    let node = |i: usize, j: usize, l: usize| ((l * n1 + j) * n1 + i) as u32;
-    for l in 0..m {
-        for j in 0..n {
-            for i in 0..n {
-                mesh.push_cell(
-                    CellKind::Hex8,
-                    &[
-                        node(i, j, l),
-                        node(i + 1, j, l),
-                        node(i + 1, j + 1, l),
-                        node(i, j + 1, l),
-                        node(i, j, l + 1),
-                        node(i + 1, j, l + 1),
-                        node(i + 1, j + 1, l + 1),
-                        node(i, j + 1, l + 1),
-                    ],
-                );
-            }
-        }
-    }
+    let mut mesh = spherical_shell(center, R, h, n, m, &dirs, &|i, j| j * n1 + i);
     let cell = |i: usize, j: usize, l: usize| ((l * n + j) * n + i) as u32;
-    let square: Vec<(usize, usize)> = (0..n).flat_map(|j| (0..n).map(move |i| (i, j))).collect();
-    mesh.face_sets.insert(
-        "outer".into(),
-        square.iter().map(|&(i, j)| (cell(i, j, 0), 0)).collect(),
-    );
-    mesh.face_sets.insert(
-        "inner".into(),
-        square
-            .iter()
-            .map(|&(i, j)| (cell(i, j, m - 1), 1))
-            .collect(),
-    );
-    let surface = |l: usize| -> Vec<u32> {
-        (0..n1)
-            .flat_map(|j| (0..n1).map(move |i| node(i, j, l)))
-            .collect()
-    };
-    mesh.insert_node_set("outer", surface(0));
-    mesh.insert_node_set("inner", surface(m));
     // rim faces, counter-clockwise: v = -1 (face 2), u = 1 (face 3), v = 1 (face 4), u = -1 (face 5)
     let mut rim_faces = Vec::with_capacity(4 * n * m);
     let side_cell = |side: usize, p: usize| -> (u8, usize, usize) {
@@ -206,6 +141,7 @@ fn unit_sphere_point(s: f64, t: f64, on_rim: bool) -> [f64; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mesh::CellKind;
 
     const PAPER_MESHES: [(usize, usize); 3] = [(3, 1), (7, 2), (11, 3)];
 

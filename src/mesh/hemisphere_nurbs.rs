@@ -1,6 +1,7 @@
 //! Hollow hemispherical shell of Hex8 cells built from the exact NURBS outer surface (the twisting
 //! hemisphere of Corbett & Sauer 2014, section 4.4, with an enrichable exact contact surface).
-use super::{CellKind, ExactPatch, Mesh, MeshError};
+use super::spherical_shell::{check_shell_parameters, spherical_shell};
+use super::{ExactPatch, Mesh, MeshError};
 use crate::geometry::conics::hollow_hemisphere;
 
 /// Half opening angle (degrees, from the downward axis through the centre) of the `cap` node set.
@@ -54,32 +55,12 @@ pub fn hemisphere_nurbs(
     n: usize,
     m: usize,
 ) -> Result<Mesh, MeshError> {
-    if !(R > 0.0 && R.is_finite()) {
-        return Err(MeshError::InvalidParameter {
-            name: "R",
-            value: R.to_string(),
-            reason: "must be positive and finite",
-        });
-    }
-    if !(h > 0.0 && h < R) {
-        return Err(MeshError::InvalidParameter {
-            name: "h",
-            value: h.to_string(),
-            reason: "must lie in (0, R)",
-        });
-    }
+    check_shell_parameters(R, h, m)?;
     if n < 2 || !n.is_multiple_of(2) {
         return Err(MeshError::InvalidParameter {
             name: "n",
             value: n.to_string(),
             reason: "must be even and >= 2 (the exact surface has 2 base elements per direction)",
-        });
-    }
-    if m == 0 {
-        return Err(MeshError::InvalidParameter {
-            name: "m",
-            value: m.to_string(),
-            reason: "need at least one cell through the thickness",
         });
     }
     let geo = |e: crate::geometry::GeometryError| MeshError::Inconsistent(e.to_string());
@@ -118,53 +99,8 @@ pub fn hemisphere_nurbs(
             dirs[node(i, j, 0) as usize] = [d[0] / l, d[1] / l, d[2] / l];
         }
     }
-    let mut mesh = Mesh::new(3);
-    for k in 0..=m {
-        let r = R - h * k as f64 / m as f64;
-        for d in &dirs {
-            mesh.push_node(&[
-                center[0] + r * d[0],
-                center[1] + r * d[1],
-                center[2] + r * d[2],
-            ]);
-        }
-    }
-    for l in 0..m {
-        for j in 0..n {
-            for i in 0..n {
-                mesh.push_cell(
-                    CellKind::Hex8,
-                    &[
-                        node(i, j, l),
-                        node(i + 1, j, l),
-                        node(i + 1, j + 1, l),
-                        node(i, j + 1, l),
-                        node(i, j, l + 1),
-                        node(i + 1, j, l + 1),
-                        node(i + 1, j + 1, l + 1),
-                        node(i, j + 1, l + 1),
-                    ],
-                );
-            }
-        }
-    }
-    let cell = |i: usize, j: usize, l: usize| ((l * n + j) * n + i) as u32;
-    let grid: Vec<(usize, usize)> = (0..n).flat_map(|j| (0..n).map(move |i| (i, j))).collect();
-    mesh.face_sets.insert(
-        "outer".into(),
-        grid.iter().map(|&(i, j)| (cell(i, j, 0), 0)).collect(),
-    );
-    mesh.face_sets.insert(
-        "inner".into(),
-        grid.iter().map(|&(i, j)| (cell(i, j, m - 1), 1)).collect(),
-    );
-    let layer = |k: usize| -> Vec<u32> {
-        (k * per_layer..(k + 1) * per_layer)
-            .map(|a| a as u32)
-            .collect()
-    };
-    mesh.insert_node_set("outer", layer(0));
-    mesh.insert_node_set("inner", layer(m));
+    let layer_node = |i: usize, j: usize| node(i, j, 0) as usize;
+    let mut mesh = spherical_shell(center, R, h, n, m, &dirs, &layer_node);
     let rim: Vec<u32> = (0..=m)
         .flat_map(|k| {
             (0..=n).flat_map(move |j| {
@@ -204,6 +140,7 @@ pub fn hemisphere_nurbs(
 #[allow(non_snake_case)]
 mod tests {
     use super::*;
+    use crate::mesh::CellKind;
     use std::f64::consts::PI;
 
     const C: [f64; 3] = [0.2, -0.1, 1.5];

@@ -21,6 +21,7 @@ pub mod hemisphere;
 pub mod hemisphere_nurbs;
 pub mod rectangle;
 pub mod sector;
+mod spherical_shell;
 pub mod transform;
 
 pub use cell_kind::CellKind;
