@@ -383,6 +383,8 @@ impl<'p> Assembler<'p> {
     /// Element stress measures of every owned element: (body, cell, tr sigma, von Mises). An element
     /// whose measures cannot be evaluated reports NaN rather than failing, so that the collective
     /// output that follows stays in step on every rank.
+    ///
+    /// Collective.
     pub fn stress_measures(
         &mut self,
         x: &Vector,

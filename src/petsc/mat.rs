@@ -235,6 +235,8 @@ impl<'p> Matrix<'p> {
     }
 
     /// `y = A x`.
+    ///
+    /// Collective.
     pub fn mult(&self, x: &super::Vector, y: &mut super::Vector) -> Result<(), PetscError> {
         // SAFETY: valid handles with compatible layouts (checked by PETSc).
         unsafe { call!(MatMult(self.raw, x.as_raw(), y.as_raw())) }
