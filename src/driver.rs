@@ -102,6 +102,9 @@ pub enum Error {
     /// Another rank failed and reported its error.
     #[error("stopped because another rank failed")]
     OtherRank,
+    /// The error was already printed (by rank 0 of an MPI run); nothing more to say.
+    #[error("the error was reported above")]
+    Reported,
     /// Different ranks failed differently: their messages, one per line.
     #[error("{0}")]
     Ranks(String),
@@ -208,12 +211,23 @@ pub fn run_main(opts: RunOptions) -> Result<(), Error> {
     // Every rank reaches this point (failures are agreed collectively), so the messages can be
     // gathered: rank 0 reports each distinct one once, the other ranks stay silent.
     let messages = gather_errors(&world, &result);
-    match result {
+    let outcome = match result {
         Ok(()) => Ok(()),
         Err(_) if rank != 0 => Err(Error::OtherRank),
         Err(e) if messages.len() <= 1 && !matches!(e, Error::OtherRank) => Err(e),
         Err(_) => Err(Error::Ranks(messages.join("\n"))),
+    };
+    // Rank 0 prints while every rank still runs: mpirun aborts the whole job as soon as one rank
+    // exits with an error, which could otherwise kill rank 0 before its message is out.
+    if let Err(e) = &outcome {
+        if rank == 0 {
+            eprintln!("error: {e}");
+            use std::io::Write;
+            let _ = std::io::stderr().flush();
+        }
     }
+    world.barrier();
+    outcome.map_err(|_| Error::Reported)
 }
 
 /// The distinct error messages of all ranks, on rank 0 (empty elsewhere), each prefixed with the

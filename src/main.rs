@@ -113,8 +113,8 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
-        // That rank stayed silent: the rank that failed has printed the error.
-        Err(driver::Error::OtherRank) => ExitCode::FAILURE,
+        // `run` has already printed the error on rank 0 while all ranks were still alive.
+        Err(driver::Error::OtherRank | driver::Error::Reported) => ExitCode::FAILURE,
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::FAILURE
