@@ -4,6 +4,7 @@
 use crate::assembly::{
     constrained_flags, prescribed_values, Assembler, DofMap, DofMapError, GlobalDof,
 };
+use crate::contact::ContactSystem;
 use crate::io::{self, FieldData, GridDef, HistoryRow, HistoryWriter, ResultsWriter, Summary};
 use crate::model::{Model, ModelError};
 use crate::parallel::partition_cells;
@@ -99,6 +100,9 @@ pub enum Error {
     /// MPI could not be initialised.
     #[error("MPI initialisation failed (already initialised?)")]
     Mpi,
+    /// A combination of options or a set-up the run cannot do.
+    #[error("{0}")]
+    Usage(String),
     /// Another rank failed and reported its error.
     #[error("stopped because another rank failed")]
     OtherRank,
@@ -360,7 +364,28 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
     x.set(0.0)?;
     let mut asm = Assembler::new(petsc, &x, dofs, sets, constrained)?;
     if opts.matsetvalues {
+        if !model.contact_pairs.is_empty() {
+            return Err(Error::Usage(
+                "--matsetvalues does not support contact pairs yet: the COO path rebuilds the contact coupling pattern".into(),
+            ));
+        }
         asm.use_preallocated(model.cell_offsets.clone(), model.cell_nodes.clone());
+    }
+    if !model.contact_pairs.is_empty() {
+        let sys = agree(
+            comm,
+            ContactSystem::new(
+                model.dim,
+                model.contact_surfaces.clone(),
+                model.contact_pairs.clone(),
+                &model.coords,
+                &asm.dofs,
+                &part,
+                rank as usize,
+            )
+            .map_err(|msg| Error::Usage(format!("{}: contact: {msg}", case.file.display()))),
+        )?;
+        asm.set_contact(sys, &x)?;
     }
     // Options: code defaults (in Snes::new), then the case's petsc_options, then the command line;
     // inserted before any object reads them (the matrix reads -mat_* at creation).
@@ -416,12 +441,14 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
             .iter()
             .flat_map(|(_, nodes)| asm.reaction(nodes))
             .collect();
+        let contact_columns = contact_history(asm, model.dim);
         let last = (rec.load - n_stages).abs() < 1e-12;
         let write = last || rec.step.is_multiple_of(case_ref.output.every);
         output
             .step(
                 rec,
                 &reactions,
+                &contact_columns,
                 t_start.elapsed().as_secs_f64(),
                 write,
                 x,
@@ -533,6 +560,67 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
         file: case.file.clone(),
         source,
     })
+}
+
+/// `history.csv` columns of the contact pairs, per pair and half-pass (named after the integrated
+/// surface): resultant force `P_<pair>_<surface>_<x|y|z>` on that surface's body, moment of the
+/// contact forces about the pair's moment point `M_<pair>_<surface>[_<x|y|z>]` (2D: about z),
+/// active quadrature points and largest penetration.
+fn contact_history_labels(model: &Model) -> Vec<String> {
+    let dim = model.dim;
+    let mut out = Vec::new();
+    for pair in &model.contact_pairs {
+        for (k, _) in &pair.passes {
+            let tag = format!("{}_{}", pair.name, model.contact_surfaces[*k].name);
+            for a in &["x", "y", "z"][..dim] {
+                out.push(format!("P_{tag}_{a}"));
+            }
+            if dim == 2 {
+                out.push(format!("M_{tag}"));
+            } else {
+                for a in ["x", "y", "z"] {
+                    out.push(format!("M_{tag}_{a}"));
+                }
+            }
+            out.push(format!("active_{tag}"));
+            out.push(format!("penetration_{tag}"));
+        }
+    }
+    out
+}
+
+/// Values of [`contact_history_labels`] at the last residual evaluation, summed (maximum for the
+/// penetration) over ranks.
+///
+/// Collective.
+fn contact_history(asm: &Assembler, dim: usize) -> Vec<f64> {
+    let Some(c) = asm.contact() else {
+        return Vec::new();
+    };
+    let (mut sums, mut maxes) = (Vec::new(), Vec::new());
+    for (_, passes) in c.results() {
+        for r in passes {
+            sums.extend_from_slice(&r.force[..dim]);
+            if dim == 2 {
+                sums.push(r.moment[2]);
+            } else {
+                sums.extend_from_slice(&r.moment);
+            }
+            sums.push(r.n_active as f64);
+            maxes.push(r.max_penetration);
+        }
+    }
+    let comm = asm.comm();
+    let (mut s, mut m) = (vec![0.0; sums.len()], vec![0.0; maxes.len()]);
+    comm.all_reduce_into(&sums[..], &mut s[..], SystemOperation::sum());
+    comm.all_reduce_into(&maxes[..], &mut m[..], SystemOperation::max());
+    let per = if dim == 2 { dim + 2 } else { dim + 4 };
+    let mut out = Vec::new();
+    for (i, mx) in m.iter().enumerate() {
+        out.extend_from_slice(&s[i * per..(i + 1) * per]);
+        out.push(*mx);
+    }
+    out
 }
 
 /// Results of a run on rank 0 (the other ranks only take part in the gathers).
@@ -669,16 +757,23 @@ impl<'p> Output<'p> {
                 .iter()
                 .map(|r| (r.body.as_str(), r.set.as_str()))
                 .collect();
-            out.history = Some(HistoryWriter::create(out_dir, dim, &labels)?);
+            out.history = Some(HistoryWriter::create(
+                out_dir,
+                dim,
+                &labels,
+                &contact_history_labels(model),
+            )?);
         }
         Ok(())
     }
 
     /// Records one converged step (history row; results when `write`). Collective.
+    #[allow(clippy::too_many_arguments)]
     fn step(
         &mut self,
         rec: &StepRecord,
         reactions: &[f64],
+        extra: &[f64],
         wall: f64,
         write: bool,
         x: &Vector,
@@ -697,6 +792,7 @@ impl<'p> Output<'p> {
                     residual: rec.residual,
                     cutbacks: rec.cutbacks as u32,
                     reactions,
+                    extra,
                     wall_time: wall,
                 })
                 .map_err(Error::from);

@@ -20,10 +20,13 @@
 //!   Neo-Hookean law; nothing in them knows about MPI or PETSc.
 //! - [`geometry`]: knot vectors, B-splines, NURBS, Bezier extraction, refinement, exact conics.
 //! - [`mesh`]: the mesh type, structured generators with named sets, the Gmsh reader.
+//! - [`contact`]: contact surfaces, search, projection, laws, rigid partners and the contact
+//!   residual/tangent of each half-pass, plugged into the assembler beside the element sets.
 //! - [`scene`], [`model`]: case files and what is built from them (including the enriched layer of a
 //!   body's contact surface, `model::enrich`); [`solver`], [`driver`], [`io`].
 
 pub mod assembly;
+pub mod contact;
 pub mod driver;
 pub mod fem;
 pub mod geometry;

@@ -9,6 +9,7 @@
 use super::dofmap::{DofMap, GlobalDof};
 use super::element_set::{ElementFailure, ElementSet};
 use super::sink::{CooSink, MatrixSink};
+use crate::contact::{ContactSystem, Coupling};
 use crate::petsc::{
     Matrix, NonlinearProblem, Petsc, PetscError, PetscInt, ProblemError, Scatter, Vector,
 };
@@ -38,6 +39,22 @@ pub struct Timers {
     pub n_residual: usize,
     /// Number of Jacobian evaluations.
     pub n_jacobian: usize,
+    /// Contact: gathering surface displacements, search, projection and contact assembly (part of
+    /// `residual` and `jacobian`).
+    pub contact: f64,
+    /// Contact: sparsity pattern rebuilds because the coupled element pairs changed.
+    pub pattern_rebuilds: usize,
+}
+
+/// Contact pairs on this rank and what the assembler keeps for them.
+struct ContactHook<'p> {
+    sys: ContactSystem,
+    /// Gathers the displacement of every contact-surface node to every rank.
+    scatter: Scatter<'p>,
+    u_table: Vector<'p>,
+    /// Coupling blocks of the current pattern, sorted; block `i` has COO slot `first_slot + i`.
+    couplings: Vec<Coupling>,
+    first_slot: usize,
 }
 
 /// Per element set: the element unknowns' local and global indices, flattened.
@@ -76,6 +93,8 @@ pub struct Assembler<'p> {
     raw_residual: Vec<f64>,
     /// Time per phase.
     pub timers: Timers,
+    /// Contact pairs, if the model has any.
+    contact: Option<ContactHook<'p>>,
     u_e: Vec<f64>,
     r_e: Vec<f64>,
     k_e: Vec<f64>,
@@ -145,6 +164,7 @@ impl<'p> Assembler<'p> {
             pattern_ready: false,
             raw_residual: vec![0.0; n_owned],
             timers: Timers::default(),
+            contact: None,
             u_e: vec![0.0; max_n],
             r_e: vec![0.0; max_n],
             k_e: vec![0.0; max_n * max_n],
@@ -159,6 +179,62 @@ impl<'p> Assembler<'p> {
             if g.0 >= lo && g.0 < hi {
                 self.prescribed.push(((g.0 - lo) as usize, v));
             }
+        }
+    }
+
+    /// Adds contact pairs: their surfaces' displacement is gathered to every rank before each
+    /// evaluation.
+    ///
+    /// Collective.
+    pub fn set_contact(
+        &mut self,
+        sys: ContactSystem,
+        global_template: &Vector<'p>,
+    ) -> Result<(), PetscError> {
+        let idx: Vec<PetscInt> = sys.table_dofs(&self.dofs);
+        let u_table = Vector::new_seq(self.petsc, idx.len())?;
+        let scatter = Scatter::new(self.petsc, global_template, &u_table, &idx)?;
+        self.contact = Some(ContactHook {
+            sys,
+            scatter,
+            u_table,
+            couplings: Vec::new(),
+            first_slot: 0,
+        });
+        self.pattern_ready = false;
+        Ok(())
+    }
+
+    /// The contact pairs, if any.
+    pub fn contact(&self) -> Option<&ContactSystem> {
+        self.contact.as_ref().map(|c| &c.sys)
+    }
+
+    /// Sets the load parameter (rigid contact partners move with it).
+    pub fn set_load(&mut self, lambda: f64) {
+        if let Some(c) = &mut self.contact {
+            c.sys.set_load(lambda);
+        }
+    }
+
+    /// Gathers the contact surfaces' displacement and projects every contact point of this rank.
+    /// A failed projection is a rank-local domain error.
+    ///
+    /// Collective.
+    fn contact_update(&mut self, x: &Vector) -> Result<(), ProblemError> {
+        let Some(c) = &mut self.contact else {
+            return Ok(());
+        };
+        let t0 = Instant::now();
+        c.scatter.gather(x, &mut c.u_table).map_err(fatal)?;
+        let u = c.u_table.read().map_err(fatal)?;
+        let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| c.sys.update(&u)));
+        drop(u);
+        self.timers.contact += t0.elapsed().as_secs_f64();
+        match out {
+            Ok(Ok(())) => Ok(()),
+            Ok(Err(msg)) => Err(ProblemError::Domain(msg)),
+            Err(_) => Err(ProblemError::Fatal("panic in the contact search".into())),
         }
     }
 
@@ -185,6 +261,26 @@ impl<'p> Assembler<'p> {
                                 gi
                             };
                             for &gj in g {
+                                rows.push(row);
+                                cols.push(gj);
+                            }
+                        }
+                        self.coo_offsets.push(rows.len());
+                    }
+                }
+                // Contact coupling blocks: rows of a surface element, columns of it and its partner.
+                if let Some(c) = &mut self.contact {
+                    c.couplings = c.sys.couplings();
+                    c.first_slot = self.coo_offsets.len() - 1;
+                    for cp in &c.couplings {
+                        let (rws, cls) = c.sys.block_dofs(cp);
+                        for &gi in rws {
+                            let row = if gi >= 0 && self.constrained[gi as usize] {
+                                -1
+                            } else {
+                                gi
+                            };
+                            for &gj in &cls {
                                 rows.push(row);
                                 cols.push(gj);
                             }
@@ -303,7 +399,54 @@ impl<'p> Assembler<'p> {
                 slot += 1;
             }
         }
+        if failure.is_none() {
+            if let Some(c) = &mut self.contact {
+                let t0 = Instant::now();
+                let (couplings, first) = (&c.couplings, c.first_slot);
+                let slot_of = |cp: &Coupling| couplings.binary_search(cp).ok().map(|i| first + i);
+                c.sys.assemble(
+                    &mut fl[..],
+                    sink.map(|s| (s, &slot_of as &dyn Fn(&Coupling) -> Option<usize>)),
+                );
+                self.timers.contact += t0.elapsed().as_secs_f64();
+            }
+        }
         Ok(failure)
+    }
+
+    /// Projects the contact points at `x` and agrees on the outcome; in a Jacobian evaluation also
+    /// rebuilds the sparsity pattern when the coupled element pairs changed on any rank.
+    ///
+    /// Collective.
+    fn prepare_contact(&mut self, x: &Vector, j: Option<&mut Matrix>) -> Result<(), ProblemError> {
+        if self.contact.is_none() {
+            return Ok(());
+        }
+        let cu = self.contact_update(x);
+        self.agree(cu)?;
+        let Some(j) = j else {
+            return Ok(());
+        };
+        if self.mode == MatrixAssembly::Preallocated {
+            return Err(ProblemError::Fatal(
+                "contact needs the COO assembly path (drop --matsetvalues)".into(),
+            ));
+        }
+        let changed = match &self.contact {
+            Some(c) => (c.sys.couplings() != c.couplings) as i32,
+            None => 0,
+        };
+        let mut any = 0i32;
+        self.petsc
+            .comm()
+            .all_reduce_into(&changed, &mut any, SystemOperation::max());
+        if any != 0 || !self.pattern_ready {
+            if self.pattern_ready {
+                self.timers.pattern_rebuilds += 1;
+            }
+            self.build_pattern(j).map_err(fatal)?;
+        }
+        Ok(())
     }
 
     /// Makes a rank-local outcome collective: every rank learns the worst outcome of any rank
@@ -408,17 +551,23 @@ impl<'p> Assembler<'p> {
         Ok(out)
     }
 
-    /// Tells every element set that the current state is converged.
+    /// Tells every element set and the contact state that the current state is converged.
     pub fn commit(&mut self) {
         for s in &mut self.sets {
             s.commit();
         }
+        if let Some(c) = &mut self.contact {
+            c.sys.commit();
+        }
     }
 
-    /// Returns every element set to the last committed state.
+    /// Returns every element set and the contact state to the last committed state.
     pub fn rollback(&mut self) {
         for s in &mut self.sets {
             s.rollback();
+        }
+        if let Some(c) = &mut self.contact {
+            c.sys.rollback();
         }
     }
 
@@ -431,6 +580,10 @@ impl<'p> Assembler<'p> {
 impl NonlinearProblem for Assembler<'_> {
     fn residual(&mut self, x: &Vector, f: &mut Vector) -> Result<(), ProblemError> {
         let t0 = Instant::now();
+        if let Err(e) = self.prepare_contact(x, None) {
+            self.timers.residual += t0.elapsed().as_secs_f64();
+            return Err(e);
+        }
         let local = self.guarded_loop(x, None);
         if let Err(e) = self.agree(local) {
             self.timers.residual += t0.elapsed().as_secs_f64();
@@ -453,10 +606,11 @@ impl NonlinearProblem for Assembler<'_> {
 
     fn jacobian(&mut self, x: &Vector, j: &mut Matrix) -> Result<(), ProblemError> {
         // The pattern is timed on its own (`timers.pattern`), not as part of this evaluation.
+        let t0 = Instant::now();
+        self.prepare_contact(x, Some(j))?;
         if !self.pattern_ready {
             self.build_pattern(j).map_err(fatal)?;
         }
-        let t0 = Instant::now();
         let local = match self.mode {
             MatrixAssembly::Coo => {
                 let mut values = std::mem::take(&mut self.coo_values);
@@ -527,16 +681,19 @@ struct PetscSink<'a, 'm, 'p> {
 }
 
 impl MatrixSink for PetscSink<'_, '_, '_> {
-    fn add(&mut self, _slot: usize, dofs: &[i32], k_e: &[f64]) {
+    fn add(&mut self, slot: usize, dofs: &[i32], k_e: &[f64]) {
+        self.add_block(slot, dofs, dofs, k_e);
+    }
+    fn add_block(&mut self, _slot: usize, rows: &[i32], cols: &[i32], k: &[f64]) {
         self.rows.clear();
-        self.rows.extend(dofs.iter().map(|&g| {
+        self.rows.extend(rows.iter().map(|&g| {
             if g >= 0 && self.constrained[g as usize] {
                 -1
             } else {
                 g
             }
         }));
-        if let Err(e) = self.mat.add_values(&self.rows, dofs, k_e) {
+        if let Err(e) = self.mat.add_values(&self.rows, cols, k) {
             self.err.get_or_insert(e);
         }
     }

@@ -58,7 +58,12 @@ pub struct ConflictError {
 }
 
 /// Linear interpolation of per-stage end values at `lambda`; the value before stage 0 is `zero`.
-fn stage_lerp<T: Copy>(ends: &[T], lambda: f64, zero: T, lerp: impl Fn(T, T, f64) -> T) -> T {
+pub(crate) fn stage_lerp<T: Copy>(
+    ends: &[T],
+    lambda: f64,
+    zero: T,
+    lerp: impl Fn(T, T, f64) -> T,
+) -> T {
     if ends.is_empty() {
         return zero;
     }
@@ -70,7 +75,7 @@ fn stage_lerp<T: Copy>(ends: &[T], lambda: f64, zero: T, lerp: impl Fn(T, T, f64
 }
 
 /// Rotation of `v` by `theta` about unit `axis` (Rodrigues).
-fn rotate(v: [f64; 3], axis: [f64; 3], theta: f64) -> [f64; 3] {
+pub(crate) fn rotate(v: [f64; 3], axis: [f64; 3], theta: f64) -> [f64; 3] {
     let (s, c) = theta.sin_cos();
     let k = axis;
     let kxv = [

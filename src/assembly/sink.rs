@@ -6,6 +6,9 @@
 pub trait MatrixSink {
     /// Adds `k_e` [dofs.len()][dofs.len()] at global indices `dofs` (negative: dropped row/column).
     fn add(&mut self, slot: usize, dofs: &[i32], k_e: &[f64]);
+    /// Adds a rectangular block `k` [rows.len()][cols.len()] (contact couplings: rows of one
+    /// element, columns of it and of its partner).
+    fn add_block(&mut self, slot: usize, rows: &[i32], cols: &[i32], k: &[f64]);
 }
 
 /// Values laid out in the order of a COO pattern: element `slot` owns `n_e^2` consecutive entries
@@ -21,6 +24,10 @@ impl MatrixSink for CooSink<'_> {
     fn add(&mut self, slot: usize, _dofs: &[i32], k_e: &[f64]) {
         let start = self.offsets[slot];
         self.values[start..start + k_e.len()].copy_from_slice(k_e);
+    }
+    fn add_block(&mut self, slot: usize, _rows: &[i32], _cols: &[i32], k: &[f64]) {
+        let start = self.offsets[slot];
+        self.values[start..start + k.len()].copy_from_slice(k);
     }
 }
 
@@ -43,15 +50,18 @@ impl DenseSink {
 }
 
 impl MatrixSink for DenseSink {
-    fn add(&mut self, _slot: usize, dofs: &[i32], k_e: &[f64]) {
-        let m = dofs.len();
-        for (a, &i) in dofs.iter().enumerate() {
+    fn add(&mut self, slot: usize, dofs: &[i32], k_e: &[f64]) {
+        self.add_block(slot, dofs, dofs, k_e);
+    }
+    fn add_block(&mut self, _slot: usize, rows: &[i32], cols: &[i32], k: &[f64]) {
+        let m = cols.len();
+        for (a, &i) in rows.iter().enumerate() {
             if i < 0 {
                 continue;
             }
-            for (b, &j) in dofs.iter().enumerate() {
+            for (b, &j) in cols.iter().enumerate() {
                 if j >= 0 {
-                    self.a[i as usize * self.n + j as usize] += k_e[a * m + b];
+                    self.a[i as usize * self.n + j as usize] += k[a * m + b];
                 }
             }
         }

@@ -1,7 +1,8 @@
 //! `history.csv`: one row per converged step, flushed as it is written.
 //!
 //! Columns: `step, stage, load_factor, newton_iterations, residual, cutbacks`, then three (3D) or two
-//! (2D) columns `R_<body>_<set>_<x|y|z>` per reaction set, then `wall_time`. `step` counts converged
+//! (2D) columns `R_<body>_<set>_<x|y|z>` per reaction set, then the caller's extra columns (contact
+//! resultants, reaction moments: see `crate::driver`), then `wall_time`. `step` counts converged
 //! steps from 1; `stage` is the 0-based index into `[[stages]]` (as in `stages.0`).
 //!
 //! Written directly under its final name, not through `.partial`: the history of a run that failed
@@ -26,6 +27,8 @@ pub struct HistoryRow<'a> {
     pub cutbacks: u32,
     /// `[n_reaction_sets][dim]`, in the order given to [`HistoryWriter::create`].
     pub reactions: &'a [f64],
+    /// Values of the extra columns given to [`HistoryWriter::create`].
+    pub extra: &'a [f64],
     /// Seconds since the start of the run.
     pub wall_time: f64,
 }
@@ -35,11 +38,19 @@ pub struct HistoryWriter {
     out: BufWriter<File>,
     /// Expected length of [`HistoryRow::reactions`].
     n_reaction_values: usize,
+    /// Expected length of [`HistoryRow::extra`].
+    n_extra: usize,
 }
 
 impl HistoryWriter {
     /// Create `dir/history.csv` and write its header. `reactions` are `(body, set)` pairs.
-    pub fn create(dir: &Path, dim: usize, reactions: &[(&str, &str)]) -> Result<Self, IoError> {
+    /// `extra` names further columns, written after the reactions.
+    pub fn create(
+        dir: &Path,
+        dim: usize,
+        reactions: &[(&str, &str)],
+        extra: &[String],
+    ) -> Result<Self, IoError> {
         if dim != 2 && dim != 3 {
             return Err(IoError::Invalid {
                 what: "history.csv".to_string(),
@@ -72,11 +83,13 @@ impl HistoryWriter {
                 ));
             }
         }
+        header.extend(extra.iter().map(|c| column_safe(c)));
         header.push("wall_time".to_string());
         let mut w = HistoryWriter {
             path,
             out: BufWriter::new(file),
             n_reaction_values: reactions.len() * dim,
+            n_extra: extra.len(),
         };
         w.line(&header.join(","))?;
         Ok(w)
@@ -91,12 +104,19 @@ impl HistoryWriter {
                 got: row.reactions.len(),
             });
         }
+        if row.extra.len() != self.n_extra {
+            return Err(IoError::Shape {
+                what: format!("{} extra columns of step {}", self.path.display(), row.step),
+                expected: self.n_extra,
+                got: row.extra.len(),
+            });
+        }
         // `{}` on f64 prints the shortest text that reads back to the same number.
         let mut line = format!(
             "{},{},{},{},{},{}",
             row.step, row.stage, row.load_factor, row.newton_iterations, row.residual, row.cutbacks
         );
-        for r in row.reactions {
+        for r in row.reactions.iter().chain(row.extra) {
             line.push(',');
             line.push_str(&r.to_string());
         }
@@ -147,7 +167,8 @@ mod tests {
     fn history_has_reaction_columns_and_rows_are_flushed() {
         let dir = tmp("cols");
         let mut w =
-            HistoryWriter::create(&dir, 3, &[("block", "zmin"), ("punch", "top face")]).unwrap();
+            HistoryWriter::create(&dir, 3, &[("block", "zmin"), ("punch", "top face")], &[])
+                .unwrap();
         let r = [1.0, 2.0, -3.5, 0.0, 0.0, 0.25];
         w.write_row(&HistoryRow {
             step: 1,
@@ -157,6 +178,7 @@ mod tests {
             residual: 1e-11,
             cutbacks: 1,
             reactions: &r,
+            extra: &[],
             wall_time: 0.5,
         })
         .unwrap();
@@ -180,7 +202,7 @@ mod tests {
     #[test]
     fn history_2d_has_two_columns_per_set_and_rejects_wrong_length() {
         let dir = tmp("2d");
-        let mut w = HistoryWriter::create(&dir, 2, &[("strip", "xmax")]).unwrap();
+        let mut w = HistoryWriter::create(&dir, 2, &[("strip", "xmax")], &[]).unwrap();
         let e = w
             .write_row(&HistoryRow {
                 step: 1,
@@ -190,6 +212,7 @@ mod tests {
                 residual: 0.0,
                 cutbacks: 0,
                 reactions: &[1.0, 2.0, 3.0],
+                extra: &[],
                 wall_time: 0.0,
             })
             .unwrap_err();

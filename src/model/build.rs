@@ -73,6 +73,16 @@ pub enum ModelError {
         /// What went wrong.
         source: super::enrich::EnrichError,
     },
+    /// A `[[contact]]` pair is invalid.
+    #[error("{}: `{key}`: {msg}", .file.display())]
+    Contact {
+        /// The case file.
+        file: std::path::PathBuf,
+        /// The key.
+        key: String,
+        /// What is wrong.
+        msg: String,
+    },
     /// The case asks for something this version cannot build yet.
     #[error("{}: `{key}`: {msg}", .file.display())]
     Unsupported {
@@ -157,6 +167,10 @@ pub struct Model {
     pub ties: Vec<(u32, u32)>,
     /// Reaction sets for the history: (column label `<body>_<set>`, global nodes).
     pub reactions: Vec<(String, Vec<u32>)>,
+    /// Contact surfaces named by the case's pairs (each once).
+    pub contact_surfaces: Vec<crate::contact::surface::ContactSurface>,
+    /// Contact pairs.
+    pub contact_pairs: Vec<crate::contact::PairDef>,
 }
 
 fn generate(case: &Case, name: &str, spec: &MeshSpec) -> Result<Mesh, ModelError> {
@@ -436,7 +450,7 @@ impl Model {
             }
         }
 
-        Ok(Model {
+        let mut model = Model {
             dim,
             bodies,
             coords,
@@ -446,7 +460,13 @@ impl Model {
             bcs,
             ties,
             reactions,
-        })
+            contact_surfaces: Vec::new(),
+            contact_pairs: Vec::new(),
+        };
+        let (surfaces, pairs) = super::contact::build_contact(case, &model)?;
+        model.contact_surfaces = surfaces;
+        model.contact_pairs = pairs;
+        Ok(model)
     }
 
     /// Global nodes of set `set` of body `body` (a node set or the nodes of a face set; remapped

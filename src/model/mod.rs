@@ -8,6 +8,7 @@
 //! to the matrix), then assembles only the cells METIS gives it.
 
 mod build;
+pub mod contact;
 pub mod enrich;
 #[cfg(test)]
 mod enrich_tests;

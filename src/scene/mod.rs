@@ -8,6 +8,7 @@
 //! - [`error`]: [`SceneError`], whose messages name the file, the key path and (when known) the line.
 //! - [`examples`]: three complete case files, used as test fixtures and as templates.
 
+pub mod contact_spec;
 pub mod element_family;
 pub mod error;
 pub mod examples;
@@ -16,6 +17,7 @@ pub mod load;
 pub mod schema;
 pub mod validate;
 
+pub use contact_spec::{BoxSpec, ContactSpec, LawKind, RigidShapeKind, RigidSpec};
 pub use element_family::{ElementFamily, ElementFamilyError};
 pub use error::{Issue, SceneError};
 pub use load::{load_case, parse_case};

@@ -12,7 +12,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// A whole case: `[case]`, `[meshes.*]`, `[bodies.*]`, `[[bcs]]`, `[[ties]]`, `[[stages]]`, `[steps]`,
-/// `[solver]`, `[output]`. Contact pairs will join as `[[contact]]`.
+/// `[solver]`, `[output]`, `[[contact]]`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Case {
@@ -31,6 +31,9 @@ pub struct Case {
     /// Periodic ties. Default: none.
     #[serde(default)]
     pub ties: Vec<TieSpec>,
+    /// Contact pairs (see [`crate::scene::contact_spec`]). Default: none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub contact: Vec<crate::scene::contact_spec::ContactSpec>,
     /// Load stages, applied in order; at least one.
     pub stages: Vec<StageSpec>,
     /// Step size control. Default: see [`StepControl`].

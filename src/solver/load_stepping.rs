@@ -104,6 +104,7 @@ pub fn run_load_steps<'p>(
             let target = sizer.target();
             let values = prescribed_values(bcs, &asm.dofs, coords, target)?;
             asm.set_prescribed(&values);
+            asm.set_load(target);
             // Newton starts from the converged state: its first iteration lifts the new boundary
             // values into the interior through the tangent, which inverts far fewer elements than
             // starting from a guess that moves only the boundary.

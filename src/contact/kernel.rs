@@ -1,0 +1,378 @@
+//! The contact contribution of one quadrature point of surface `k` (eq. 4 of Corbett & Sauer 2014)
+//! and its consistent linearisation with respect to the unknowns of both bodies.
+//!
+//! With `g = x_k - x_p`, the partner's normal `n` and a law `t(g, n)`, the point adds
+//! `r_a = -N_a(xi_k) t J w` to node `a` of its own element (`J` the current or reference area
+//! element, `w` the Gauss weight). The tangent needs the variations of `g`, `n` and `J` with respect
+//! to every unknown `U` of the element on `k` and of the partner element on `l`:
+//! - orthogonal projection (all surface coordinates free): the closest-point condition
+//!   `g . a_a = 0` gives `(m_ab - g . a_ab) dxi_b = a_a . (dx_k - N_b dy_b) + g . N_b,a dy_b`, then
+//!   `dg = dx_k - N_b dy_b - a_b dxi_b` and `dn = -(n . da_a) a^a` with `da_a = N_b,a dy_b + a_ab dxi_b`
+//!   (`a^a = m^ab a_b`); the curvature of the partner enters through `a_ab`.
+//! - edge or corner projection of a faceted surface (some coordinates held on the element boundary):
+//!   the same condition on the free coordinates only, and the normal along the gap, `n = s g/|g|`,
+//!   `dn = s (I - n n) dg / |g|`.
+//! - a fixed material pairing (cohesive law): `dg = dx_k - N_b(xi_0) dy_b`, no normal.
+//! - a rigid partner: `dg = G dx_k`, `dn = N dx_k` from [`crate::contact::rigid`].
+#![allow(clippy::needless_range_loop)]
+#![allow(non_snake_case)]
+
+use crate::contact::law::Traction;
+use crate::contact::rigid::RigidProjection;
+use crate::contact::surface::{raw_normal, SurfaceElement, MAX_FACE_NODES};
+
+/// The quadrature point on surface `k`: its element's basis values there and nodal positions.
+pub struct OwnPoint<'a> {
+    /// N [n_k]
+    pub N: &'a [f64],
+    /// dN [n_k][m]
+    pub dN: &'a [f64],
+    /// Current nodal positions [n_k][dim].
+    pub x: &'a [f64],
+    /// Gauss weight.
+    pub w: f64,
+    /// Reference area element `|dX/dxi|` (2D) or `|X_xi x X_eta|` (3D).
+    pub J0: f64,
+}
+
+/// What the point is paired with.
+pub enum PartnerPoint<'a> {
+    /// A closest point on a deformable surface element; `free` says which coordinates the
+    /// projection left free (all: orthogonal).
+    Projected {
+        el: &'a SurfaceElement,
+        /// Current nodal positions [n_l][dim].
+        y: &'a [f64],
+        xi: [f64; 2],
+        free: [bool; 2],
+    },
+    /// A fixed material point of a deformable surface element (cohesive pairing).
+    Material {
+        el: &'a SurfaceElement,
+        y: &'a [f64],
+        xi: [f64; 2],
+    },
+    /// A rigid partner's closest point.
+    Rigid(RigidProjection),
+}
+
+/// Which area the law's traction is measured on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Area {
+    /// Current area `da` (penalty, eq. 5).
+    Current,
+    /// Reference area `dA` (van der Waals, cohesive: eqs. 6, 7).
+    Reference,
+}
+
+/// What a point computed, for forces, moments and output.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PointResult {
+    /// Gap vector [3].
+    pub g: [f64; 3],
+    /// Normal used [3] (zero for a material pairing).
+    pub n: [f64; 3],
+    /// Current position of the point [3].
+    pub x: [f64; 3],
+    /// Force on body k from this point, `t J w` [3].
+    pub force: [f64; 3],
+    /// True when the traction is not zero.
+    pub active: bool,
+}
+
+/// Reusable buffers (nothing allocates per quadrature point once they have grown).
+#[derive(Default)]
+pub struct Scratch {
+    dg: Vec<[f64; 3]>,
+    dn: Vec<[f64; 3]>,
+    dJ: Vec<f64>,
+}
+
+fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// Partner geometry at `xi`: basis, point, tangents, second derivatives.
+struct PartnerGeom {
+    N: [f64; MAX_FACE_NODES],
+    dN: [f64; 2 * MAX_FACE_NODES],
+    p: [f64; 3],
+    a: [[f64; 3]; 2],
+    aa: [[[f64; 3]; 2]; 2],
+    n: usize,
+}
+
+fn partner_geom(el: &SurfaceElement, dim: usize, y: &[f64], xi: &[f64; 2]) -> PartnerGeom {
+    let m = dim - 1;
+    let mut g = PartnerGeom {
+        N: [0.0; MAX_FACE_NODES],
+        dN: [0.0; 2 * MAX_FACE_NODES],
+        p: [0.0; 3],
+        a: [[0.0; 3]; 2],
+        aa: [[[0.0; 3]; 2]; 2],
+        n: el.basis.n_nodes(),
+    };
+    let mut ddN = [0.0; 4 * MAX_FACE_NODES];
+    el.basis.eval(&xi[..m], &mut g.N, &mut g.dN, &mut ddN);
+    for b in 0..g.n {
+        for k in 0..dim {
+            let v = y[b * dim + k];
+            g.p[k] += g.N[b] * v;
+            for i in 0..m {
+                g.a[i][k] += g.dN[b * m + i] * v;
+                for j in 0..m {
+                    g.aa[i][j][k] += ddN[b * m * m + i * m + j] * v;
+                }
+            }
+        }
+    }
+    g
+}
+
+/// Evaluates one point: adds its residual to `r` [n_k*dim] and, if given, its tangent to `K`
+/// [n_k*dim][n_cols] row-major, `n_cols = (n_k + n_l) * dim` (own unknowns first, then the partner
+/// element's; `n_l = 0` for a rigid partner). `law(g, n)` gives the traction.
+#[allow(clippy::too_many_arguments)]
+pub fn contact_point(
+    dim: usize,
+    own: &OwnPoint,
+    partner: &PartnerPoint,
+    law: &dyn Fn(&[f64; 3], &[f64; 3]) -> Traction,
+    area: Area,
+    r: &mut [f64],
+    K: Option<&mut [f64]>,
+    s: &mut Scratch,
+) -> PointResult {
+    let m = dim - 1;
+    let nk = own.N.len();
+    // own point, tangents and area element
+    let mut xk = [0.0; 3];
+    let mut ak = [[0.0; 3]; 2];
+    for a in 0..nk {
+        for k in 0..dim {
+            xk[k] += own.N[a] * own.x[a * dim + k];
+            for i in 0..m {
+                ak[i][k] += own.dN[a * m + i] * own.x[a * dim + k];
+            }
+        }
+    }
+    let nu_raw = raw_normal(dim, &ak);
+    let Jc = dot(&nu_raw, &nu_raw).sqrt();
+    let J = match area {
+        Area::Current => Jc,
+        Area::Reference => own.J0,
+    };
+
+    // gap and normal
+    let (geom, el_sign) = match partner {
+        PartnerPoint::Projected { el, y, xi, .. } | PartnerPoint::Material { el, y, xi } => {
+            (Some(partner_geom(el, dim, y, xi)), el.sign)
+        }
+        PartnerPoint::Rigid(_) => (None, 1.0),
+    };
+    let nl = geom.as_ref().map_or(0, |g| g.n);
+    let (g, n, orthogonal) = match (partner, &geom) {
+        (PartnerPoint::Rigid(rp), _) => (rp.g, rp.n, true),
+        (PartnerPoint::Material { .. }, Some(ge)) => {
+            ([0, 1, 2].map(|k| xk[k] - ge.p[k]), [0.0; 3], true)
+        }
+        (PartnerPoint::Projected { free, .. }, Some(ge)) => {
+            let g = [0, 1, 2].map(|k| xk[k] - ge.p[k]);
+            let nr = raw_normal(dim, &ge.a);
+            let l = dot(&nr, &nr).sqrt();
+            let ns = nr.map(|c| el_sign * c / l);
+            let gl = dot(&g, &g).sqrt();
+            let all_free = (0..m).all(|i| free[i]);
+            if all_free || gl == 0.0 {
+                (g, ns, true)
+            } else {
+                let sgn = if dot(&g, &ns) >= 0.0 { 1.0 } else { -1.0 };
+                (g, g.map(|c| sgn * c / gl), false)
+            }
+        }
+        _ => unreachable!("a deformable partner always has its geometry"),
+    };
+    let tr = law(&g, &n);
+    let mut out = PointResult {
+        g,
+        n,
+        x: xk,
+        force: tr.t.map(|c| c * J * own.w),
+        active: !tr.is_zero(),
+    };
+    if !out.active {
+        return out;
+    }
+    for a in 0..nk {
+        for i in 0..dim {
+            r[a * dim + i] -= own.N[a] * tr.t[i] * J * own.w;
+        }
+    }
+    let Some(K) = K else {
+        return out;
+    };
+
+    // variations per column
+    let nc = (nk + nl) * dim;
+    s.dg.clear();
+    s.dg.resize(nc, [0.0; 3]);
+    s.dn.clear();
+    s.dn.resize(nc, [0.0; 3]);
+    s.dJ.clear();
+    s.dJ.resize(nc, 0.0);
+    // area element of the current configuration
+    if area == Area::Current {
+        let nu = nu_raw.map(|c| c / Jc);
+        let (c1, c2) = if dim == 2 {
+            (ak[0].map(|c| c / Jc), [0.0; 3])
+        } else {
+            (cross(&ak[1], &nu), cross(&nu, &ak[0]))
+        };
+        for a in 0..nk {
+            for i in 0..dim {
+                let mut v = own.dN[a * m] * c1[i];
+                if dim == 3 {
+                    v += own.dN[a * m + 1] * c2[i];
+                }
+                s.dJ[a * dim + i] = v;
+            }
+        }
+    }
+    match (partner, &geom) {
+        (PartnerPoint::Rigid(rp), _) => {
+            for a in 0..nk {
+                for i in 0..dim {
+                    let c = a * dim + i;
+                    for j in 0..3 {
+                        s.dg[c][j] = rp.dg_dx[3 * j + i] * own.N[a];
+                        s.dn[c][j] = rp.dn_dx[3 * j + i] * own.N[a];
+                    }
+                }
+            }
+        }
+        (PartnerPoint::Material { .. }, Some(ge)) => {
+            for a in 0..nk {
+                for i in 0..dim {
+                    s.dg[a * dim + i][i] = own.N[a];
+                }
+            }
+            for b in 0..nl {
+                for i in 0..dim {
+                    s.dg[(nk + b) * dim + i][i] = -ge.N[b];
+                }
+            }
+        }
+        (PartnerPoint::Projected { free, .. }, Some(ge)) => {
+            let fr: Vec<usize> = (0..m).filter(|&i| free[i]).collect();
+            // A_ff = m_ff - g . a_ff on the free coordinates
+            let mut A = [[0.0; 2]; 2];
+            for (p, &i) in fr.iter().enumerate() {
+                for (q, &j) in fr.iter().enumerate() {
+                    A[p][q] = dot(&ge.a[i], &ge.a[j]) - dot(&g, &ge.aa[i][j]);
+                }
+            }
+            let det = if fr.len() == 2 {
+                A[0][0] * A[1][1] - A[0][1] * A[1][0]
+            } else {
+                A[0][0]
+            };
+            // metric and contravariant tangents (orthogonal normal variation)
+            let mut M = [[0.0; 2]; 2];
+            for i in 0..m {
+                for j in 0..m {
+                    M[i][j] = dot(&ge.a[i], &ge.a[j]);
+                }
+            }
+            let mut acon = [[0.0; 3]; 2];
+            if m == 1 {
+                acon[0] = ge.a[0].map(|c| c / M[0][0]);
+            } else {
+                let dm = M[0][0] * M[1][1] - M[0][1] * M[1][0];
+                let mi = [[M[1][1] / dm, -M[0][1] / dm], [-M[1][0] / dm, M[0][0] / dm]];
+                for i in 0..2 {
+                    for k in 0..3 {
+                        acon[i][k] = mi[i][0] * ge.a[0][k] + mi[i][1] * ge.a[1][k];
+                    }
+                }
+            }
+            let gl = dot(&g, &g).sqrt();
+            for c in 0..nc {
+                let (node, i) = (c / dim, c % dim);
+                // dx_k - dx_p(xi fixed), and da_alpha(xi fixed)
+                let mut dd = [0.0; 3];
+                let mut da = [[0.0; 3]; 2];
+                if node < nk {
+                    dd[i] = own.N[node];
+                } else {
+                    let b = node - nk;
+                    dd[i] = -ge.N[b];
+                    for al in 0..m {
+                        da[al][i] = ge.dN[b * m + al];
+                    }
+                }
+                let mut rhs = [0.0; 2];
+                for (p, &al) in fr.iter().enumerate() {
+                    rhs[p] = dot(&ge.a[al], &dd) + dot(&g, &da[al]);
+                }
+                let mut dxi = [0.0; 2];
+                if fr.len() == 1 {
+                    dxi[fr[0]] = rhs[0] / det;
+                } else if fr.len() == 2 {
+                    dxi[0] = (A[1][1] * rhs[0] - A[0][1] * rhs[1]) / det;
+                    dxi[1] = (-A[1][0] * rhs[0] + A[0][0] * rhs[1]) / det;
+                }
+                let mut dg = dd;
+                for &be in &fr {
+                    for k in 0..3 {
+                        dg[k] -= ge.a[be][k] * dxi[be];
+                    }
+                }
+                s.dg[c] = dg;
+                if orthogonal {
+                    let mut dn = [0.0; 3];
+                    for al in 0..m {
+                        let mut dal = da[al];
+                        for &be in &fr {
+                            for k in 0..3 {
+                                dal[k] += ge.aa[al][be][k] * dxi[be];
+                            }
+                        }
+                        let nd = dot(&n, &dal);
+                        for k in 0..3 {
+                            dn[k] -= nd * acon[al][k];
+                        }
+                    }
+                    s.dn[c] = dn;
+                } else {
+                    // n = s g/|g| with s = sign(g . n)
+                    let sg = if dot(&g, &n) >= 0.0 { 1.0 } else { -1.0 };
+                    let ndg = dot(&n, &dg);
+                    s.dn[c] = [0, 1, 2].map(|k| sg * (dg[k] - n[k] * ndg) / gl);
+                }
+            }
+        }
+        _ => unreachable!(),
+    }
+    for a in 0..nk {
+        for i in 0..dim {
+            let row = (a * dim + i) * nc;
+            let f = -own.N[a] * own.w;
+            for c in 0..nc {
+                let mut v = 0.0;
+                for j in 0..dim {
+                    v += tr.dt_dg[3 * i + j] * s.dg[c][j] + tr.dt_dn[3 * i + j] * s.dn[c][j];
+                }
+                K[row + c] += f * (v * J + tr.t[i] * s.dJ[c]);
+            }
+        }
+    }
+    out.active = true;
+    out
+}

@@ -1,0 +1,310 @@
+//! Closest-point projection of a point onto a contact surface (section 3.2 of Corbett & Sauer 2014).
+//!
+//! On one element, the distance `f(xi) = |x - x(xi)|^2 / 2` is minimised over the box
+//! `[-1,1]^m` by Newton with the exact Hessian `m_ab - g . x_,ab` (Gauss-Newton `m_ab` where that is
+//! not positive definite), clamping to the box; a coordinate that ends on the box boundary with the
+//! gradient pushing outward is *bound*. A bound coordinate on a side that has a neighbour moves the
+//! search there (the paper's transfer to the neighbouring element); where both elements end on their
+//! shared edge, the closest point is that edge or corner of a C0 (faceted) surface, and the caller
+//! takes the normal along the gap. A search starts from the last projection of the same point (warm
+//! start) or, without one or when the walk fails, from every element whose bounding box holds the
+//! point (`crate::contact::search`).
+#![allow(clippy::needless_range_loop)]
+
+use crate::contact::search::BinGrid;
+use crate::contact::surface::{
+    raw_normal, side_coordinates, side_point, ContactSurface, MAX_FACE_NODES,
+};
+
+/// Current nodal positions of every element of a surface: element `e` has
+/// `x[offsets[e]..offsets[e + 1]]` [n_nodes][dim].
+#[derive(Debug, Clone, Default)]
+pub struct Positions {
+    /// [n_el + 1]
+    pub offsets: Vec<usize>,
+    /// [sum of n_nodes * dim]
+    pub x: Vec<f64>,
+}
+
+impl Positions {
+    /// Positions of element `e`.
+    pub fn of(&self, e: usize) -> &[f64] {
+        &self.x[self.offsets[e]..self.offsets[e + 1]]
+    }
+}
+
+/// The result of a projection onto a surface.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Projection {
+    /// Surface element.
+    pub elem: u32,
+    /// Surface coordinates [m] (second unused in 2D).
+    pub xi: [f64; 2],
+    /// Coordinates that are free (not held on the element boundary by the constraint). All free:
+    /// an orthogonal projection; otherwise an edge or corner projection.
+    pub free: [bool; 2],
+    /// Distance `|x - x_p|`.
+    pub dist: f64,
+}
+
+/// Newton iterations allowed on one element.
+const MAX_NEWTON: usize = 50;
+/// Element transfers allowed in one walk.
+const MAX_WALK: usize = 64;
+
+/// Projection onto element `e` from `xi0`, over the box `[-1,1]^m`.
+#[allow(non_snake_case)]
+pub fn project_on_element(
+    s: &ContactSurface,
+    pos: &Positions,
+    e: usize,
+    x: &[f64; 3],
+    xi0: [f64; 2],
+) -> Option<Projection> {
+    let el = &s.elements[e];
+    let dim = s.dim;
+    let m = dim - 1;
+    let y = pos.of(e);
+    let n = el.basis.n_nodes();
+    let (mut N, mut dN, mut ddN) = (
+        [0.0; MAX_FACE_NODES],
+        [0.0; 2 * MAX_FACE_NODES],
+        [0.0; 4 * MAX_FACE_NODES],
+    );
+    let eval = |xi: &[f64; 2], N: &mut [f64], dN: &mut [f64], ddN: &mut [f64]| {
+        el.basis.eval(&xi[..m], N, dN, ddN);
+        let (mut p, mut a, mut aa) = ([0.0; 3], [[0.0; 3]; 2], [[[0.0; 3]; 2]; 2]);
+        for b in 0..n {
+            for k in 0..dim {
+                let v = y[b * dim + k];
+                p[k] += N[b] * v;
+                for i in 0..m {
+                    a[i][k] += dN[b * m + i] * v;
+                    for j in 0..m {
+                        aa[i][j][k] += ddN[b * m * m + i * m + j] * v;
+                    }
+                }
+            }
+        }
+        (p, a, aa)
+    };
+    let scale2 = s.h * s.h;
+    let mut xi = xi0;
+    for k in 0..m {
+        xi[k] = xi[k].clamp(-1.0, 1.0);
+    }
+    let f_of = |p: &[f64; 3]| 0.5 * (0..dim).map(|k| (x[k] - p[k]).powi(2)).sum::<f64>();
+    let mut free = [true; 2];
+    for _ in 0..MAX_NEWTON {
+        let (p, a, aa) = eval(&xi, &mut N, &mut dN, &mut ddN);
+        let g = [x[0] - p[0], x[1] - p[1], x[2] - p[2]];
+        let f0 = f_of(&p);
+        let mut grad = [0.0; 2];
+        let mut H = [[0.0; 2]; 2];
+        let mut M = [[0.0; 2]; 2];
+        for i in 0..m {
+            grad[i] = -(0..dim).map(|k| g[k] * a[i][k]).sum::<f64>();
+            for j in 0..m {
+                M[i][j] = (0..dim).map(|k| a[i][k] * a[j][k]).sum();
+                H[i][j] = M[i][j] - (0..dim).map(|k| g[k] * aa[i][j][k]).sum::<f64>();
+            }
+        }
+        // bound coordinates: on the box boundary with the descent direction pointing out
+        let tol = 1e-14 * scale2;
+        for i in 0..m {
+            free[i] = !((xi[i] >= 1.0 && grad[i] < -tol) || (xi[i] <= -1.0 && grad[i] > tol));
+        }
+        let step = solve_free(&H, &M, &grad, &free, m);
+        let Some(step) = step else {
+            // all bound: a corner
+            return Some(Projection {
+                elem: e as u32,
+                xi,
+                free,
+                dist: (2.0 * f0).sqrt(),
+            });
+        };
+        let len = step[0].abs().max(step[1].abs());
+        let damp = if len > 0.5 { 0.5 / len } else { 1.0 };
+        // backtracking on f keeps far-off starts from oscillating
+        let mut t = damp;
+        let mut accepted = xi;
+        for _ in 0..20 {
+            let mut trial = xi;
+            for i in 0..m {
+                trial[i] = (xi[i] + t * step[i]).clamp(-1.0, 1.0);
+            }
+            let (pt, _, _) = eval(&trial, &mut N, &mut dN, &mut ddN);
+            if f_of(&pt) <= f0 + 1e-15 * scale2 {
+                accepted = trial;
+                break;
+            }
+            t *= 0.5;
+        }
+        let moved = (0..m)
+            .map(|i| (accepted[i] - xi[i]).abs())
+            .fold(0.0, f64::max);
+        xi = accepted;
+        if moved < 1e-13 {
+            let (p, a, _) = eval(&xi, &mut N, &mut dN, &mut ddN);
+            let g = [x[0] - p[0], x[1] - p[1], x[2] - p[2]];
+            // recompute which coordinates the boundary holds at the final point
+            for i in 0..m {
+                let gi = -(0..dim).map(|k| g[k] * a[i][k]).sum::<f64>();
+                free[i] = !((xi[i] >= 1.0 && gi < -tol) || (xi[i] <= -1.0 && gi > tol));
+            }
+            return Some(Projection {
+                elem: e as u32,
+                xi,
+                free,
+                dist: (2.0 * f_of(&p)).sqrt(),
+            });
+        }
+    }
+    None
+}
+
+/// Newton step on the free coordinates: `H_ff d = -grad_f`, Gauss-Newton `M` if `H_ff` is not
+/// positive definite. `None` when no coordinate is free.
+#[allow(non_snake_case)]
+fn solve_free(
+    H: &[[f64; 2]; 2],
+    M: &[[f64; 2]; 2],
+    grad: &[f64; 2],
+    free: &[bool; 2],
+    m: usize,
+) -> Option<[f64; 2]> {
+    let idx: Vec<usize> = (0..m).filter(|&i| free[i]).collect();
+    let mut d = [0.0; 2];
+    match idx.len() {
+        0 => return None,
+        1 => {
+            let i = idx[0];
+            let h = if H[i][i] > 1e-3 * M[i][i] {
+                H[i][i]
+            } else {
+                M[i][i]
+            };
+            d[i] = -grad[i] / h;
+        }
+        _ => {
+            let pd = |A: &[[f64; 2]; 2]| {
+                let det = A[0][0] * A[1][1] - A[0][1] * A[1][0];
+                (A[0][0] > 0.0 && det > 1e-6 * (M[0][0] * M[1][1])).then_some(det)
+            };
+            let (A, det) = match pd(H) {
+                Some(det) => (*H, det),
+                None => (*M, M[0][0] * M[1][1] - M[0][1] * M[1][0]),
+            };
+            if det <= 0.0 {
+                return Some([0.0; 2]);
+            }
+            d[0] = -(A[1][1] * grad[0] - A[0][1] * grad[1]) / det;
+            d[1] = -(-A[1][0] * grad[0] + A[0][0] * grad[1]) / det;
+        }
+    }
+    Some(d)
+}
+
+/// Which side a bound projection leans on (the bound coordinate with the larger outward push is
+/// approximated by the one at its bound; in 3D corners the first bound coordinate).
+fn exit_side(dim: usize, p: &Projection) -> Option<usize> {
+    let m = dim - 1;
+    for i in 0..m {
+        if !p.free[i] {
+            let hi = p.xi[i] >= 1.0;
+            return Some(match (dim, i, hi) {
+                (2, _, false) => 0,
+                (2, _, true) => 1,
+                (_, 0, true) => 1,
+                (_, 0, false) => 3,
+                (_, _, false) => 0,
+                (_, _, true) => 2,
+            });
+        }
+    }
+    None
+}
+
+/// Walks from a warm start across neighbours to the closest point. `None` if it does not settle.
+pub fn walk(
+    s: &ContactSurface,
+    pos: &Positions,
+    x: &[f64; 3],
+    start: (u32, [f64; 2]),
+) -> Option<Projection> {
+    let dim = s.dim;
+    let (mut e, mut xi) = (start.0 as usize, start.1);
+    let mut visited: Vec<usize> = Vec::with_capacity(4);
+    let mut best: Option<Projection> = None;
+    for _ in 0..MAX_WALK {
+        let p = project_on_element(s, pos, e, x, xi)?;
+        if best.is_none_or(|b| {
+            p.dist < b.dist * (1.0 - 1e-12)
+                || p.free_count() > b.free_count() && p.dist <= b.dist * (1.0 + 1e-12)
+        }) {
+            best = Some(p);
+        }
+        visited.push(e);
+        let Some(side) = exit_side(dim, &p) else {
+            return Some(p); // orthogonal projection inside the element
+        };
+        match s.elements[e].neighbours[side] {
+            Some((f, s2, rev)) if !visited.contains(&(f as usize)) => {
+                let (t, _) = side_coordinates(dim, side, &p.xi);
+                let t2 = if rev { -t } else { t };
+                xi = side_point(dim, s2 as usize, t2, 0.0);
+                e = f as usize;
+            }
+            // surface boundary, or both elements hold the point on their shared edge: an edge or
+            // corner projection
+            _ => return best,
+        }
+    }
+    best
+}
+
+impl Projection {
+    /// Number of free coordinates.
+    pub fn free_count(&self) -> usize {
+        self.free.iter().filter(|&&f| f).count()
+    }
+}
+
+/// Global search: every element whose (inflated) box holds `x`, each projected from its centre; the
+/// closest wins, an orthogonal projection over an edge projection at equal distance.
+pub fn global_search(
+    s: &ContactSurface,
+    pos: &Positions,
+    grid: &BinGrid,
+    x: &[f64; 3],
+    scratch: &mut Vec<u32>,
+) -> Option<Projection> {
+    grid.candidates(&x[..s.dim], scratch);
+    let mut best: Option<Projection> = None;
+    for &e in scratch.iter() {
+        if let Some(p) = project_on_element(s, pos, e as usize, x, [0.0; 2]) {
+            let better = match best {
+                None => true,
+                Some(b) => {
+                    p.dist < b.dist * (1.0 - 1e-10) - 1e-14 * s.h
+                        || (p.dist <= b.dist * (1.0 + 1e-10) + 1e-14 * s.h
+                            && p.free_count() > b.free_count())
+                }
+            };
+            if better {
+                best = Some(p);
+            }
+        }
+    }
+    best
+}
+
+/// Outward unit normal of element `e` at `xi` (the surface normal, also at edges and corners).
+pub fn surface_normal(s: &ContactSurface, pos: &Positions, e: usize, xi: &[f64; 2]) -> [f64; 3] {
+    let el = &s.elements[e];
+    let (_, a, _) = crate::contact::surface::frame(el, s.dim, pos.of(e), xi);
+    let nu = raw_normal(s.dim, &a);
+    let l = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt();
+    nu.map(|c| el.sign * c / l)
+}

@@ -1,0 +1,211 @@
+//! Global contact search: axis-aligned bounding boxes of a partner surface's elements sorted into a
+//! uniform bin grid, so finding the candidate elements of a point costs O(1) on average and building
+//! the grid O(N) (N log N with the sort), instead of testing every element (N^2 over a surface).
+#![allow(clippy::needless_range_loop)] // index loops mirror the equations
+
+/// An axis-aligned box in `dim` <= 3 dimensions.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Aabb {
+    /// Lower corner [3] (unused components 0).
+    pub lo: [f64; 3],
+    /// Upper corner [3].
+    pub hi: [f64; 3],
+}
+
+impl Aabb {
+    /// The empty box (grows with [`Aabb::grow`]).
+    pub const EMPTY: Aabb = Aabb {
+        lo: [f64::INFINITY; 3],
+        hi: [f64::NEG_INFINITY; 3],
+    };
+
+    /// Extends the box to hold `x` [dim].
+    pub fn grow(&mut self, x: &[f64]) {
+        for (k, &v) in x.iter().enumerate() {
+            self.lo[k] = self.lo[k].min(v);
+            self.hi[k] = self.hi[k].max(v);
+        }
+    }
+
+    /// The box enlarged by `d` on every side of the first `dim` axes.
+    pub fn inflated(&self, dim: usize, d: f64) -> Aabb {
+        let mut b = *self;
+        for k in 0..dim {
+            b.lo[k] -= d;
+            b.hi[k] += d;
+        }
+        b
+    }
+
+    /// True when `x` [dim] lies in the box.
+    pub fn contains(&self, x: &[f64]) -> bool {
+        x.iter()
+            .enumerate()
+            .all(|(k, &v)| v >= self.lo[k] && v <= self.hi[k])
+    }
+}
+
+/// Element boxes binned on a uniform grid whose cell size is about the mean box size.
+#[derive(Debug, Clone, Default)]
+pub struct BinGrid {
+    dim: usize,
+    origin: [f64; 3],
+    cell: f64,
+    n: [usize; 3],
+    /// CSR: elements of bin b are `items[start[b]..start[b + 1]]`. [n_bins + 1]
+    start: Vec<usize>,
+    items: Vec<u32>,
+    boxes: Vec<Aabb>,
+}
+
+/// Most bins per axis (keeps the grid's memory bounded for extreme aspect ratios).
+const MAX_BINS_PER_AXIS: usize = 1024;
+
+impl BinGrid {
+    /// Bins `boxes` (one per element, already inflated by the search distance).
+    pub fn new(dim: usize, boxes: Vec<Aabb>) -> BinGrid {
+        let mut all = Aabb::EMPTY;
+        let mut mean = 0.0;
+        for b in &boxes {
+            all.grow(&b.lo[..dim]);
+            all.grow(&b.hi[..dim]);
+            mean += (0..dim).map(|k| b.hi[k] - b.lo[k]).fold(0.0, f64::max);
+        }
+        if boxes.is_empty() {
+            return BinGrid {
+                dim,
+                start: vec![0],
+                ..Default::default()
+            };
+        }
+        mean /= boxes.len() as f64;
+        let extent = (0..dim).map(|k| all.hi[k] - all.lo[k]).fold(0.0, f64::max);
+        let cell = mean
+            .max(extent / MAX_BINS_PER_AXIS as f64)
+            .max(f64::MIN_POSITIVE);
+        let mut n = [1usize; 3];
+        for k in 0..dim {
+            n[k] = (((all.hi[k] - all.lo[k]) / cell).floor() as usize + 1).min(MAX_BINS_PER_AXIS);
+        }
+        let mut g = BinGrid {
+            dim,
+            origin: all.lo,
+            cell,
+            n,
+            start: Vec::new(),
+            items: Vec::new(),
+            boxes,
+        };
+        // counting sort of (bin, element) pairs
+        let n_bins = n[0] * n[1] * n[2];
+        let mut count = vec![0usize; n_bins + 1];
+        let mut pairs = Vec::new();
+        for (e, b) in g.boxes.iter().enumerate() {
+            let (lo, hi) = (g.bin_of(&b.lo), g.bin_of(&b.hi));
+            for k2 in lo[2]..=hi[2] {
+                for k1 in lo[1]..=hi[1] {
+                    for k0 in lo[0]..=hi[0] {
+                        let bin = k0 + n[0] * (k1 + n[1] * k2);
+                        pairs.push((bin, e as u32));
+                        count[bin + 1] += 1;
+                    }
+                }
+            }
+        }
+        for b in 0..n_bins {
+            count[b + 1] += count[b];
+        }
+        let mut fill = count.clone();
+        g.items = vec![0; pairs.len()];
+        for (bin, e) in pairs {
+            g.items[fill[bin]] = e;
+            fill[bin] += 1;
+        }
+        g.start = count;
+        g
+    }
+
+    fn bin_of(&self, x: &[f64]) -> [usize; 3] {
+        let mut b = [0usize; 3];
+        for k in 0..self.dim {
+            let i = ((x[k] - self.origin[k]) / self.cell).floor();
+            b[k] = (i.max(0.0) as usize).min(self.n[k] - 1);
+        }
+        b
+    }
+
+    /// Elements whose box contains `x` [dim], ascending, into `out` (cleared first).
+    pub fn candidates(&self, x: &[f64], out: &mut Vec<u32>) {
+        out.clear();
+        if self.boxes.is_empty() {
+            return;
+        }
+        let b = self.bin_of(x);
+        let bin = b[0] + self.n[0] * (b[1] + self.n[1] * b[2]);
+        out.extend(
+            self.items[self.start[bin]..self.start[bin + 1]]
+                .iter()
+                .copied()
+                .filter(|&e| self.boxes[e as usize].contains(x)),
+        );
+        out.sort_unstable();
+    }
+
+    /// Number of element boxes.
+    pub fn len(&self) -> usize {
+        self.boxes.len()
+    }
+
+    /// True without boxes.
+    pub fn is_empty(&self) -> bool {
+        self.boxes.is_empty()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Deterministic pseudo-random numbers in [0, 1).
+    fn lcg(state: &mut u64) -> f64 {
+        *state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (*state >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    #[test]
+    fn bin_grid_finds_exactly_the_boxes_that_contain_a_point() {
+        let mut s = 7u64;
+        for dim in [2, 3] {
+            let boxes: Vec<Aabb> = (0..300)
+                .map(|_| {
+                    let mut b = Aabb::EMPTY;
+                    let c: Vec<f64> = (0..dim).map(|_| 10.0 * lcg(&mut s)).collect();
+                    b.grow(&c);
+                    let c2: Vec<f64> = c.iter().map(|v| v + 0.8 * lcg(&mut s)).collect();
+                    b.grow(&c2);
+                    b.inflated(dim, 0.05)
+                })
+                .collect();
+            let grid = BinGrid::new(dim, boxes.clone());
+            let mut out = Vec::new();
+            for _ in 0..2000 {
+                let x: Vec<f64> = (0..dim).map(|_| 11.0 * lcg(&mut s) - 0.5).collect();
+                grid.candidates(&x, &mut out);
+                let brute: Vec<u32> = (0..boxes.len() as u32)
+                    .filter(|&e| boxes[e as usize].contains(&x))
+                    .collect();
+                assert_eq!(out, brute, "dim {dim} x {x:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn empty_grid_has_no_candidates() {
+        let g = BinGrid::new(2, Vec::new());
+        let mut out = vec![1];
+        g.candidates(&[0.0, 0.0], &mut out);
+        assert!(out.is_empty());
+    }
+}

@@ -1,0 +1,804 @@
+//! All contact pairs of a model on this rank: their surfaces (replicated on every rank), the
+//! quadrature points this rank integrates, their projection state, and the evaluation of residual,
+//! tangent blocks and resultant forces. Free of PETSc and MPI: the assembler hands in the current
+//! displacement of every contact-surface node and takes residual entries and matrix blocks out.
+//!
+//! Parallel design (first version, measured in BENCHMARKS.md): every rank gets the current
+//! displacement of *all* contact-surface nodes by one gather per evaluation (`table_dofs` feeds a
+//! PETSc scatter). For surfaces of millions of nodes this allgather must become a bounding-box
+//! filtered ghosting of only the partner elements near a rank's own surface elements.
+#![allow(clippy::needless_range_loop)]
+#![allow(non_snake_case)]
+
+use crate::assembly::{DofMap, MatrixSink};
+use crate::contact::kernel::{contact_point, Area, OwnPoint, PartnerPoint, Scratch};
+use crate::contact::law::{self, Traction};
+use crate::contact::projection::{global_search, walk, Positions, Projection};
+use crate::contact::rigid::{RigidMotion, RigidShape};
+use crate::contact::search::{Aabb, BinGrid};
+use crate::contact::surface::{raw_normal, ContactSurface, MAX_FACE_NODES};
+use crate::fem::quadrature::tensor_rule;
+use std::collections::HashMap;
+
+/// A contact law with its parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Law {
+    /// Eq. (5): penalty `eps_n` on the current surface.
+    Penalty { eps_n: f64 },
+    /// Eq. (6): van der Waals adhesion (reference traction).
+    VanDerWaals { a_h: f64, r0: f64 },
+    /// Eq. (7): exponential cohesive zone with material point pairing, plus a penalty `eps_n`
+    /// against penetration.
+    Cohesive { t0: f64, g0: f64, eps_n: f64 },
+}
+
+/// The partner of a half-pass.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Partner {
+    /// Another contact surface (index into the system's surfaces).
+    Surface(usize),
+    /// A rigid shape and its motion.
+    Rigid(RigidShape, RigidMotion),
+}
+
+/// A declared contact pair, resolved against the model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PairDef {
+    /// Name (history columns).
+    pub name: String,
+    pub law: Law,
+    /// Half-passes: (integrated surface, partner). Two-half-pass: both ways; rigid: one.
+    pub passes: Vec<(usize, Partner)>,
+    /// Points farther than this from the partner are not paired.
+    pub search_distance: f64,
+    /// Moments of the contact forces are taken about this point [3].
+    pub moment_point: [f64; 3],
+    /// Reference-configuration box whose points carry no cohesive traction (initially debonded).
+    pub debonded: Option<Aabb>,
+}
+
+/// Projection state of one quadrature point.
+#[derive(Debug, Clone, Copy, Default)]
+struct QPoint {
+    /// Surface coordinates on its own element [m].
+    xi: [f64; 2],
+    /// Gauss weight.
+    w: f64,
+    /// Reference area element.
+    J0: f64,
+    /// Last projection (trial state, updated by every evaluation).
+    warm: Option<(u32, [f64; 2])>,
+    /// Last converged projection.
+    committed: Option<(u32, [f64; 2])>,
+    /// Projection of the current evaluation: partner element, coordinates, free flags.
+    current: Option<Projection>,
+    /// Cohesive material pairing (partner element, coordinates), if bonded.
+    pairing: Option<(u32, [f64; 2])>,
+}
+
+/// A surface element this rank integrates.
+#[derive(Debug, Clone)]
+struct OwnElem {
+    e: u32,
+    /// Points `points[first..first + n]`.
+    first: usize,
+    n: usize,
+    /// Local (ghosted) index of each unknown, [n_nodes * dim].
+    local: Vec<u32>,
+}
+
+/// Resultants of one half-pass over this rank's points (sum over ranks for the whole).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PassResult {
+    /// Resultant contact force on the integrated body [3].
+    pub force: [f64; 3],
+    /// Moment of the contact forces about the pair's moment point [3].
+    pub moment: [f64; 3],
+    /// Active quadrature points.
+    pub n_active: usize,
+    /// Largest penetration `max(-g_n, 0)`.
+    pub max_penetration: f64,
+    /// Active points whose closest point is an edge or corner of a faceted (C0) partner.
+    pub n_edge: usize,
+}
+
+struct Pass {
+    k: usize,
+    partner: Partner,
+    points: Vec<QPoint>,
+    elems: Vec<OwnElem>,
+    /// Rigid shape at the current load.
+    shape: Option<RigidShape>,
+    result: PassResult,
+}
+
+struct Pair {
+    def: PairDef,
+    passes: Vec<Pass>,
+}
+
+/// One coupling block of the Jacobian: rows of element `k_e` of the pass's surface, columns of
+/// `k_e` and of partner element `l_e` (`u32::MAX` for a rigid partner).
+pub type Coupling = (u32 /*pass*/, u32 /*k_e*/, u32 /*l_e*/);
+
+/// The COO slot of a coupling block in the current pattern (`None`: not in it).
+pub type SlotOf<'a> = dyn Fn(&Coupling) -> Option<usize> + 'a;
+
+/// Every contact pair of the model on this rank.
+pub struct ContactSystem {
+    dim: usize,
+    surfaces: Vec<ContactSurface>,
+    /// Global node ids whose displacement the system needs (all surface nodes), sorted.
+    table: Vec<u32>,
+    /// Reference coordinates of the table nodes [n_table][dim].
+    X: Vec<f64>,
+    /// Per surface, per element: positions of its nodes in `table`. [surface][element][node]
+    slots: Vec<Vec<Vec<u32>>>,
+    /// Per surface, per element: global unknowns of its nodes [n_nodes * dim] (-1: none).
+    gdofs: Vec<Vec<Vec<i32>>>,
+    /// Current positions per surface.
+    pos: Vec<Positions>,
+    grids: Vec<Option<BinGrid>>,
+    pairs: Vec<Pair>,
+    lambda: f64,
+    scratch: Scratch,
+    cand: Vec<u32>,
+}
+
+/// Evaluation of a pass's point: what kind of partner and traction.
+fn law_traction(law: &Law, g: &[f64; 3], n: &[f64; 3]) -> Traction {
+    match *law {
+        Law::Penalty { eps_n } => law::penalty(eps_n, g, n),
+        Law::VanDerWaals { a_h, r0 } => law::van_der_waals(a_h, r0, g, n),
+        Law::Cohesive { eps_n, .. } => law::penalty(eps_n, g, n),
+    }
+}
+
+impl ContactSystem {
+    /// Sets up the pairs on `surfaces`; this rank integrates the surface elements of the cells
+    /// `cell_part` gives it. Cohesive pairings are found here, in the reference configuration.
+    pub fn new(
+        dim: usize,
+        surfaces: Vec<ContactSurface>,
+        defs: Vec<PairDef>,
+        coords: &[f64],
+        dofs: &DofMap,
+        cell_part: &[u32],
+        rank: usize,
+    ) -> Result<ContactSystem, String> {
+        let mut table: Vec<u32> = surfaces
+            .iter()
+            .flat_map(|s| s.elements.iter().flat_map(|e| e.nodes.iter().copied()))
+            .collect();
+        table.sort_unstable();
+        table.dedup();
+        let X: Vec<f64> = table
+            .iter()
+            .flat_map(|&a| coords[a as usize * dim..(a as usize + 1) * dim].to_vec())
+            .collect();
+        let index: HashMap<u32, u32> = table
+            .iter()
+            .enumerate()
+            .map(|(i, &a)| (a, i as u32))
+            .collect();
+        let slots: Vec<Vec<Vec<u32>>> = surfaces
+            .iter()
+            .map(|s| {
+                s.elements
+                    .iter()
+                    .map(|e| e.nodes.iter().map(|a| index[a]).collect())
+                    .collect()
+            })
+            .collect();
+        let gdofs: Vec<Vec<Vec<i32>>> = surfaces
+            .iter()
+            .map(|s| {
+                s.elements
+                    .iter()
+                    .map(|e| {
+                        e.nodes
+                            .iter()
+                            .flat_map(|&a| (0..dim).map(move |c| (a, c)))
+                            .map(|(a, c)| dofs.global(a, c).map_or(-1, |g| g.0))
+                            .collect()
+                    })
+                    .collect()
+            })
+            .collect();
+        let mut sys = ContactSystem {
+            dim,
+            pos: vec![Positions::default(); surfaces.len()],
+            grids: vec![None; surfaces.len()],
+            surfaces,
+            table,
+            X,
+            slots,
+            gdofs,
+            pairs: Vec::new(),
+            lambda: 0.0,
+            scratch: Scratch::default(),
+            cand: Vec::new(),
+        };
+        sys.update_positions(&vec![0.0; sys.X.len()]);
+        for def in defs {
+            let mut passes = Vec::new();
+            for (k, partner) in &def.passes {
+                let s = &sys.surfaces[*k];
+                let mut points = Vec::new();
+                let mut elems = Vec::new();
+                for (e, el) in s.elements.iter().enumerate() {
+                    if cell_part[el.cell] as usize != rank {
+                        continue;
+                    }
+                    let rule =
+                        tensor_rule(&el.basis.quadrature_counts()).map_err(|e| e.to_string())?;
+                    let first = points.len();
+                    let m = dim - 1;
+                    let Xe = sys.pos[*k].of(e).to_vec();
+                    for (q, xi) in rule.points.chunks_exact(m).enumerate() {
+                        let mut x2 = [0.0; 2];
+                        x2[..m].copy_from_slice(xi);
+                        let (_, a, _) = crate::contact::surface::frame(el, dim, &Xe, &x2);
+                        let nu = raw_normal(dim, &a);
+                        let J0 = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt();
+                        points.push(QPoint {
+                            xi: x2,
+                            w: rule.weights[q],
+                            J0,
+                            ..Default::default()
+                        });
+                    }
+                    let local = sys.gdofs[*k][e]
+                        .iter()
+                        .map(|&g| {
+                            dofs.local(crate::assembly::GlobalDof(g))
+                                .map_or(u32::MAX, |l| l.0)
+                        })
+                        .collect();
+                    elems.push(OwnElem {
+                        e: e as u32,
+                        first,
+                        n: points.len() - first,
+                        local,
+                    });
+                }
+                passes.push(Pass {
+                    k: *k,
+                    partner: partner.clone(),
+                    points,
+                    elems,
+                    shape: None,
+                    result: PassResult::default(),
+                });
+            }
+            sys.pairs.push(Pair { def, passes });
+        }
+        sys.pair_cohesive()?;
+        Ok(sys)
+    }
+
+    /// Material point pairing of cohesive pairs, in the reference configuration (positions are
+    /// still the reference ones).
+    fn pair_cohesive(&mut self) -> Result<(), String> {
+        for pi in 0..self.pairs.len() {
+            if !matches!(self.pairs[pi].def.law, Law::Cohesive { .. }) {
+                continue;
+            }
+            for qi in 0..self.pairs[pi].passes.len() {
+                let Partner::Surface(l) = self.pairs[pi].passes[qi].partner else {
+                    continue;
+                };
+                let k = self.pairs[pi].passes[qi].k;
+                self.ensure_grid(l, self.pairs[pi].def.search_distance);
+                let n_el = self.pairs[pi].passes[qi].elems.len();
+                for oe in 0..n_el {
+                    let (e, first, n) = {
+                        let o = &self.pairs[pi].passes[qi].elems[oe];
+                        (o.e as usize, o.first, o.n)
+                    };
+                    for q in first..first + n {
+                        let xi = self.pairs[pi].passes[qi].points[q].xi;
+                        let x = self.point_position(k, e, &xi);
+                        if let Some(b) = &self.pairs[pi].def.debonded {
+                            if b.contains(&x[..self.dim]) {
+                                continue;
+                            }
+                        }
+                        let grid = self.grids[l].as_ref().expect("grid built above");
+                        let p = global_search(
+                            &self.surfaces[l],
+                            &self.pos[l],
+                            grid,
+                            &x,
+                            &mut self.cand,
+                        );
+                        if let Some(p) = p.filter(|p| p.dist <= self.pairs[pi].def.search_distance)
+                        {
+                            self.pairs[pi].passes[qi].points[q].pairing = Some((p.elem, p.xi));
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Global unknown of every table entry [n_table * dim], in table order: the indices of the
+    /// gather that feeds [`ContactSystem::update`].
+    pub fn table_dofs(&self, dofs: &DofMap) -> Vec<i32> {
+        self.table
+            .iter()
+            .flat_map(|&a| (0..self.dim).map(move |c| (a, c)))
+            .map(|(a, c)| dofs.global(a, c).map_or(0, |g| g.0))
+            .collect()
+    }
+
+    /// The load parameter (moves rigid partners).
+    pub fn set_load(&mut self, lambda: f64) {
+        self.lambda = lambda;
+    }
+
+    fn update_positions(&mut self, u_table: &[f64]) {
+        let dim = self.dim;
+        for (s, surf) in self.surfaces.iter().enumerate() {
+            let p = &mut self.pos[s];
+            p.offsets.clear();
+            p.offsets.push(0);
+            p.x.clear();
+            for (e, _) in surf.elements.iter().enumerate() {
+                for &t in &self.slots[s][e] {
+                    let t = t as usize;
+                    for c in 0..dim {
+                        p.x.push(self.X[t * dim + c] + u_table[t * dim + c]);
+                    }
+                }
+                p.offsets.push(p.x.len());
+            }
+            self.grids[s] = None;
+        }
+    }
+
+    fn point_position(&self, s: usize, e: usize, xi: &[f64; 2]) -> [f64; 3] {
+        crate::contact::surface::frame(
+            &self.surfaces[s].elements[e],
+            self.dim,
+            self.pos[s].of(e),
+            xi,
+        )
+        .0
+    }
+
+    fn ensure_grid(&mut self, l: usize, dist: f64) {
+        if self.grids[l].is_some() {
+            return;
+        }
+        let dim = self.dim;
+        let s = &self.surfaces[l];
+        let boxes = (0..s.elements.len())
+            .map(|e| {
+                // sample the element (the control net bounds NURBS, not Hermite tangents)
+                let mut b = Aabb::EMPTY;
+                let k = 4usize;
+                let m = dim - 1;
+                let n2 = if m == 2 { k + 1 } else { 1 };
+                for j in 0..n2 {
+                    for i in 0..=k {
+                        let xi = [
+                            -1.0 + 2.0 * i as f64 / k as f64,
+                            if m == 2 {
+                                -1.0 + 2.0 * j as f64 / k as f64
+                            } else {
+                                0.0
+                            },
+                        ];
+                        let x = crate::contact::surface::frame(
+                            &s.elements[e],
+                            dim,
+                            self.pos[l].of(e),
+                            &xi,
+                        )
+                        .0;
+                        b.grow(&x[..dim]);
+                    }
+                }
+                let size = (0..dim).map(|c| b.hi[c] - b.lo[c]).fold(0.0, f64::max);
+                b.inflated(dim, dist + 0.25 * size)
+            })
+            .collect();
+        self.grids[l] = Some(BinGrid::new(dim, boxes));
+    }
+
+    /// Moves to the displacement `u_table` [n_table][dim] and projects every point this rank
+    /// integrates. An error is a projection that failed where a partner was in reach: the caller
+    /// makes it a domain error, so the step is cut back.
+    pub fn update(&mut self, u_table: &[f64]) -> Result<(), String> {
+        self.update_positions(u_table);
+        let dim = self.dim;
+        for pi in 0..self.pairs.len() {
+            let dist = self.pairs[pi].def.search_distance;
+            for qi in 0..self.pairs[pi].passes.len() {
+                let k = self.pairs[pi].passes[qi].k;
+                let partner = self.pairs[pi].passes[qi].partner.clone();
+                match partner {
+                    Partner::Rigid(shape, motion) => {
+                        self.pairs[pi].passes[qi].shape = Some(shape.at(&motion, self.lambda));
+                    }
+                    Partner::Surface(l) => {
+                        let n_el = self.pairs[pi].passes[qi].elems.len();
+                        for oe in 0..n_el {
+                            let (e, first, n) = {
+                                let o = &self.pairs[pi].passes[qi].elems[oe];
+                                (o.e as usize, o.first, o.n)
+                            };
+                            for q in first..first + n {
+                                let qp = self.pairs[pi].passes[qi].points[q];
+                                let x = self.point_position(k, e, &qp.xi);
+                                let mut p = qp
+                                    .warm
+                                    .and_then(|w| walk(&self.surfaces[l], &self.pos[l], &x, w));
+                                if p.is_none_or(|p| p.dist > dist) {
+                                    self.ensure_grid(l, dist);
+                                    let grid = self.grids[l].as_ref().expect("built above");
+                                    let found = global_search(
+                                        &self.surfaces[l],
+                                        &self.pos[l],
+                                        grid,
+                                        &x,
+                                        &mut self.cand,
+                                    );
+                                    if found.is_none()
+                                        && !self.cand.is_empty()
+                                        && p.is_none()
+                                        && qp.warm.is_some()
+                                    {
+                                        return Err(format!(
+                                            "contact `{}`: the projection of a point of `{}` (element {e}) at {:?} onto `{}` failed",
+                                            self.pairs[pi].def.name,
+                                            self.surfaces[k].name,
+                                            &x[..dim],
+                                            self.surfaces[l].name
+                                        ));
+                                    }
+                                    if found.is_some_and(|f| p.is_none_or(|p| f.dist < p.dist)) {
+                                        p = found;
+                                    }
+                                }
+                                let p = p.filter(|p| p.dist <= dist);
+                                let pt = &mut self.pairs[pi].passes[qi].points[q];
+                                pt.current = p;
+                                if let Some(p) = p {
+                                    pt.warm = Some((p.elem, p.xi));
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The coupling blocks the current projections need (sorted, unique). Cohesive pairings
+    /// always couple; penalty-type points couple when their traction is active.
+    pub fn couplings(&self) -> Vec<Coupling> {
+        let mut out = Vec::new();
+        let mut pass_id = 0u32;
+        for pair in &self.pairs {
+            for pass in &pair.passes {
+                for oe in &pass.elems {
+                    if pass.shape.is_some() {
+                        out.push((pass_id, oe.e, u32::MAX));
+                        continue;
+                    }
+                    for q in oe.first..oe.first + oe.n {
+                        let qp = &pass.points[q];
+                        if let Some(p) = qp.current {
+                            out.push((pass_id, oe.e, p.elem));
+                        }
+                        if let Some((l, _)) = qp.pairing {
+                            out.push((pass_id, oe.e, l));
+                        }
+                    }
+                }
+                pass_id += 1;
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
+    /// Rows (own element, constrained rows dropped by the caller) and columns of a coupling block.
+    pub fn block_dofs(&self, c: &Coupling) -> (&[i32], Vec<i32>) {
+        let (pass, k_e, l_e) = *c;
+        let (k, partner) = self.pass_surfaces(pass as usize);
+        let rows = &self.gdofs[k][k_e as usize][..];
+        let mut cols = rows.to_vec();
+        if let Some(l) = partner {
+            cols.extend_from_slice(&self.gdofs[l][l_e as usize]);
+        }
+        (rows, cols)
+    }
+
+    fn pass_surfaces(&self, pass: usize) -> (usize, Option<usize>) {
+        let mut i = 0;
+        for pair in &self.pairs {
+            for p in &pair.passes {
+                if i == pass {
+                    return (
+                        p.k,
+                        match p.partner {
+                            Partner::Surface(l) => Some(l),
+                            Partner::Rigid(..) => None,
+                        },
+                    );
+                }
+                i += 1;
+            }
+        }
+        unreachable!("pass index out of range")
+    }
+
+    /// Adds the contact residual of this rank's points to `f_local` (ghosted local vector) and, with
+    /// `jac`, each coupling block to the sink at the slot `slot_of` gives it. Uses the projections
+    /// of the last [`ContactSystem::update`].
+    pub fn assemble(
+        &mut self,
+        f_local: &mut [f64],
+        mut jac: Option<(&mut dyn MatrixSink, &SlotOf)>,
+    ) {
+        let dim = self.dim;
+        let m = dim - 1;
+        let mut pass_id = 0u32;
+        let (mut N, mut dN, mut ddN) = (
+            [0.0; MAX_FACE_NODES],
+            [0.0; 2 * MAX_FACE_NODES],
+            [0.0; 4 * MAX_FACE_NODES],
+        );
+        // blocks of the current own element, keyed by partner element
+        let mut blocks: Vec<(u32, Vec<f64>)> = Vec::new();
+        let mut r = Vec::new();
+        for pi in 0..self.pairs.len() {
+            let law = self.pairs[pi].def.law;
+            let mpt = self.pairs[pi].def.moment_point;
+            let dist = self.pairs[pi].def.search_distance;
+            for qi in 0..self.pairs[pi].passes.len() {
+                let pass = &mut self.pairs[pi].passes[qi];
+                let k = pass.k;
+                let l = match pass.partner {
+                    Partner::Surface(l) => Some(l),
+                    Partner::Rigid(..) => None,
+                };
+                let mut res = PassResult::default();
+                for oe in &pass.elems {
+                    let e = oe.e as usize;
+                    let el = &self.surfaces[k].elements[e];
+                    let nk = el.basis.n_nodes();
+                    let x = self.pos[k].of(e);
+                    r.clear();
+                    r.resize(nk * dim, 0.0);
+                    blocks.clear();
+                    for q in oe.first..oe.first + oe.n {
+                        let qp = pass.points[q];
+                        el.basis.eval(&qp.xi[..m], &mut N, &mut dN, &mut ddN);
+                        let own = OwnPoint {
+                            N: &N[..nk],
+                            dN: &dN[..nk * m],
+                            x,
+                            w: qp.w,
+                            J0: qp.J0,
+                        };
+                        // (partner element, partner point, law, area) of each contribution
+                        let mut contributions: [Option<(u32, PartnerPoint, Area, bool)>; 2] =
+                            [None, None];
+                        match (&pass.shape, l) {
+                            (Some(shape), _) => {
+                                let mut xk = [0.0; 3];
+                                for a in 0..nk {
+                                    for c in 0..dim {
+                                        xk[c] += N[a] * x[a * dim + c];
+                                    }
+                                }
+                                if let Some(rp) = shape.project(&xk) {
+                                    let within =
+                                        (rp.g[0] * rp.g[0] + rp.g[1] * rp.g[1] + rp.g[2] * rp.g[2])
+                                            .sqrt()
+                                            <= dist;
+                                    if within {
+                                        contributions[0] = Some((
+                                            u32::MAX,
+                                            PartnerPoint::Rigid(rp),
+                                            area_of(&law),
+                                            false,
+                                        ));
+                                    }
+                                }
+                            }
+                            (None, Some(l)) => {
+                                if let Some(p) = qp.current {
+                                    let le = p.elem as usize;
+                                    contributions[0] = Some((
+                                        p.elem,
+                                        PartnerPoint::Projected {
+                                            el: &self.surfaces[l].elements[le],
+                                            y: self.pos[l].of(le),
+                                            xi: p.xi,
+                                            free: p.free,
+                                        },
+                                        area_of(&law),
+                                        false,
+                                    ));
+                                }
+                                if let Some((le, xi0)) = qp.pairing {
+                                    contributions[1] = Some((
+                                        le,
+                                        PartnerPoint::Material {
+                                            el: &self.surfaces[l].elements[le as usize],
+                                            y: self.pos[l].of(le as usize),
+                                            xi: xi0,
+                                        },
+                                        Area::Reference,
+                                        true,
+                                    ));
+                                }
+                            }
+                            (None, None) => {}
+                        }
+                        for (le, pp, area, cohesive) in contributions.into_iter().flatten() {
+                            let on_edge = matches!(&pp, PartnerPoint::Projected { free, .. } if !free[..m].iter().all(|&f| f));
+                            let nl = match &pp {
+                                PartnerPoint::Rigid(_) => 0,
+                                PartnerPoint::Projected { el, .. }
+                                | PartnerPoint::Material { el, .. } => el.basis.n_nodes(),
+                            };
+                            let nc = (nk + nl) * dim;
+                            let kb = jac.as_ref().map(|_| {
+                                let i = match blocks.iter().position(|(b, _)| *b == le) {
+                                    Some(i) => i,
+                                    None => {
+                                        blocks.push((le, vec![0.0; nk * dim * nc]));
+                                        blocks.len() - 1
+                                    }
+                                };
+                                i
+                            });
+                            let kslice = kb.map(|i| &mut blocks[i].1[..]);
+                            let lawf = |g: &[f64; 3], n: &[f64; 3]| -> Traction {
+                                if cohesive {
+                                    match law {
+                                        Law::Cohesive { t0, g0, .. } => law::cohesive(t0, g0, g),
+                                        _ => Traction::ZERO,
+                                    }
+                                } else {
+                                    law_traction(&law, g, n)
+                                }
+                            };
+                            let pr = contact_point(
+                                dim,
+                                &own,
+                                &pp,
+                                &lawf,
+                                area,
+                                &mut r,
+                                kslice,
+                                &mut self.scratch,
+                            );
+                            if pr.active {
+                                if !cohesive {
+                                    res.n_active += 1;
+                                    res.n_edge += on_edge as usize;
+                                }
+                                let g_n = pr.g[0] * pr.n[0] + pr.g[1] * pr.n[1] + pr.g[2] * pr.n[2];
+                                if !cohesive {
+                                    res.max_penetration = res.max_penetration.max(-g_n);
+                                }
+                                let d = [0, 1, 2].map(|c| pr.x[c] - mpt[c]);
+                                for c in 0..3 {
+                                    res.force[c] += pr.force[c];
+                                }
+                                let mo = [
+                                    d[1] * pr.force[2] - d[2] * pr.force[1],
+                                    d[2] * pr.force[0] - d[0] * pr.force[2],
+                                    d[0] * pr.force[1] - d[1] * pr.force[0],
+                                ];
+                                for c in 0..3 {
+                                    res.moment[c] += mo[c];
+                                }
+                            }
+                        }
+                    }
+                    for (i, &li) in oe.local.iter().enumerate() {
+                        if li != u32::MAX {
+                            f_local[li as usize] += r[i];
+                        }
+                    }
+                    if let Some((sink, slot_of)) = jac.as_mut() {
+                        for (le, kb) in &blocks {
+                            let c: Coupling = (pass_id, oe.e, *le);
+                            let rows = &self.gdofs[k][e];
+                            let mut cols = rows.clone();
+                            if let Some(l) = l {
+                                if *le != u32::MAX {
+                                    cols.extend_from_slice(&self.gdofs[l][*le as usize]);
+                                }
+                            }
+                            if let Some(slot) = slot_of(&c) {
+                                sink.add_block(slot, rows, &cols, kb);
+                            }
+                        }
+                    }
+                }
+                pass.result = res;
+                pass_id += 1;
+            }
+        }
+    }
+
+    /// Resultants of every half-pass over this rank's points, pair by pair.
+    pub fn results(&self) -> Vec<(String, Vec<PassResult>)> {
+        self.pairs
+            .iter()
+            .map(|p| {
+                (
+                    p.def.name.clone(),
+                    p.passes.iter().map(|q| q.result).collect(),
+                )
+            })
+            .collect()
+    }
+
+    /// Names of the half-passes of each pair: the integrated surface's name.
+    pub fn pass_names(&self) -> Vec<(String, Vec<String>)> {
+        self.pairs
+            .iter()
+            .map(|p| {
+                (
+                    p.def.name.clone(),
+                    p.passes
+                        .iter()
+                        .map(|q| self.surfaces[q.k].name.clone())
+                        .collect(),
+                )
+            })
+            .collect()
+    }
+
+    /// Keeps the current projections as warm starts of the next step.
+    pub fn commit(&mut self) {
+        for pair in &mut self.pairs {
+            for pass in &mut pair.passes {
+                for q in &mut pass.points {
+                    q.committed = q.warm;
+                }
+            }
+        }
+    }
+
+    /// Returns the warm starts to the last committed state.
+    pub fn rollback(&mut self) {
+        for pair in &mut self.pairs {
+            for pass in &mut pair.passes {
+                for q in &mut pass.points {
+                    q.warm = q.committed;
+                }
+            }
+        }
+    }
+
+    /// The contact surfaces.
+    pub fn surfaces(&self) -> &[ContactSurface] {
+        &self.surfaces
+    }
+
+    /// Number of table nodes.
+    pub fn n_table(&self) -> usize {
+        self.table.len()
+    }
+}
+
+fn area_of(law: &Law) -> Area {
+    match law {
+        Law::Penalty { .. } | Law::Cohesive { .. } => Area::Current,
+        Law::VanDerWaals { .. } => Area::Reference,
+    }
+}

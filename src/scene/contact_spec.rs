@@ -1,0 +1,132 @@
+//! `[[contact]]`: contact pairs of a case. Checked against the model (bodies, face sets, stages)
+//! where the pairs are built, `crate::model::contact`.
+
+use serde::{Deserialize, Serialize};
+
+/// `[[contact]]`: a contact pair between two surfaces `body.face_set`, or one surface and a rigid
+/// partner.
+///
+/// ```toml
+/// [[contact]]
+/// surfaces = ["disk.arc", "block.top"]     # two-half-pass between two deformable surfaces
+/// law = "penalty"
+/// eps_n = 1000.0
+///
+/// [[contact]]
+/// surfaces = ["strip.bottom"]              # against a rigid partner
+/// rigid = { shape = "plane", point = [0.0, 0.0], normal = [0.0, 1.0] }
+/// law = "van_der_waals"
+/// a_h = 1e-19
+/// r0 = 0.4
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactSpec {
+    /// Name used in `history.csv` columns. Default: `contact<index>`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// One or two surfaces, each `body.face_set` (any face set of the body: its enriched surface, or
+    /// a face set of linear faces). With one surface, `rigid` gives the partner.
+    pub surfaces: Vec<String>,
+    /// The rigid partner of a one-surface pair.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rigid: Option<RigidSpec>,
+    /// `penalty` (eq. 5), `van_der_waals` (eq. 6) or `cohesive` (eq. 7).
+    pub law: LawKind,
+    /// Penalty parameter (> 0; force per length^3 in 3D, per length^2 in 2D): `penalty`, and the
+    /// penalty against penetration of `cohesive`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub eps_n: Option<f64>,
+    /// Hamaker's constant `A_H` (> 0) of `van_der_waals`, in the case's units of energy.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub a_h: Option<f64>,
+    /// Equilibrium spacing `r0` (> 0) of the Lennard-Jones potential, `van_der_waals`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub r0: Option<f64>,
+    /// Peak traction `T0` (> 0) of `cohesive`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub t0: Option<f64>,
+    /// Characteristic opening `g0` (> 0) of `cohesive`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub g0: Option<f64>,
+    /// `cohesive`: the initially debonded part, a box in the reference configuration; quadrature
+    /// points inside it carry no cohesive traction (only the penalty against penetration).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub debonded: Option<BoxSpec>,
+    /// Points farther than this from the partner are not paired (> 0). Default: twice the largest
+    /// mean element length of the pair's surfaces.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub search_distance: Option<f64>,
+    /// `[dim]`: point about which `history.csv` reports the moment of the contact forces.
+    /// Default: the origin.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub moment_point: Option<Vec<f64>>,
+}
+
+/// Contact laws.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LawKind {
+    Penalty,
+    VanDerWaals,
+    Cohesive,
+}
+
+/// An axis-aligned box `{ min = [...], max = [...] }`, `[dim]` each.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxSpec {
+    pub min: Vec<f64>,
+    pub max: Vec<f64>,
+}
+
+/// A rigid contact partner and its motion. Normals point out of the rigid body.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RigidSpec {
+    /// `plane` (a line in 2D; `point`, `normal`), `circle` (2D) / `sphere` (3D) (`center`,
+    /// `radius`, `inside`), `cylinder` (3D; `center`, `axis`, `radius`, `inside`).
+    pub shape: RigidShapeKind,
+    /// `[dim]`: a point of the plane.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub point: Option<Vec<f64>>,
+    /// `[dim]`: the plane's normal, towards the deformable body (need not be normalised).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub normal: Option<Vec<f64>>,
+    /// `[dim]`: centre of the circle/sphere, a point on the cylinder's axis.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub center: Option<Vec<f64>>,
+    /// Radius (> 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius: Option<f64>,
+    /// Cylinder axis (3D).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis: Option<[f64; 3]>,
+    /// The deformable body is inside the circle/sphere/cylinder (a cavity). Default: false.
+    #[serde(default)]
+    pub inside: bool,
+    /// `[n_stages][dim]`: translation reached at the end of each stage (linear in a stage).
+    /// Default: none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub translation: Vec<Vec<f64>>,
+    /// `[n_stages]`: rotation angle in degrees reached at the end of each stage, about
+    /// `rotation_axis` (3D; 2D rotates in the plane) through `rotation_center`. Default: none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub rotation_deg: Vec<f64>,
+    /// `[dim]`: centre of the rotation. Default: the origin.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotation_center: Option<Vec<f64>>,
+    /// Rotation axis (3D). Default: `[0, 0, 1]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotation_axis: Option<[f64; 3]>,
+}
+
+/// Rigid shapes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RigidShapeKind {
+    Plane,
+    Circle,
+    Sphere,
+    Cylinder,
+}
