@@ -24,6 +24,7 @@
 //!   body's contact surface, `model::enrich`); [`solver`], [`driver`], [`io`].
 
 pub mod assembly;
+pub mod contact;
 pub mod driver;
 pub mod fem;
 pub mod geometry;

@@ -44,6 +44,26 @@ pub fn bernstein(p: usize, xi: f64, B: &mut [f64], dB: &mut [f64]) {
     B[p] = saved;
 }
 
+/// Bernstein polynomials of order `p` on [-1,1] with first and second derivatives.
+/// `B`, `dB`, `ddB`: [p+1]. The second derivative is the derivative of `dB` of order `p-1`:
+/// `d2/dxi2 B_k^p = p/2 (dB_{k-1}^{p-1} - dB_k^{p-1})`.
+#[allow(non_snake_case)]
+pub fn bernstein2(p: usize, xi: f64, B: &mut [f64], dB: &mut [f64], ddB: &mut [f64]) {
+    bernstein(p, xi, B, dB);
+    ddB[..=p].fill(0.0);
+    if p < 2 {
+        return;
+    }
+    let (mut b, mut db) = ([0.0; MAX_ORDER + 1], [0.0; MAX_ORDER + 1]);
+    bernstein(p - 1, xi, &mut b, &mut db);
+    let half_p = 0.5 * p as f64;
+    for k in 0..=p {
+        let lo = if k >= 1 { db[k - 1] } else { 0.0 };
+        let hi = if k < p { db[k] } else { 0.0 };
+        ddB[k] = half_p * (lo - hi);
+    }
+}
+
 /// Bezier extraction operators of a 1D knot vector.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Extraction1d {
@@ -265,6 +285,31 @@ mod tests {
                         (dB[k] - (Bp[k] - Bm[k]) / (2.0 * h)).abs() < 1e-7,
                         "p={p} k={k}"
                     );
+                }
+            }
+        }
+    }
+
+    #[test]
+    #[allow(non_snake_case)]
+    fn bernstein2_matches_bernstein_with_fd_second_derivatives() {
+        for p in 0..=8 {
+            let n = p + 1;
+            let (mut B, mut dB, mut ddB) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+            let (mut B1, mut dB1) = (vec![0.0; n], vec![0.0; n]);
+            let (mut dBp, mut dBm, mut tmp) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+            for s in 0..=40 {
+                let xi = -1.0 + s as f64 / 20.0;
+                bernstein2(p, xi, &mut B, &mut dB, &mut ddB);
+                bernstein(p, xi, &mut B1, &mut dB1);
+                assert_eq!((&B, &dB), (&B1, &dB1), "p={p}");
+                assert!(ddB.iter().sum::<f64>().abs() < 1e-12);
+                let h = 1e-5;
+                bernstein(p, xi + h, &mut tmp, &mut dBp);
+                bernstein(p, xi - h, &mut tmp, &mut dBm);
+                for k in 0..=p {
+                    let fd = (dBp[k] - dBm[k]) / (2.0 * h);
+                    assert!((ddB[k] - fd).abs() < 1e-7 * (1.0 + fd.abs()), "p={p} k={k}");
                 }
             }
         }

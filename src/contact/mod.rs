@@ -1,0 +1,2 @@
+//! Contact: the interpolation of contact-surface elements along their faces.
+pub mod basis;
