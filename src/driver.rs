@@ -396,7 +396,15 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
         .cloned()
         .collect::<Vec<_>>()
         .join(" ");
-    petsc.insert_options(&case.solver.petsc_options, &cmdline)?;
+    // With contact, full Newton steps (cut back when a step fails) beat backtracking: the penalty's
+    // switch between active and inactive points makes the backtracking line search creep (hertz_2d's
+    // first step: 30 iterations with bt, 5 with basic). The case or the command line can override it.
+    let case_options = if model.contact_pairs.is_empty() {
+        case.solver.petsc_options.clone()
+    } else {
+        format!("-snes_linesearch_type basic {}", case.solver.petsc_options)
+    };
+    petsc.insert_options(&case_options, &cmdline)?;
     let mut jac = Matrix::new_aij(petsc, n_owned)?;
     let mut snes = Snes::new(petsc)?;
     snes.set_tolerances(1e-11, 1e-10, 1e-14, 30)?;
@@ -623,6 +631,35 @@ fn contact_history(asm: &Assembler, dim: usize) -> Vec<f64> {
     out
 }
 
+/// Nodal contact pressure and normal gap [n_nodes] on rank 0 (L2 projections of the pointwise
+/// values on each contact surface, Sauer 2013), `None` without contact or off rank 0. A node shared
+/// by two contact surfaces shows the last surface's value.
+///
+/// Collective.
+fn contact_fields(asm: &Assembler, n_nodes: usize, root: bool) -> Option<(Vec<f64>, Vec<f64>)> {
+    let c = asm.contact()?;
+    let (fp, fg) = c.l2_rhs();
+    let comm = asm.comm();
+    let (mut sp, mut sg) = (vec![0.0; fp.len()], vec![0.0; fg.len()]);
+    comm.all_reduce_into(&fp[..], &mut sp[..], SystemOperation::sum());
+    comm.all_reduce_into(&fg[..], &mut sg[..], SystemOperation::sum());
+    if !root {
+        return None;
+    }
+    let nt = c.n_table();
+    let (mut p, mut g) = (vec![0.0; n_nodes], vec![0.0; n_nodes]);
+    for s in 0..c.surfaces().len() {
+        let ps = c.l2_project(s, &sp[s * nt..(s + 1) * nt]);
+        let gs = c.l2_project(s, &sg[s * nt..(s + 1) * nt]);
+        for t in c.surface_nodes(s) {
+            let node = c.table()[t as usize] as usize;
+            p[node] = ps[t as usize];
+            g[node] = gs[t as usize];
+        }
+    }
+    Some((p, g))
+}
+
 /// Results of a run on rank 0 (the other ranks only take part in the gathers).
 /// Sample points per enriched element edge in the "surface" output grid.
 const SURFACE_SAMPLES: usize = 8;
@@ -811,11 +848,12 @@ impl<'p> Output<'p> {
                 cells[2 * self.n_cells + g] = rank;
             }
             let root_proc = comm.process_at_rank(0);
+            let contact = contact_fields(asm, self.n_nodes, self.root);
             if self.root {
                 let mut global = vec![0.0; 3 * self.n_cells];
                 root_proc.reduce_into_root(&cells[..], &mut global[..], SystemOperation::sum());
                 if local.is_ok() {
-                    local = self.write_results(rec.load, &global);
+                    local = self.write_results(rec.load, &global, contact.as_ref());
                 }
             } else {
                 root_proc.reduce_into(&cells[..], SystemOperation::sum());
@@ -825,7 +863,12 @@ impl<'p> Output<'p> {
     }
 
     /// Rank 0: writes one output step from the gathered displacement and cell measures.
-    fn write_results(&mut self, load: f64, cell_measures: &[f64]) -> Result<(), Error> {
+    fn write_results(
+        &mut self,
+        load: f64,
+        cell_measures: &[f64],
+        contact: Option<&(Vec<f64>, Vec<f64>)>,
+    ) -> Result<(), Error> {
         let mut u = self.u_root.read()?.to_vec();
         for (n, _) in self.without_unknowns.iter().enumerate().filter(|(_, &w)| w) {
             u[n * self.dim..(n + 1) * self.dim].fill(0.0);
@@ -851,6 +894,27 @@ impl<'p> Output<'p> {
         }
         for (g, v) in self.sampled.iter().zip(&sampled_u) {
             fields.push(FieldData::node_vector(g.name, "displacement", self.dim, v));
+        }
+        // contact pressure and gap: nodal values of the L2 projection on the contact surfaces'
+        // own interpolation, shown on the bulk grid (display nodes interpolated) and sampled grids
+        let mut contact_nodal = Vec::new();
+        if let Some((p, g)) = contact {
+            for f in [p, g] {
+                let mut v = f.clone();
+                crate::model::apply_display(&self.display, 1, &mut v);
+                let sampled: Vec<Vec<f64>> =
+                    self.sampled.iter().map(|s| s.interpolate(1, &v)).collect();
+                contact_nodal.push((v, sampled));
+            }
+        }
+        for ((v, sampled), name) in contact_nodal
+            .iter()
+            .zip(["contact_pressure", "contact_gap"])
+        {
+            fields.push(FieldData::node_vector("bulk", name, 1, v));
+            for (g, sv) in self.sampled.iter().zip(sampled) {
+                fields.push(FieldData::node_vector(g.name, name, 1, sv));
+            }
         }
         debug_assert_eq!(u.len(), self.n_nodes * self.dim);
         if let Some(r) = &mut self.results {

@@ -207,6 +207,8 @@ pub fn contact_point(
         force: tr.t.map(|c| c * J * own.w),
         active: !tr.is_zero(),
     };
+    // `active` means "contributes to the residual or the tangent"; resultants count only points
+    // that carry traction (a touching point with zero traction contributes stiffness only)
     if !out.active {
         return out;
     }

@@ -45,9 +45,13 @@ fn norm(a: &[f64; 3]) -> f64 {
 }
 
 /// Penalty law, eq. (5): `t = -eps_n g_n n` for `g_n = g . n < 0`, zero otherwise (a current traction).
-pub fn penalty(eps_n: f64, g: &[f64; 3], n: &[f64; 3]) -> Traction {
+/// A point touching within `touch` (`g_n <= touch`, a round-off tolerance) counts as active: its
+/// traction is (nearly) zero but its stiffness is not, so Newton's first iteration from surfaces that
+/// just touch (a patch test, an indenter placed on a block) already sees the contact instead of
+/// passing through it where round-off left `g_n = +1e-16`.
+pub fn penalty(eps_n: f64, touch: f64, g: &[f64; 3], n: &[f64; 3]) -> Traction {
     let g_n = dot(g, n);
-    if g_n >= 0.0 {
+    if g_n > touch {
         return Traction::ZERO;
     }
     let mut out = Traction::ZERO;
@@ -161,14 +165,22 @@ mod tests {
     #[test]
     fn penalty_derivatives_match_central_differences() {
         let n = unit([0.3, -0.2, 0.9]);
-        check(&|g, n| penalty(1e3, g, n), [0.01, -0.02, -0.05], n, 1e-6);
+        check(
+            &|g, n| penalty(1e3, 0.0, g, n),
+            [0.01, -0.02, -0.05],
+            n,
+            1e-6,
+        );
         // open gap: no traction, no derivatives
-        assert!(penalty(1e3, &[0.0, 0.0, 0.1], &[0.0, 0.0, 1.0]).is_zero());
+        assert!(penalty(1e3, 1e-12, &[0.0, 0.0, 0.1], &[0.0, 0.0, 1.0]).is_zero());
+        // touching within the tolerance: no traction, but stiffness
+        let t = penalty(1e3, 1e-12, &[0.0, 0.0, 1e-16], &[0.0, 0.0, 1.0]);
+        assert!(t.t[2].abs() < 1e-12 && t.dt_dg[8] == -1e3);
     }
 
     #[test]
     fn penalty_pushes_along_the_partner_normal() {
-        let t = penalty(100.0, &[0.0, -0.01, 0.0], &[0.0, 1.0, 0.0]);
+        let t = penalty(100.0, 0.0, &[0.0, -0.01, 0.0], &[0.0, 1.0, 0.0]);
         assert!((t.t[1] - 1.0).abs() < 1e-12 && t.t[0] == 0.0);
     }
 

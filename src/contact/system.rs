@@ -74,6 +74,10 @@ struct QPoint {
     current: Option<Projection>,
     /// Cohesive material pairing (partner element, coordinates), if bonded.
     pairing: Option<(u32, [f64; 2])>,
+    /// Contact force of the point at the last evaluation, `t J w` summed over its contributions.
+    force: [f64; 3],
+    /// Normal gap to the partner at the last evaluation (`None`: no partner within reach).
+    gap: Option<f64>,
 }
 
 /// A surface element this rank integrates.
@@ -146,13 +150,17 @@ pub struct ContactSystem {
 }
 
 /// Evaluation of a pass's point: what kind of partner and traction.
-fn law_traction(law: &Law, g: &[f64; 3], n: &[f64; 3]) -> Traction {
+/// `touch`: gaps below it count as touching (round-off tolerance of the penalty's active set).
+fn law_traction(law: &Law, touch: f64, g: &[f64; 3], n: &[f64; 3]) -> Traction {
     match *law {
-        Law::Penalty { eps_n } => law::penalty(eps_n, g, n),
+        Law::Penalty { eps_n } => law::penalty(eps_n, touch, g, n),
         Law::VanDerWaals { a_h, r0 } => law::van_der_waals(a_h, r0, g, n),
-        Law::Cohesive { eps_n, .. } => law::penalty(eps_n, g, n),
+        Law::Cohesive { eps_n, .. } => law::penalty(eps_n, touch, g, n),
     }
 }
+
+/// Relative round-off tolerance of "touching", in units of the surface's element length.
+const TOUCH: f64 = 1e-12;
 
 impl ContactSystem {
     /// Sets up the pairs on `surfaces`; this rank integrates the surface elements of the cells
@@ -570,6 +578,7 @@ impl ContactSystem {
                     Partner::Rigid(..) => None,
                 };
                 let mut res = PassResult::default();
+                let touch = TOUCH * self.surfaces[k].h;
                 for oe in &pass.elems {
                     let e = oe.e as usize;
                     let el = &self.surfaces[k].elements[e];
@@ -644,6 +653,8 @@ impl ContactSystem {
                             }
                             (None, None) => {}
                         }
+                        let mut fsum = [0.0; 3];
+                        let mut gap = None;
                         for (le, pp, area, cohesive) in contributions.into_iter().flatten() {
                             let on_edge = matches!(&pp, PartnerPoint::Projected { free, .. } if !free[..m].iter().all(|&f| f));
                             let nl = match &pp {
@@ -670,7 +681,7 @@ impl ContactSystem {
                                         _ => Traction::ZERO,
                                     }
                                 } else {
-                                    law_traction(&law, g, n)
+                                    law_traction(&law, touch, g, n)
                                 }
                             };
                             let pr = contact_point(
@@ -683,6 +694,13 @@ impl ContactSystem {
                                 kslice,
                                 &mut self.scratch,
                             );
+                            if !cohesive {
+                                gap =
+                                    Some(pr.g[0] * pr.n[0] + pr.g[1] * pr.n[1] + pr.g[2] * pr.n[2]);
+                            }
+                            for c in 0..3 {
+                                fsum[c] += pr.force[c];
+                            }
                             if pr.active {
                                 if !cohesive {
                                     res.n_active += 1;
@@ -706,6 +724,8 @@ impl ContactSystem {
                                 }
                             }
                         }
+                        pass.points[q].force = fsum;
+                        pass.points[q].gap = gap;
                     }
                     for (i, &li) in oe.local.iter().enumerate() {
                         if li != u32::MAX {
@@ -761,6 +781,151 @@ impl ContactSystem {
                 )
             })
             .collect()
+    }
+
+    /// This rank's right-hand sides of the L2 projections of the contact pressure and the normal gap
+    /// (Sauer 2013): per surface, `f_A = int N_A p da` with `p = -t . nu_k` (`nu_k` the surface's own
+    /// outward normal: positive in compression, negative in adhesion), and `int N_A g_n da` with
+    /// `g_n` capped at the search distance where no partner is within reach. Indexed
+    /// `[surface][table node]`, flattened; sum over ranks before [`ContactSystem::l2_project`].
+    pub fn l2_rhs(&self) -> (Vec<f64>, Vec<f64>) {
+        let (dim, m, nt) = (self.dim, self.dim - 1, self.table.len());
+        let mut fp = vec![0.0; self.surfaces.len() * nt];
+        let mut fg = vec![0.0; self.surfaces.len() * nt];
+        let (mut N, mut dN, mut ddN) = (
+            [0.0; MAX_FACE_NODES],
+            [0.0; 2 * MAX_FACE_NODES],
+            [0.0; 4 * MAX_FACE_NODES],
+        );
+        for pair in &self.pairs {
+            for pass in &pair.passes {
+                let k = pass.k;
+                for oe in &pass.elems {
+                    let e = oe.e as usize;
+                    let el = &self.surfaces[k].elements[e];
+                    for q in oe.first..oe.first + oe.n {
+                        let qp = &pass.points[q];
+                        el.basis.eval(&qp.xi[..m], &mut N, &mut dN, &mut ddN);
+                        let (_, a, nu) =
+                            crate::contact::surface::frame(el, dim, self.pos[k].of(e), &qp.xi);
+                        let _ = a;
+                        let J = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt();
+                        let p = -el.sign * (0..dim).map(|c| qp.force[c] * nu[c]).sum::<f64>() / J;
+                        let g = qp
+                            .gap
+                            .unwrap_or(pair.def.search_distance)
+                            .min(pair.def.search_distance);
+                        for (b, &t) in self.slots[k][e].iter().enumerate() {
+                            fp[k * nt + t as usize] += N[b] * p;
+                            fg[k * nt + t as usize] += N[b] * g * J * qp.w;
+                        }
+                    }
+                }
+            }
+        }
+        (fp, fg)
+    }
+
+    /// Solves `M x = f` on surface `s` with the consistent mass matrix `M_AB = int N_A N_B da` of its
+    /// own interpolation in the current configuration (conjugate gradients, Jacobi-preconditioned,
+    /// matrix-free over the surface's elements). `f`: `[table node]` (the slice of
+    /// [`ContactSystem::l2_rhs`] for `s`). Returns values per table node (zero off the surface).
+    pub fn l2_project(&self, s: usize, f: &[f64]) -> Vec<f64> {
+        let (dim, m, nt) = (self.dim, self.dim - 1, self.table.len());
+        let surf = &self.surfaces[s];
+        // element mass matrices, once
+        let mut blocks: Vec<Vec<f64>> = Vec::with_capacity(surf.elements.len());
+        let (mut N, mut dN, mut ddN) = (
+            [0.0; MAX_FACE_NODES],
+            [0.0; 2 * MAX_FACE_NODES],
+            [0.0; 4 * MAX_FACE_NODES],
+        );
+        let mut diag = vec![0.0; nt];
+        for (e, el) in surf.elements.iter().enumerate() {
+            let n = el.basis.n_nodes();
+            let mut Me = vec![0.0; n * n];
+            let Ok(rule) = tensor_rule(&el.basis.quadrature_counts()) else {
+                blocks.push(Me);
+                continue;
+            };
+            for (q, xi) in rule.points.chunks_exact(m).enumerate() {
+                let mut x2 = [0.0; 2];
+                x2[..m].copy_from_slice(xi);
+                el.basis.eval(xi, &mut N, &mut dN, &mut ddN);
+                let (_, _, nu) = crate::contact::surface::frame(el, dim, self.pos[s].of(e), &x2);
+                let J = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt();
+                for a in 0..n {
+                    for b in 0..n {
+                        Me[a * n + b] += N[a] * N[b] * J * rule.weights[q];
+                    }
+                }
+            }
+            for (a, &t) in self.slots[s][e].iter().enumerate() {
+                diag[t as usize] += Me[a * n + a].abs();
+            }
+            blocks.push(Me);
+        }
+        let on: Vec<bool> = diag.iter().map(|&d| d > 0.0).collect();
+        let apply = |v: &[f64], out: &mut [f64]| {
+            out.fill(0.0);
+            for (e, Me) in blocks.iter().enumerate() {
+                let sl = &self.slots[s][e];
+                let n = sl.len();
+                for a in 0..n {
+                    let mut acc = 0.0;
+                    for b in 0..n {
+                        acc += Me[a * n + b] * v[sl[b] as usize];
+                    }
+                    out[sl[a] as usize] += acc;
+                }
+            }
+        };
+        // preconditioned conjugate gradients on the surface's nodes
+        let mut x = vec![0.0; nt];
+        let mut r: Vec<f64> = (0..nt).map(|i| if on[i] { f[i] } else { 0.0 }).collect();
+        let mut z: Vec<f64> = (0..nt)
+            .map(|i| if on[i] { r[i] / diag[i] } else { 0.0 })
+            .collect();
+        let mut p = z.clone();
+        let mut ap = vec![0.0; nt];
+        let mut rz: f64 = r.iter().zip(&z).map(|(a, b)| a * b).sum();
+        let r0 = r.iter().map(|v| v * v).sum::<f64>().sqrt();
+        for _ in 0..10 * nt.max(10) {
+            if r.iter().map(|v| v * v).sum::<f64>().sqrt() <= 1e-14 * r0.max(1e-300) {
+                break;
+            }
+            apply(&p, &mut ap);
+            let pap: f64 = p.iter().zip(&ap).map(|(a, b)| a * b).sum();
+            if pap <= 0.0 {
+                break;
+            }
+            let alpha = rz / pap;
+            for i in 0..nt {
+                x[i] += alpha * p[i];
+                r[i] -= alpha * ap[i];
+                z[i] = if on[i] { r[i] / diag[i] } else { 0.0 };
+            }
+            let rz_new: f64 = r.iter().zip(&z).map(|(a, b)| a * b).sum();
+            let beta = rz_new / rz;
+            rz = rz_new;
+            for i in 0..nt {
+                p[i] = z[i] + beta * p[i];
+            }
+        }
+        x
+    }
+
+    /// Table indices of the nodes of surface `s`, sorted.
+    pub fn surface_nodes(&self, s: usize) -> Vec<u32> {
+        let mut v: Vec<u32> = self.slots[s].iter().flatten().copied().collect();
+        v.sort_unstable();
+        v.dedup();
+        v
+    }
+
+    /// Global node ids of the table entries.
+    pub fn table(&self) -> &[u32] {
+        &self.table
     }
 
     /// Keeps the current projections as warm starts of the next step.

@@ -277,3 +277,248 @@ fn cohesive_tangent_matches_central_differences() {
         assert!(err < 1e-6, "{block}/{disk}: tangent error {err:e}");
     }
 }
+
+/// Two 3D blocks: `lower` [-1,1]^2 x [-1,0] (top `zmax`) and `upper` shifted above it, or a
+/// hemisphere shell above the lower block.
+fn case_3d_blocks(lower: &str, upper: &str, law: &str) -> String {
+    format!(
+        r#"
+[case]
+name = "fd3"
+dim = 3
+[meshes.lower]
+generator = "box"
+origin = [-1.0, -1.0, -1.0]
+size = [2.0, 2.0, 1.0]
+divisions = [3, 3, 1]
+[meshes.upper]
+generator = "box"
+origin = [-0.6, -0.7, 0.0]
+size = [1.2, 1.3, 0.5]
+divisions = [2, 2, 1]
+[bodies.lower]
+mesh = "lower"
+element = "{lower}"
+enriched_surface = "zmax"
+[bodies.lower.material]
+model = "neo_hookean"
+E = 1.0
+nu = 0.3
+[bodies.upper]
+mesh = "upper"
+element = "{upper}"
+enriched_surface = "zmin"
+[bodies.upper.material]
+model = "neo_hookean"
+E = 1.0
+nu = 0.3
+[[contact]]
+surfaces = ["upper.zmin", "lower.zmax"]
+{law}
+[[stages]]
+name = "s"
+steps = 1
+"#
+    )
+}
+
+fn case_3d_hemisphere(lower: &str, shell: &str, law: &str) -> String {
+    format!(
+        r#"
+[case]
+name = "fd3h"
+dim = 3
+[meshes.lower]
+generator = "box"
+origin = [-1.0, -1.0, -1.0]
+size = [2.0, 2.0, 1.0]
+divisions = [3, 3, 1]
+[meshes.shell]
+generator = "hemisphere_nurbs"
+center = [0.0, 0.0, 1.0]
+outer_radius = 1.0
+thickness = 0.3333333333333333
+n_surface = 4
+n_thickness = 1
+[bodies.lower]
+mesh = "lower"
+element = "{lower}"
+enriched_surface = "zmax"
+[bodies.lower.material]
+model = "neo_hookean"
+E = 1.0
+nu = 0.3
+[bodies.shell]
+mesh = "shell"
+element = "{shell}"
+enriched_surface = "outer"
+[bodies.shell.material]
+model = "neo_hookean"
+E = 5.0
+nu = 0.3
+[[contact]]
+surfaces = ["shell.outer", "lower.zmax"]
+{law}
+[[stages]]
+name = "s"
+steps = 1
+"#
+    )
+}
+
+/// Moves the non-`lower` body down by `depth` and sideways by `shift`, plus noise.
+fn pressed_3d(h: &Harness, depth: f64, shift: [f64; 2], noise: f64, seed: u64) -> Vec<f64> {
+    let mut s = seed;
+    let u = h.displacement(&|b, _x| {
+        if h.model.bodies[b].name == "lower" {
+            vec![0.0; 3]
+        } else {
+            vec![shift[0], shift[1], -depth]
+        }
+    });
+    u.iter().map(|v| v + noise * rnd(&mut s)).collect()
+}
+
+#[test]
+fn penalty_tangent_matches_central_differences_in_3d() {
+    for (lower, upper) in [
+        ("Q1C1", "Q1C1"),
+        ("Q1N2", "Q1C1"),
+        ("Q1C1", "Q1N2"),
+        ("Q1N2", "Q1N2"),
+    ] {
+        let mut h = Harness::new(&case_3d_blocks(
+            lower,
+            upper,
+            "law = \"penalty\"\neps_n = 100.0",
+        ));
+        // the upper block's points sit over several lower elements and cross their edges
+        let u = pressed_3d(&h, 0.04, [0.11, -0.07], 2e-3, 17);
+        let (err, kmax) = tangent_error(&mut h, &u);
+        assert!(kmax > 1.0, "{lower}/{upper}: no contact stiffness ({kmax})");
+        assert!(err < 1e-6, "{lower}/{upper}: tangent error {err:e}");
+    }
+    for (lower, shell) in [("Q1C1", "Q1N2"), ("Q1N2", "Q1N2"), ("Q1N2", "Q1C1")] {
+        let mut h = Harness::new(&case_3d_hemisphere(
+            lower,
+            shell,
+            "law = \"penalty\"\neps_n = 100.0",
+        ));
+        let u = pressed_3d(&h, 0.06, [0.05, 0.08], 2e-3, 23);
+        let (err, kmax) = tangent_error(&mut h, &u);
+        assert!(kmax > 1.0, "{lower}/{shell}: no contact stiffness ({kmax})");
+        assert!(err < 1e-6, "{lower}/{shell}: tangent error {err:e}");
+    }
+}
+
+#[test]
+fn van_der_waals_and_cohesive_tangents_match_central_differences_in_3d() {
+    for (lower, upper) in [("Q1C1", "Q1C1"), ("Q1N2", "Q1N2")] {
+        let mut h = Harness::new(&case_3d_blocks(
+            lower,
+            upper,
+            "law = \"van_der_waals\"\na_h = 1.0\nr0 = 0.3\nsearch_distance = 1.0",
+        ));
+        let u = pressed_3d(&h, -0.05, [0.09, 0.05], 2e-3, 31);
+        let (err, kmax) = tangent_error(&mut h, &u);
+        assert!(kmax > 1e-3, "vdW {lower}/{upper}: no stiffness ({kmax})");
+        assert!(err < 1e-6, "vdW {lower}/{upper}: tangent error {err:e}");
+        let mut h = Harness::new(&case_3d_blocks(
+            lower,
+            upper,
+            "law = \"cohesive\"\nt0 = 0.2\ng0 = 0.05\neps_n = 50.0\nsearch_distance = 0.3",
+        ));
+        let u = pressed_3d(&h, -0.02, [0.03, 0.01], 2e-3, 37);
+        let (err, kmax) = tangent_error(&mut h, &u);
+        assert!(
+            kmax > 1e-3,
+            "cohesive {lower}/{upper}: no stiffness ({kmax})"
+        );
+        assert!(
+            err < 1e-6,
+            "cohesive {lower}/{upper}: tangent error {err:e}"
+        );
+    }
+}
+
+/// A surface against a rigid partner: one body, one surface.
+fn case_rigid(dim: usize, family: &str, rigid: &str) -> String {
+    let (mesh, set) = if dim == 2 {
+        (
+            "generator = \"half_disk\"\ncenter = [0.0, 1.0]\nradius = 1.0\nn_arc = 8\nn_radial = 1",
+            "arc",
+        )
+    } else {
+        (
+            "generator = \"box\"\norigin = [-1.0, -1.0, 0.0]\nsize = [2.0, 2.0, 1.0]\ndivisions = [3, 3, 1]",
+            "zmin",
+        )
+    };
+    format!(
+        r#"
+[case]
+name = "fdr"
+dim = {dim}
+[meshes.m]
+{mesh}
+[bodies.b]
+mesh = "m"
+element = "{family}"
+enriched_surface = "{set}"
+[bodies.b.material]
+model = "neo_hookean"
+E = 1.0
+nu = 0.3
+[[contact]]
+surfaces = ["b.{set}"]
+rigid = {rigid}
+law = "penalty"
+eps_n = 100.0
+[[stages]]
+name = "s"
+steps = 1
+"#
+    )
+}
+
+#[test]
+fn penalty_tangent_against_rigid_partners_matches_central_differences() {
+    let rigid_2d = [
+        "{ shape = \"plane\", point = [0.0, 0.0], normal = [0.2, 1.0] }",
+        "{ shape = \"circle\", center = [0.3, -2.0], radius = 2.0 }",
+        "{ shape = \"circle\", center = [0.0, 1.0], radius = 1.01, inside = true }",
+    ];
+    for fam in FAMILIES_2D {
+        for r in rigid_2d {
+            let mut h = Harness::new(&case_rigid(2, fam, r));
+            let u = h
+                .displacement(&|_, _| vec![0.05, -0.06])
+                .iter()
+                .enumerate()
+                .map(|(i, v)| v + 2e-3 * rnd(&mut (i as u64 + 1)))
+                .collect::<Vec<_>>();
+            let (err, kmax) = tangent_error(&mut h, &u);
+            assert!(kmax > 1.0, "{fam} {r}: no contact stiffness ({kmax})");
+            assert!(err < 1e-6, "{fam} {r}: tangent error {err:e}");
+        }
+    }
+    let rigid_3d = [
+        "{ shape = \"plane\", point = [0.0, 0.0, 0.0], normal = [0.1, -0.2, 1.0] }",
+        "{ shape = \"sphere\", center = [0.2, 0.1, -3.0], radius = 3.0 }",
+        "{ shape = \"cylinder\", center = [0.0, 0.0, -2.0], axis = [1.0, 0.3, 0.0], radius = 2.0 }",
+    ];
+    for fam in ["Q1C1", "Q1N2"] {
+        for r in rigid_3d {
+            let mut h = Harness::new(&case_rigid(3, fam, r));
+            let u = h
+                .displacement(&|_, _| vec![0.02, 0.01, -0.05])
+                .iter()
+                .enumerate()
+                .map(|(i, v)| v + 2e-3 * rnd(&mut (i as u64 + 7)))
+                .collect::<Vec<_>>();
+            let (err, kmax) = tangent_error(&mut h, &u);
+            assert!(kmax > 1.0, "{fam} {r}: no contact stiffness ({kmax})");
+            assert!(err < 1e-6, "{fam} {r}: tangent error {err:e}");
+        }
+    }
+}

@@ -45,7 +45,7 @@ pub fn box3d(origin: [f64; 3], size: [f64; 3], n: [usize; 3]) -> Result<Mesh, Me
 ///   fastest (zmin/zmax: i fastest, then j; ymin/ymax: i, then k; xmin/xmax: j, then k);
 /// - `zmin_center`, `zmax_center`: the node at the centre of that face, only if `nx` and
 ///   `ny` are even (otherwise there is none);
-/// - `zmin_xline` (nodes of zmin with y at the centre, only if `ny` even) and `zmin_yline`
+/// - `zmin_xline`, `zmax_xline` (nodes of that face with y at the centre, only if `ny` even) and `zmin_yline`, `zmax_yline`
 ///   (nodes of zmin with x at the centre, only if `nx` even), for supports that let the base
 ///   expand about its midpoint while blocking the rigid rotation about z.
 pub fn box3d_oriented(
@@ -186,9 +186,17 @@ pub fn box3d_oriented(
     }
     if ny % 2 == 0 {
         mesh.insert_node_set("zmin_xline", (0..=nx).map(|i| node(i, ny / 2, 0)).collect());
+        mesh.insert_node_set(
+            "zmax_xline",
+            (0..=nx).map(|i| node(i, ny / 2, nz)).collect(),
+        );
     }
     if nx % 2 == 0 {
         mesh.insert_node_set("zmin_yline", (0..=ny).map(|j| node(nx / 2, j, 0)).collect());
+        mesh.insert_node_set(
+            "zmax_yline",
+            (0..=ny).map(|j| node(nx / 2, j, nz)).collect(),
+        );
     }
     let face = contact.default_face();
     if face != 0 {
