@@ -58,6 +58,8 @@ pub struct RunOptions {
     pub verbosity: Verbosity,
     /// Use `MatSetValues` instead of COO assembly.
     pub matsetvalues: bool,
+    /// Write into an output directory that exists and holds something other than an earlier run.
+    pub overwrite: bool,
 }
 
 /// Everything that can stop a run.
@@ -133,6 +135,9 @@ pub fn check_main(
     _petsc_args: Vec<String>,
 ) -> Result<(), Error> {
     let (case, model) = load_and_build(case_path, sets)?;
+    for w in &model.warnings {
+        eprintln!("warning: {w}");
+    }
     let part = vec![0u32; model.n_cells()];
     let dofs = number_and_check(&case, &model, &part, 1, 0)?;
     let sets = model.element_sets(&case.file, &part, 0)?;
@@ -319,10 +324,23 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
     // rank that cannot read a file (a node without the shared file system) must not leave the others
     // waiting: agree on the outcome.
     let (case, model) = agree(comm, load_and_build(&opts.case, &opts.sets))?;
+    for w in &model.warnings {
+        log(rank, v, Verbosity::Normal, || format!("warning: {w}"));
+    }
+    // The case name is a plain name (validated), so the default stays inside out/. Rank 0 claims
+    // the directory before any work: created, or an earlier run's, or refused (unless --overwrite).
     let out_dir = opts
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&case.case.name));
+    agree(
+        comm,
+        if rank == 0 {
+            io::claim_output_dir(&out_dir, opts.overwrite).map_err(Error::from)
+        } else {
+            Ok(())
+        },
+    )?;
 
     // Partition on rank 0 and broadcast, so all ranks agree even if METIS were not deterministic.
     let mut part = vec![0u32; model.n_cells()];
@@ -563,9 +581,12 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
         status,
     };
     output.finish(&summary)?;
-    log(rank, v, Verbosity::Normal, || {
-        format!("results in {}", out_dir.display())
-    });
+    // Only a converged run announces its results: a failed one's error must be the last word.
+    if result.is_ok() {
+        log(rank, v, Verbosity::Normal, || {
+            format!("results in {}", out_dir.display())
+        });
+    }
     result.map(|_| ()).map_err(|source| Error::Solver {
         file: case.file.clone(),
         source,

@@ -42,6 +42,10 @@ enum Command {
         /// COO interface (for benchmarks).
         #[arg(long)]
         matsetvalues: bool,
+        /// Write into the output directory even if it exists and holds files that are not from an
+        /// earlier nurbs-contact run (files of the same names are replaced, others are kept).
+        #[arg(long)]
+        overwrite: bool,
     },
     /// Validate a case (schema, references, meshes, sets, boundary conditions) without solving.
     Check {
@@ -97,6 +101,7 @@ fn main() -> ExitCode {
             verbose,
             quiet,
             matsetvalues,
+            overwrite,
         } => driver::run_main(RunOptions {
             case,
             out,
@@ -108,6 +113,7 @@ fn main() -> ExitCode {
                 Verbosity::from_count(verbose)
             },
             matsetvalues,
+            overwrite,
         }),
         Command::Check { case, sets } => driver::check_main(&case, &sets, petsc_args),
     };

@@ -227,3 +227,60 @@ fn ambiguous_periodic_tie_is_reported() {
     let e = fails_with("ambiguous-tie", &text, 1);
     assert!(e.contains("ties.0") && e.contains("master"), "{e}");
 }
+
+#[test]
+fn output_directory_is_reused_when_marked_and_refused_when_foreign_unless_overwrite() {
+    let d = scratch("out-dir-policy");
+    let p = write_case(&d, BLOCK);
+    let go = |out: &Path, extra: &[&str]| {
+        let mut args = vec!["run", p.to_str().unwrap(), "--out", out.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        run(1, &args)
+    };
+    // created, marked; a second run reuses it
+    let mine = d.join("mine");
+    for _ in 0..2 {
+        let o = go(&mine, &["-q"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(mine.join(".nurbs-contact-run").is_file());
+        assert_eq!(summary(&mine)["status"], "converged");
+    }
+    // a directory of someone else's files is refused, and nothing in it is touched
+    let theirs = d.join("theirs");
+    std::fs::create_dir_all(&theirs).unwrap();
+    std::fs::write(theirs.join("summary.json"), "their own").unwrap();
+    let o = go(&theirs, &[]);
+    let e = stderr(&o);
+    assert!(!o.status.success(), "foreign directory accepted: {e}");
+    assert!(
+        e.contains("cannot use as the output directory") && e.contains("--overwrite"),
+        "{e}"
+    );
+    assert!(!e.contains("results in"), "{e}");
+    assert_eq!(
+        std::fs::read_to_string(theirs.join("summary.json")).unwrap(),
+        "their own"
+    );
+    // --overwrite writes into it (and marks it)
+    let o = go(&theirs, &["-q", "--overwrite"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(summary(&theirs)["status"], "converged");
+    assert!(theirs.join(".nurbs-contact-run").is_file());
+}
+
+#[test]
+fn default_output_directory_is_out_slash_name_in_the_working_directory() {
+    let d = scratch("out-dir-default");
+    let p = write_case(&d, BLOCK);
+    let o = run_with(
+        1,
+        &["run", p.to_str().unwrap()],
+        Some(&d),
+        std::time::Duration::from_secs(300),
+    )
+    .expect("finishes");
+    let e = stderr(&o);
+    assert!(o.status.success(), "{e}");
+    assert!(e.contains("results in out/bad"), "{e}");
+    assert_eq!(summary(&d.join("out/bad"))["status"], "converged");
+}

@@ -13,6 +13,10 @@ pub enum IoError {
         source: std::io::Error,
     },
 
+    /// The output directory cannot be used (it holds something else, or is not a directory).
+    #[error("{}: cannot use as the output directory: {reason}", .path.display())]
+    OutputDir { path: PathBuf, reason: String },
+
     #[error("{}: HDF5 error while writing {what}: {source}", .path.display())]
     Hdf5 {
         path: PathBuf,

@@ -6,6 +6,7 @@
 //!   and renamed by [`ResultsWriter::finish`].
 //! - [`history`]: `history.csv`, one row per converged step, flushed per row.
 //! - [`summary`]: `summary.json` (run statistics, status), written atomically.
+//! - [`outdir`]: claiming the output directory ([`claim_output_dir`], marker [`RUN_MARKER`]).
 //! - [`atomic`]: the shared write-to-temp-then-rename helpers.
 //! - [`error`]: [`IoError`], naming the file and the dataset or field concerned.
 
@@ -13,10 +14,12 @@ pub mod atomic;
 pub mod error;
 pub mod hdf5_xdmf;
 pub mod history;
+pub mod outdir;
 pub mod summary;
 
 pub use atomic::{commit, partial_path, write_atomic};
 pub use error::IoError;
 pub use hdf5_xdmf::{CellKind, Center, FieldData, GridDef, ResultsWriter};
 pub use history::{HistoryRow, HistoryWriter};
+pub use outdir::{claim_output_dir, RUN_MARKER};
 pub use summary::{write_summary, NewtonStats, PhaseTimes, RunStatus, StepLog, Summary};

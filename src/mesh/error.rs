@@ -34,6 +34,37 @@ pub enum MeshError {
         kind: CellKind,
         dim: usize,
     },
+    /// A node appears twice in one cell, and it is not a collapsed point that the mesh's generator
+    /// declared ([`super::Mesh::collapsed_nodes`]): the cell covers less than its shape suggests
+    /// (a quad with a repeated node is a triangle, leaving a hole beside it).
+    #[error("cell {cell} ({kind:?}) lists node {node} twice (a collapsed cell): nodes {nodes:?}")]
+    RepeatedNode {
+        cell: usize,
+        kind: CellKind,
+        node: u32,
+        nodes: Vec<u32>,
+    },
+    /// Two different nodes of one cell lie at the same point: the cell is collapsed there.
+    #[error(
+        "cell {cell} ({kind:?}) has nodes {a} and {b} at the same point {x:?} (a collapsed cell)"
+    )]
+    CoincidentNodes {
+        cell: usize,
+        kind: CellKind,
+        a: u32,
+        b: u32,
+        x: Vec<f64>,
+    },
+    /// Two cells have the same set of nodes: the region would count twice (stiffer, heavier).
+    #[error("cell {cell} duplicates cell {first}: both have the nodes {nodes:?}")]
+    DuplicateCell {
+        cell: usize,
+        first: usize,
+        nodes: Vec<u32>,
+    },
+    /// A mesh bigger than the process can allocate.
+    #[error("mesh too large: {0}")]
+    TooLarge(String),
     #[error("inconsistent mesh arrays: {0}")]
     Inconsistent(String),
     #[error("cell {cell} does not exist (mesh has {n_cells} cells)")]
@@ -76,4 +107,21 @@ pub enum MeshError {
         #[source]
         source: std::io::Error,
     },
+}
+
+impl MeshError {
+    /// The cell this error is about, if it is about one cell (so that a reader can name the line
+    /// that defined it).
+    pub fn cell(&self) -> Option<usize> {
+        match self {
+            MeshError::InvertedCell { cell, .. }
+            | MeshError::NodeIndexOutOfRange { cell, .. }
+            | MeshError::CellNodeCount { cell, .. }
+            | MeshError::CellDimension { cell, .. }
+            | MeshError::RepeatedNode { cell, .. }
+            | MeshError::CoincidentNodes { cell, .. }
+            | MeshError::DuplicateCell { cell, .. } => Some(*cell),
+            _ => None,
+        }
+    }
 }

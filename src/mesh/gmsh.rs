@@ -18,13 +18,27 @@ use super::{CellKind, Mesh, MeshError};
 use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
 
-/// Reads a Gmsh MSH 4.1 ASCII file.
+/// Reads a Gmsh MSH 4.1 ASCII file (warnings dropped: see [`read_gmsh_with_warnings`]).
 pub fn read_gmsh(path: &Path) -> Result<Mesh, MeshError> {
+    read_gmsh_with_warnings(path).map(|(m, _)| m)
+}
+
+/// How many node tags a warning about unused nodes lists.
+const UNUSED_NODES_SHOWN: usize = 5;
+
+/// Reads a Gmsh MSH 4.1 ASCII file; also returns warnings about what is legal but suspicious
+/// (nodes in no element), each naming the file.
+pub fn read_gmsh_with_warnings(path: &Path) -> Result<(Mesh, Vec<String>), MeshError> {
     let text = std::fs::read_to_string(path).map_err(|source| MeshError::Io {
         path: path.display().to_string(),
         source,
     })?;
-    parse_gmsh(&text, &path.display().to_string())
+    parse_gmsh_with_warnings(&text, &path.display().to_string())
+}
+
+/// Parses MSH 4.1 ASCII text; `path` only labels errors.
+pub fn parse_gmsh(text: &str, path: &str) -> Result<Mesh, MeshError> {
+    parse_gmsh_with_warnings(text, path).map(|(m, _)| m)
 }
 
 /// One whitespace-separated token and its 1-based line number.
@@ -70,6 +84,44 @@ impl<'a> Cursor<'a> {
         let (line, v) = self.int(what)?;
         usize::try_from(v)
             .map_err(|_| self.err(line, format!("{what} must be non-negative, found {v}")))
+    }
+
+    /// Values left in the section.
+    fn remaining(&self) -> usize {
+        self.tokens.len() - self.pos
+    }
+
+    /// Reads a count of entries that each take at least `per_entry` more values, and checks that
+    /// the rest of the section can hold them: a count is never trusted before it allocates.
+    fn count_fitting(&mut self, what: &str, per_entry: usize) -> Result<(usize, usize), MeshError> {
+        let (line, v) = self.int(what)?;
+        let n = usize::try_from(v)
+            .map_err(|_| self.err(line, format!("{what} must be non-negative, found {v}")))?;
+        let left = self.remaining();
+        if n.checked_mul(per_entry).is_none_or(|need| need > left) {
+            return Err(self.err(
+                line,
+                format!(
+                    "{what} = {n} disagrees with the file: the rest of the section holds {left} \
+                     values, and each entry needs at least {per_entry}"
+                ),
+            ));
+        }
+        Ok((line, n))
+    }
+
+    /// Fails at the first value left over after the last block the header announced.
+    fn expect_end(&self, section: &str, header: &str) -> Result<(), MeshError> {
+        match self.tokens.get(self.pos) {
+            None => Ok(()),
+            Some(&(line, t)) => Err(self.err(
+                line,
+                format!(
+                    "unexpected '{t}' after the last block of ${section}: the header {header}, \
+                     and the data holds more"
+                ),
+            )),
+        }
     }
 
     fn float(&mut self, what: &str) -> Result<f64, MeshError> {
@@ -161,6 +213,20 @@ fn nodes_per_element(ty: i64) -> Option<usize> {
     }
 }
 
+/// Reserves room for `n` more entries (a count read from the file), failing cleanly instead of
+/// aborting when the memory is not there.
+fn reserve<T>(
+    v: &mut Vec<T>,
+    n: usize,
+    err: impl FnOnce(String) -> MeshError,
+) -> Result<(), MeshError> {
+    v.try_reserve(n).map_err(|e| {
+        err(format!(
+            "cannot allocate memory for {n} entries ({e}): the file claims more than this machine holds"
+        ))
+    })
+}
+
 /// An element block of `$Elements` with its elements' node numbers (already mapped to mesh
 /// node indices) and source lines.
 struct Block {
@@ -169,11 +235,23 @@ struct Block {
     ty: i64,
     /// [n_elems][nodes_per_element]
     nodes: Vec<u32>,
+    /// element tags and lines, [n_elems]
+    tags: Vec<i64>,
     lines: Vec<usize>,
 }
 
-/// Parses MSH 4.1 ASCII text; `path` only labels errors.
-pub fn parse_gmsh<'a>(text: &'a str, path: &'a str) -> Result<Mesh, MeshError> {
+/// [`parse_gmsh`] with the warnings of [`read_gmsh_with_warnings`].
+///
+/// Every count the file gives (entities, node and element blocks, their entries) is checked
+/// against what the rest of its section can hold before anything is allocated, and allocation is
+/// fallible; the header totals must equal the sum of the blocks, and no data may follow the last
+/// block. Cells are checked by [`Mesh::validate`] (inverted, collapsed or duplicate cells), with
+/// the error naming the element's line and tag.
+pub fn parse_gmsh_with_warnings<'a>(
+    text: &'a str,
+    path: &'a str,
+) -> Result<(Mesh, Vec<String>), MeshError> {
+    let mut warnings = Vec::new();
     let err = |line, msg: String| MeshError::Gmsh {
         path: path.to_string(),
         line,
@@ -244,6 +322,12 @@ pub fn parse_gmsh<'a>(text: &'a str, path: &'a str) -> Result<Mesh, MeshError> {
                 }
             }
         }
+        if let Some((line, text)) = lines.next() {
+            return Err(err(
+                *line,
+                format!("unexpected '{text}': $PhysicalNames announces {n} names, and holds more"),
+            ));
+        }
     }
 
     // entity (dim, tag) -> physical tags
@@ -252,25 +336,34 @@ pub fn parse_gmsh<'a>(text: &'a str, path: &'a str) -> Result<Mesh, MeshError> {
         let mut c = cursor(sec);
         let mut counts = [0usize; 4];
         for (d, n) in counts.iter_mut().enumerate() {
-            *n = c.count(&format!("number of entities of dimension {d}"))?;
+            // a point has tag, x y z and a physical count; a higher entity a bounding box and a
+            // bounding count too
+            let least = if d == 0 { 5 } else { 9 };
+            *n = c
+                .count_fitting(&format!("number of entities of dimension {d}"), least)?
+                .1;
         }
         for (d, &n) in counts.iter().enumerate() {
             for _ in 0..n {
                 let (_, tag) = c.int("entity tag")?;
-                // a point has x y z, higher entities a bounding box
                 c.skip(if d == 0 { 3 } else { 6 }, "entity coordinates")?;
-                let n_phys = c.count("number of physical tags")?;
-                let mut tags = Vec::with_capacity(n_phys);
+                let (line, n_phys) = c.count_fitting("number of physical tags", 1)?;
+                let mut tags = Vec::new();
+                reserve(&mut tags, n_phys, |m| err(line, m))?;
                 for _ in 0..n_phys {
                     tags.push(c.int("physical tag")?.1);
                 }
                 entity_physicals.insert((d, tag), tags);
                 if d > 0 {
-                    let n_bound = c.count("number of bounding entities")?;
+                    let n_bound = c.count_fitting("number of bounding entities", 1)?.1;
                     c.skip(n_bound, "bounding entity tag")?;
                 }
             }
         }
+        c.expect_end(
+            "Entities",
+            &format!("announces {counts:?} entities of dimensions 0..3"),
+        )?;
     }
 
     // nodes: tag -> index in order of appearance, coordinates [n][3]
@@ -281,11 +374,34 @@ pub fn parse_gmsh<'a>(text: &'a str, path: &'a str) -> Result<Mesh, MeshError> {
     let mut node_index: HashMap<i64, u32> = HashMap::new();
     let mut xyz: Vec<f64> = Vec::new();
     let mut xyz_lines: Vec<usize> = Vec::new();
+    // the tag of each node, in mesh node order
+    let mut node_tags: Vec<i64> = Vec::new();
     {
         let mut c = cursor(nodes_sec);
-        let n_blocks = c.count("number of node blocks")?;
-        let _n_nodes = c.count("number of nodes")?;
+        // a block header has 4 values, a node at least a tag and x y z
+        let n_blocks = c.count_fitting("number of node blocks", 4)?.1;
+        let (header_line, n_nodes) = c.count_fitting("number of nodes", 4)?;
+        if n_nodes > u32::MAX as usize {
+            return Err(err(
+                header_line,
+                format!(
+                    "{n_nodes} nodes exceed the {} this reader numbers",
+                    u32::MAX
+                ),
+            ));
+        }
         c.skip(2, "min/max node tag")?;
+        let at_header = |m| err(header_line, m);
+        reserve(&mut xyz, 3 * n_nodes, at_header)?;
+        reserve(&mut xyz_lines, n_nodes, at_header)?;
+        reserve(&mut node_tags, n_nodes, at_header)?;
+        node_index.try_reserve(n_nodes).map_err(|e| {
+            at_header(format!(
+                "cannot allocate memory for {n_nodes} nodes ({e}): the file claims more than this \
+                 machine holds"
+            ))
+        })?;
+        let mut n_read = 0usize;
         for _ in 0..n_blocks {
             let entity_dim = c.count("entity dimension")?;
             c.int("entity tag")?;
@@ -296,15 +412,24 @@ pub fn parse_gmsh<'a>(text: &'a str, path: &'a str) -> Result<Mesh, MeshError> {
                     format!("parametric flag must be 0 or 1, found {parametric}"),
                 ));
             }
-            let n = c.count("number of nodes in block")?;
-            let mut tags = Vec::with_capacity(n);
+            let (line, n) = c.count_fitting("number of nodes in block", 4)?;
+            n_read += n;
+            if n_read > n_nodes {
+                return Err(err(
+                    line,
+                    format!(
+                        "node blocks hold more nodes than the {n_nodes} that the $Nodes header \
+                         (line {header_line}) announces"
+                    ),
+                ));
+            }
             for _ in 0..n {
                 let (line, tag) = c.int("node tag")?;
                 let index = node_index.len() as u32;
                 if node_index.insert(tag, index).is_some() {
                     return Err(err(line, format!("node tag {tag} defined twice")));
                 }
-                tags.push(tag);
+                node_tags.push(tag);
             }
             for _ in 0..n {
                 let line = c.tokens.get(c.pos).map(|t| t.0).unwrap_or(c.end_line);
@@ -317,6 +442,19 @@ pub fn parse_gmsh<'a>(text: &'a str, path: &'a str) -> Result<Mesh, MeshError> {
                 xyz_lines.push(line);
             }
         }
+        if n_read != n_nodes {
+            return Err(err(
+                header_line,
+                format!(
+                    "the $Nodes header announces {n_nodes} nodes, but its {n_blocks} blocks hold \
+                     {n_read}"
+                ),
+            ));
+        }
+        c.expect_end(
+            "Nodes",
+            &format!("(line {header_line}) announces {n_blocks} blocks"),
+        )?;
     }
 
     // element blocks
@@ -327,9 +465,11 @@ pub fn parse_gmsh<'a>(text: &'a str, path: &'a str) -> Result<Mesh, MeshError> {
     let mut blocks: Vec<Block> = Vec::new();
     {
         let mut c = cursor(elems_sec);
-        let n_blocks = c.count("number of element blocks")?;
-        c.count("number of elements")?;
+        // a block header has 4 values, an element at least a tag and one node
+        let n_blocks = c.count_fitting("number of element blocks", 4)?.1;
+        let (header_line, n_elems) = c.count_fitting("number of elements", 2)?;
         c.skip(2, "min/max element tag")?;
+        let mut n_read = 0usize;
         for _ in 0..n_blocks {
             let dim = c.count("entity dimension")?;
             let (_, entity) = c.int("entity tag")?;
@@ -342,16 +482,32 @@ pub fn parse_gmsh<'a>(text: &'a str, path: &'a str) -> Result<Mesh, MeshError> {
                     ),
                 )
             })?;
-            let n = c.count("number of elements in block")?;
+            let (line, n) = c.count_fitting("number of elements in block", 1 + npe)?;
+            n_read += n;
+            if n_read > n_elems {
+                return Err(err(
+                    line,
+                    format!(
+                        "element blocks hold more elements than the {n_elems} that the $Elements \
+                         header (line {header_line}) announces"
+                    ),
+                ));
+            }
             let mut block = Block {
                 dim,
                 entity,
                 ty,
-                nodes: Vec::with_capacity(n * npe),
-                lines: Vec::with_capacity(n),
+                nodes: Vec::new(),
+                tags: Vec::new(),
+                lines: Vec::new(),
             };
+            // count_fitting bounds n * npe by the section's size
+            reserve(&mut block.nodes, n * npe, |m| err(line, m))?;
+            reserve(&mut block.tags, n, |m| err(line, m))?;
+            reserve(&mut block.lines, n, |m| err(line, m))?;
             for _ in 0..n {
-                let (line, _tag) = c.int("element tag")?;
+                let (line, tag) = c.int("element tag")?;
+                block.tags.push(tag);
                 for _ in 0..npe {
                     let (line, tag) = c.int("element node tag")?;
                     let idx = node_index.get(&tag).ok_or_else(|| {
@@ -363,6 +519,19 @@ pub fn parse_gmsh<'a>(text: &'a str, path: &'a str) -> Result<Mesh, MeshError> {
             }
             blocks.push(block);
         }
+        if n_read != n_elems {
+            return Err(err(
+                header_line,
+                format!(
+                    "the $Elements header announces {n_elems} elements, but its {n_blocks} blocks \
+                     hold {n_read}"
+                ),
+            ));
+        }
+        c.expect_end(
+            "Elements",
+            &format!("(line {header_line}) announces {n_blocks} blocks"),
+        )?;
     }
 
     let dim = blocks
@@ -399,6 +568,8 @@ pub fn parse_gmsh<'a>(text: &'a str, path: &'a str) -> Result<Mesh, MeshError> {
         CellKind::Hex8
     };
     let cell_type = if dim == 2 { 3 } else { 5 };
+    // (element tag, line) of each cell
+    let mut cell_source: Vec<(i64, usize)> = Vec::new();
     for b in blocks.iter().filter(|b| b.dim == dim) {
         if b.ty != cell_type {
             return Err(err(
@@ -409,6 +580,7 @@ pub fn parse_gmsh<'a>(text: &'a str, path: &'a str) -> Result<Mesh, MeshError> {
                 ),
             ));
         }
+        cell_source.extend(b.tags.iter().copied().zip(b.lines.iter().copied()));
         for nodes in b.nodes.chunks(cell_kind.n_nodes()) {
             let c = mesh.push_cell(cell_kind, nodes) as usize;
             let x: Vec<f64> = nodes.iter().flat_map(|&n| mesh.node(n).to_vec()).collect();
@@ -472,8 +644,55 @@ pub fn parse_gmsh<'a>(text: &'a str, path: &'a str) -> Result<Mesh, MeshError> {
         mesh.insert_node_set(&name, nodes);
     }
     mesh.face_sets = face_sets;
-    mesh.validate()?;
-    Ok(mesh)
+    // Cell checks (inverted, collapsed, duplicate) are the mesh layer's; here they are told in the
+    // file's terms: the element's line and tag, node tags.
+    mesh.validate().map_err(|e| {
+        let Some(c) = e.cell() else { return e };
+        let (tag, line) = cell_source[c];
+        let node_tag = |n: u32| node_tags[n as usize];
+        let msg = match &e {
+            MeshError::RepeatedNode { node, .. } => format!(
+                "element {tag} lists node {} twice (a collapsed cell)",
+                node_tag(*node)
+            ),
+            MeshError::CoincidentNodes { a, b, x, .. } => format!(
+                "element {tag} has nodes {} and {} at the same point {x:?} (a collapsed cell)",
+                node_tag(*a),
+                node_tag(*b)
+            ),
+            MeshError::DuplicateCell { first, .. } => format!(
+                "element {tag} duplicates element {} (line {}): same nodes",
+                cell_source[*first].0, cell_source[*first].1
+            ),
+            e => format!("element {tag}: {e}"),
+        };
+        MeshError::Gmsh {
+            path: path.to_string(),
+            line,
+            msg,
+        }
+    })?;
+    let unused = mesh.unused_nodes();
+    if !unused.is_empty() {
+        let first: Vec<String> = unused
+            .iter()
+            .take(UNUSED_NODES_SHOWN)
+            .map(|&n| node_tags[n as usize].to_string())
+            .collect();
+        warnings.push(format!(
+            "{path}: {} node{} in no element (ignored, no unknowns): tag{} {}{}",
+            unused.len(),
+            if unused.len() == 1 { " is" } else { "s are" },
+            if unused.len() == 1 { "" } else { "s" },
+            first.join(", "),
+            if unused.len() > first.len() {
+                ", ..."
+            } else {
+                ""
+            }
+        ));
+    }
+    Ok((mesh, warnings))
 }
 
 #[cfg(test)]
@@ -645,6 +864,119 @@ $Elements\n2 2 1 2\n2 1 3 1\n1 1 2 3 4\n3 1 5 1\n2 1 2 3 4 5 6 7 8\n$EndElements
         assert!(matches!(e, MeshError::Gmsh { line: 2, .. }), "{e}");
         let e = parse_gmsh(&QUADS_2X1.replace("$EndNodes\n", ""), "open.msh").unwrap_err();
         assert!(e.to_string().starts_with("open.msh:"), "{e}");
+    }
+
+    /// The line number of the first line equal to `l`.
+    fn line_of(text: &str, l: &str) -> usize {
+        text.lines().position(|x| x == l).unwrap() + 1
+    }
+
+    /// The error of parsing `text` must be a Gmsh error on the line that is `at` and contain `words`.
+    fn fails_at(text: &str, at: &str, words: &str) {
+        match parse_gmsh(text, "bad.msh") {
+            Err(MeshError::Gmsh { line, msg, .. }) => {
+                assert_eq!(line, line_of(text, at), "{msg}");
+                assert!(msg.contains(words), "{msg}");
+            }
+            other => panic!("expected a Gmsh error containing '{words}', got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn header_counts_must_agree_with_the_data() {
+        let t = QUADS_2X1.replace("1 6 1 6", "1 7 1 6");
+        fails_at(&t, "1 7 1 6", "announces 7 nodes, but its 1 blocks hold 6");
+        let t = QUADS_2X1.replace("3 5 1 5", "3 6 1 6");
+        fails_at(
+            &t,
+            "3 6 1 6",
+            "announces 6 elements, but its 3 blocks hold 5",
+        );
+        let t = QUADS_2X1.replace("3 5 1 5", "3 4 1 5");
+        fails_at(&t, "2 1 3 2", "more elements than the 4");
+        // a block that claims more nodes than the section holds
+        let t = QUADS_2X1.replace("2 1 0 6", "2 1 0 7");
+        fails_at(&t, "2 1 0 7", "disagrees with the file");
+        // data after the last announced block: a short count with a matching header
+        let t = QUADS_2X1
+            .replace("1 6 1 6", "1 5 1 5")
+            .replace("2 1 0 6", "2 1 0 5")
+            .replace("5\n6\n0 0 0", "5\n0 0 0");
+        fails_at(&t, "0 1 0", "after the last block of $Nodes");
+        let t = QUADS_2X1.replace("5 2 3 4 5\n", "5 2 3 4 5\n6 1 2 5 6\n");
+        fails_at(&t, "6 1 2 5 6", "after the last block of $Elements");
+        let t = QUADS_2X1.replace("2 3 \"body\"\n", "2 3 \"body\"\n2 4 \"extra\"\n");
+        fails_at(&t, "2 4 \"extra\"", "announces 3 names");
+    }
+
+    #[test]
+    fn absurd_counts_are_errors_before_any_allocation() {
+        let huge = (1u64 << 62).to_string();
+        for (from, to) in [
+            ("1 6 1 6", format!("1 {huge} 1 6")),
+            ("2 1 0 6", format!("2 1 0 {huge}")),
+            ("3 5 1 5", format!("{huge} 5 1 5")),
+            ("2 1 3 2", format!("2 1 3 {huge}")),
+            ("1 1 1 2", format!("1 1 1 {huge}")),
+            ("0 2 1 0", format!("0 {huge} 1 0")),
+            ("1 2 1 1", format!("1 2 1 {}", u64::MAX)),
+        ] {
+            let t = QUADS_2X1.replacen(from, &to, 1);
+            assert_ne!(t, QUADS_2X1);
+            let e = parse_gmsh(&t, "huge.msh").unwrap_err().to_string();
+            assert!(e.starts_with("huge.msh:"), "{from}: {e}");
+            assert!(
+                e.contains("disagrees with the file") || e.contains("expected integer"),
+                "{from}: {e}"
+            );
+        }
+    }
+
+    #[test]
+    fn duplicate_and_collapsed_elements_name_their_line_and_tag() {
+        // element 6 lists the nodes of element 4 in another order
+        let t = QUADS_2X1
+            .replace("3 5 1 5", "3 6 1 6")
+            .replace("2 1 3 2", "2 1 3 3")
+            .replace("5 2 3 4 5\n", "5 2 3 4 5\n6 2 5 6 1\n");
+        let dup_line = line_of(&t, "4 1 2 5 6");
+        fails_at(
+            &t,
+            "6 2 5 6 1",
+            &format!("element 6 duplicates element 4 (line {dup_line})"),
+        );
+        let t = QUADS_2X1.replace("5 2 3 4 5", "5 2 3 4 4");
+        fails_at(
+            &t,
+            "5 2 3 4 4",
+            "element 5 lists node 4 twice (a collapsed cell)",
+        );
+        // node 6 moved onto node 5: element 4 collapses to a triangle
+        let t = QUADS_2X1.replace("1 1 0\n0 1 0\n", "1 1 0\n1 1 0\n");
+        fails_at(
+            &t,
+            "4 1 2 5 6",
+            "element 4 has nodes 5 and 6 at the same point",
+        );
+    }
+
+    #[test]
+    fn unused_nodes_are_a_warning_naming_their_tags() {
+        let t = QUADS_2X1
+            .replace("1 6 1 6", "1 8 1 8")
+            .replace("2 1 0 6", "2 1 0 8")
+            .replace("5\n6\n0 0 0", "5\n6\n17\n9\n0 0 0")
+            .replace("0 1 0\n$EndNodes", "0 1 0\n7 7 0\n8 8 0\n$EndNodes");
+        let (m, w) = parse_gmsh_with_warnings(&t, "extra.msh").unwrap();
+        assert_eq!(m.n_nodes(), 8);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(
+            w[0].contains("extra.msh: 2 nodes are in no element"),
+            "{w:?}"
+        );
+        assert!(w[0].contains("tags 17, 9"), "{w:?}");
+        let (_, w) = parse_gmsh_with_warnings(QUADS_2X1, "ok.msh").unwrap();
+        assert!(w.is_empty(), "{w:?}");
     }
 
     #[test]

@@ -50,11 +50,19 @@ pub struct Mesh {
     /// Exact surfaces of face sets, keyed by face-set name (generators that know them, e.g.
     /// [`hemisphere_nurbs`]); the enriched layer uses them instead of recognising the geometry.
     pub exact_surfaces: BTreeMap<String, ExactPatch>,
+    /// Nodes where the generator deliberately collapses cells (a degenerate point of the surface
+    /// parametrisation, e.g. the merged rim points of [`hemisphere_nurbs`]), sorted: the only nodes
+    /// that a cell may list twice ([`Mesh::validate`]). Empty for meshes read from files.
+    pub collapsed_nodes: Vec<u32>,
 }
 
 /// Relative tolerance, in units of the cell's own scale `h^dim`, below which a corner Jacobian
 /// counts as zero rather than negative (degenerate corners, see [`Mesh::validate`]).
 const DEGENERATE_CORNER_TOL: f64 = 1e-10;
+
+/// Relative distance, in units of the cell diameter, below which two different nodes of one cell
+/// count as the same point (see [`MeshError::CoincidentNodes`]).
+const COINCIDENT_NODE_TOL: f64 = 1e-10;
 
 impl Mesh {
     /// An empty mesh of dimension `dim`.
@@ -68,6 +76,7 @@ impl Mesh {
             node_sets: BTreeMap::new(),
             face_sets: BTreeMap::new(),
             exact_surfaces: BTreeMap::new(),
+            collapsed_nodes: Vec::new(),
         }
     }
 
@@ -125,6 +134,13 @@ impl Mesh {
     /// reference Jacobian at the cell centre, at the 2-point Gauss points and at the corners,
     /// and that every set refers to existing nodes / faces.
     ///
+    /// Also rejected, because each would change the answer without any other sign: a cell that
+    /// lists one node twice ([`MeshError::RepeatedNode`], unless the node is one of the
+    /// generator's declared [`Mesh::collapsed_nodes`]), a cell with two different nodes at one
+    /// point ([`MeshError::CoincidentNodes`]), and two cells with the same node set
+    /// ([`MeshError::DuplicateCell`]). Nodes in no cell are allowed (they carry no unknowns); see
+    /// [`Mesh::unused_nodes`].
+    ///
     /// A corner Jacobian that is zero up to `1e-10 h^dim` (h = cell diameter) is accepted:
     /// the hemisphere's four rim-corner cells (see [`hemisphere`]) have collinear rim edges
     /// and therefore det J = 0 exactly at their rim corner nodes, and the degenerate hexes of
@@ -159,6 +175,13 @@ impl Mesh {
             )));
         }
         let n_nodes = self.n_nodes();
+        if self.collapsed_nodes.windows(2).any(|w| w[0] >= w[1])
+            || self.collapsed_nodes.iter().any(|&n| n as usize >= n_nodes)
+        {
+            return Err(MeshError::Inconsistent(
+                "collapsed_nodes is not sorted and unique, or refers to missing nodes".into(),
+            ));
+        }
         for c in 0..n_cells {
             let kind = self.cell_kind[c];
             if kind.dim() != self.dim {
@@ -184,8 +207,10 @@ impl Mesh {
                     n_nodes,
                 });
             }
+            self.check_cell_nodes_distinct(c)?;
             self.check_cell_jacobian(c)?;
         }
+        self.check_no_duplicate_cells()?;
         for (set, nodes) in &self.node_sets {
             if let Some(&node) = nodes.iter().find(|&&n| n as usize >= n_nodes) {
                 return Err(MeshError::NodeSetOutOfRange {
@@ -228,6 +253,100 @@ impl Mesh {
             }
         }
         Ok(())
+    }
+
+    /// A cell's nodes are distinct, both as numbers (except declared collapsed nodes) and as points.
+    fn check_cell_nodes_distinct(&self, c: usize) -> Result<(), MeshError> {
+        let kind = self.cell_kind[c];
+        let nodes = self.cell(c);
+        for (i, &a) in nodes.iter().enumerate() {
+            if nodes[..i].contains(&a) && self.collapsed_nodes.binary_search(&a).is_err() {
+                return Err(MeshError::RepeatedNode {
+                    cell: c,
+                    kind,
+                    node: a,
+                    nodes: nodes.to_vec(),
+                });
+            }
+        }
+        let tol2 = (COINCIDENT_NODE_TOL * self.cell_diameter(c)).powi(2);
+        for (i, &a) in nodes.iter().enumerate() {
+            for &b in &nodes[i + 1..] {
+                let d2: f64 = self
+                    .node(a)
+                    .iter()
+                    .zip(self.node(b))
+                    .map(|(p, q)| (p - q).powi(2))
+                    .sum();
+                if a != b && d2 <= tol2 {
+                    return Err(MeshError::CoincidentNodes {
+                        cell: c,
+                        kind,
+                        a: a.min(b),
+                        b: a.max(b),
+                        x: self.node(a).to_vec(),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// No two cells have the same node set. Sorts (hash of the sorted node list, cell) pairs, so
+    /// the extra memory is 16 bytes per cell; the first duplicate in cell order is reported.
+    fn check_no_duplicate_cells(&self) -> Result<(), MeshError> {
+        use std::hash::{Hash, Hasher};
+        let sorted = |c: usize| {
+            let mut n = self.cell(c).to_vec();
+            n.sort_unstable();
+            n
+        };
+        let mut keyed: Vec<(u64, u32)> = (0..self.n_cells())
+            .map(|c| {
+                let mut h = std::collections::hash_map::DefaultHasher::new();
+                sorted(c).hash(&mut h);
+                (h.finish(), c as u32)
+            })
+            .collect();
+        keyed.sort_unstable();
+        let mut found: Option<(usize, usize)> = None;
+        for run in keyed.chunk_by(|a, b| a.0 == b.0).filter(|r| r.len() > 1) {
+            // same hash: compare the node sets; the run is in cell order
+            for (i, &(_, later)) in run.iter().enumerate() {
+                let later = later as usize;
+                let key = sorted(later);
+                if let Some(&(_, first)) =
+                    run[..i].iter().find(|&&(_, f)| sorted(f as usize) == key)
+                {
+                    if found.is_none_or(|(c, _)| later < c) {
+                        found = Some((later, first as usize));
+                    }
+                }
+            }
+        }
+        match found {
+            Some((cell, first)) => Err(MeshError::DuplicateCell {
+                cell,
+                first,
+                nodes: self.cell(cell).to_vec(),
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// Nodes that no cell uses, in increasing order. They are harmless to the solve (they carry no
+    /// unknowns) but often a sign of a mesh exported with construction points or of a mistake, so
+    /// readers report them as a warning.
+    pub fn unused_nodes(&self) -> Vec<u32> {
+        let mut used = vec![false; self.n_nodes()];
+        for &n in &self.cell_nodes {
+            if let Some(u) = used.get_mut(n as usize) {
+                *u = true;
+            }
+        }
+        (0..self.n_nodes() as u32)
+            .filter(|&n| !used[n as usize])
+            .collect()
     }
 
     fn check_cell_jacobian(&self, c: usize) -> Result<(), MeshError> {
@@ -502,6 +621,123 @@ mod tests {
             }
         ));
         assert!(err.to_string().contains("'y'"));
+    }
+
+    #[test]
+    fn validate_catches_duplicate_cells_in_any_node_order() {
+        let mut m = rectangle([0.0, 0.0], [3.0, 1.0], [3, 1]).unwrap();
+        let c1 = m.cell(1).to_vec();
+        // cell 3 = cell 1 rotated (same orientation, same node set)
+        m.push_cell(CellKind::Quad4, &[c1[1], c1[2], c1[3], c1[0]]);
+        let e = m.validate().unwrap_err();
+        assert!(
+            matches!(
+                e,
+                MeshError::DuplicateCell {
+                    cell: 3,
+                    first: 1,
+                    ..
+                }
+            ),
+            "{e:?}"
+        );
+        assert!(e.to_string().contains("cell 3 duplicates cell 1"), "{e}");
+        assert_eq!(e.cell(), Some(3));
+        // listed three times: the first duplicate in cell order is named
+        let mut m = rectangle([0.0, 0.0], [3.0, 1.0], [3, 1]).unwrap();
+        let c0 = m.cell(0).to_vec();
+        m.push_cell(CellKind::Quad4, &c0);
+        m.push_cell(CellKind::Quad4, &c0);
+        assert!(matches!(
+            m.validate(),
+            Err(MeshError::DuplicateCell {
+                cell: 3,
+                first: 0,
+                ..
+            })
+        ));
+    }
+
+    #[test]
+    fn validate_catches_repeated_and_coincident_nodes() {
+        // a quad with a repeated node is a triangle: accepted by the Jacobian test alone
+        let mut m = rectangle([0.0, 0.0], [2.0, 1.0], [2, 1]).unwrap();
+        let s = m.cell_offsets[1];
+        m.cell_nodes[s + 3] = m.cell_nodes[s + 2];
+        let e = m.validate().unwrap_err();
+        assert!(
+            matches!(e, MeshError::RepeatedNode { cell: 1, .. }),
+            "{e:?}"
+        );
+        assert!(e.to_string().contains("collapsed"), "{e}");
+        // two different nodes at one point: the same triangle, hidden in the coordinates
+        let mut m = rectangle([0.0, 0.0], [2.0, 1.0], [2, 1]).unwrap();
+        let (a, b) = (m.cell(1)[2], m.cell(1)[3]);
+        let xa = m.node(a).to_vec();
+        m.coords[b as usize * 2..b as usize * 2 + 2].copy_from_slice(&xa);
+        let e = m.validate().unwrap_err();
+        assert!(
+            matches!(e, MeshError::CoincidentNodes { cell: 1, .. }),
+            "{e:?}"
+        );
+        // a hex collapsed to a point
+        let mut m = super::box3d::box3d([0.0; 3], [1.0; 3], [1, 1, 1]).unwrap();
+        m.coords.iter_mut().for_each(|x| *x = 0.0);
+        assert!(matches!(
+            m.validate(),
+            Err(MeshError::CoincidentNodes { cell: 0, .. })
+        ));
+    }
+
+    #[test]
+    fn only_declared_collapsed_nodes_may_repeat() {
+        let mut m = super::hemisphere_nurbs::hemisphere_nurbs([0.0; 3], 1.0, 0.2, 4, 2).unwrap();
+        // two merged rim points per layer, 3 layers
+        assert_eq!(m.collapsed_nodes.len(), 6);
+        m.validate().unwrap();
+        m.collapsed_nodes.clear();
+        assert!(matches!(m.validate(), Err(MeshError::RepeatedNode { .. })));
+        // the paper's hemisphere has degenerate corners but no repeated node
+        let h = super::hemisphere::hemisphere([0.0; 3], 1.0, 0.2, 3, 2).unwrap();
+        assert!(h.collapsed_nodes.is_empty());
+        h.validate().unwrap();
+        let mut bad = rectangle([0.0, 0.0], [1.0, 1.0], [1, 1]).unwrap();
+        bad.collapsed_nodes = vec![7];
+        assert!(matches!(bad.validate(), Err(MeshError::Inconsistent(_))));
+    }
+
+    #[test]
+    fn merged_meshes_keep_their_collapsed_nodes() {
+        let shell = super::hemisphere_nurbs::hemisphere_nurbs([0.0; 3], 1.0, 0.2, 2, 1).unwrap();
+        let block = super::box3d::box3d([5.0; 3], [1.0; 3], [1, 1, 1]).unwrap();
+        let (m, r) = super::transform::merge(&[("b", &block), ("s", &shell)]).unwrap();
+        m.validate().unwrap();
+        let expect: Vec<u32> = shell
+            .collapsed_nodes
+            .iter()
+            .map(|&n| n + r[1].first_node)
+            .collect();
+        assert_eq!(m.collapsed_nodes, expect);
+    }
+
+    #[test]
+    fn unused_nodes_are_listed_and_generators_leave_none() {
+        let mut m = rectangle([0.0, 0.0], [2.0, 1.0], [2, 1]).unwrap();
+        assert!(m.unused_nodes().is_empty());
+        let n = m.push_node(&[5.0, 5.0]);
+        assert_eq!(m.unused_nodes(), vec![n]);
+        m.validate().unwrap();
+        let meshes = [
+            super::half_disk::half_disk([0.0, 0.0], 1.0, 8, 2).unwrap(),
+            super::sector::sector([0.0, 0.0], 1.0, 2.0, [0.0, 3.0], 6, 2).unwrap(),
+            super::box3d::box3d([0.0; 3], [1.0; 3], [2, 2, 2]).unwrap(),
+            super::hemisphere::hemisphere([0.0; 3], 1.0, 0.2, 3, 2).unwrap(),
+            super::hemisphere_nurbs::hemisphere_nurbs([0.0; 3], 1.0, 0.2, 4, 2).unwrap(),
+        ];
+        for m in &meshes {
+            assert!(m.unused_nodes().is_empty());
+            m.validate().unwrap();
+        }
     }
 
     #[test]

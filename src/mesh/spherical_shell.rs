@@ -37,7 +37,8 @@ pub(super) fn check_shell_parameters(R: f64, h: f64, m: usize) -> Result<(), Mes
 /// points may share a node). Node `(i, j)` of layer `l` (0 = outer) is `l * per_layer +
 /// layer_node(i, j)`; cell `(i, j)` of layer `l` is `(l * n + j) * n + i`, its local face 0
 /// (zeta = -1) on the outer side. Sets: `outer`/`inner` (faces of the first/last layer, ordered
-/// row-major, and all nodes of the outermost/innermost layer).
+/// row-major, and all nodes of the outermost/innermost layer). Nodes shared by several grid points
+/// become [`Mesh::collapsed_nodes`].
 #[allow(non_snake_case)]
 pub(super) fn spherical_shell(
     center: [f64; 3],
@@ -95,6 +96,22 @@ pub(super) fn spherical_shell(
             .map(|a| a as u32)
             .collect()
     };
+    // grid points that share a node are the degenerate points of the surface: declare their
+    // nodes (in every layer) as collapsed, the only repeated nodes `Mesh::validate` accepts
+    let mut shared = vec![0usize; per_layer];
+    for j in 0..=n {
+        for i in 0..=n {
+            shared[layer_node(i, j)] += 1;
+        }
+    }
+    mesh.collapsed_nodes = (0..=m)
+        .flat_map(|l| {
+            let shared = &shared;
+            (0..per_layer)
+                .filter(move |&a| shared[a] > 1)
+                .map(move |a| (l * per_layer + a) as u32)
+        })
+        .collect();
     mesh.insert_node_set("outer", layer(0));
     mesh.insert_node_set("inner", layer(m));
     mesh

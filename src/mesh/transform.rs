@@ -98,6 +98,8 @@ pub fn merge(parts: &[(&str, &Mesh)]) -> Result<(Mesh, Vec<PartRange>), MeshErro
             p.nodes.iter_mut().for_each(|n| *n += n0);
             out.exact_surfaces.insert(rename(name), p);
         }
+        out.collapsed_nodes
+            .extend(part.collapsed_nodes.iter().map(|&n| n + n0));
         ranges.push(PartRange {
             first_node: n0,
             n_nodes: part.n_nodes(),

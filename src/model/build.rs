@@ -171,14 +171,19 @@ pub struct Model {
     pub contact_surfaces: Vec<crate::contact::surface::ContactSurface>,
     /// Contact pairs.
     pub contact_pairs: Vec<crate::contact::PairDef>,
+    /// What is legal but suspicious in the input (e.g. mesh nodes in no cell), for the front end
+    /// to print once.
+    pub warnings: Vec<String>,
 }
 
-fn generate(case: &Case, name: &str, spec: &MeshSpec) -> Result<Mesh, ModelError> {
+/// Builds or reads one mesh and validates it; also returns its warnings (nodes in no cell).
+fn generate(case: &Case, name: &str, spec: &MeshSpec) -> Result<(Mesh, Vec<String>), ModelError> {
     let err = |source| ModelError::Mesh {
         file: case.file.clone(),
         mesh: name.to_string(),
         source,
     };
+    let mut warnings = Vec::new();
     let m = match spec {
         MeshSpec::Generated(g) => match g {
             Generator::Rectangle(p) => mesh::rectangle::rectangle(p.origin, p.size, p.divisions),
@@ -209,11 +214,26 @@ fn generate(case: &Case, name: &str, spec: &MeshSpec) -> Result<Mesh, ModelError
                 p.n_thickness,
             ),
         },
-        MeshSpec::File(f) => mesh::gmsh::read_gmsh(&case.resolve_path(&f.file)),
+        MeshSpec::File(f) => {
+            mesh::gmsh::read_gmsh_with_warnings(&case.resolve_path(&f.file)).map(|(m, w)| {
+                warnings.extend(w.into_iter().map(|w| format!("mesh `{name}`: {w}")));
+                m
+            })
+        }
     }
     .map_err(err)?;
     m.validate().map_err(err)?;
-    Ok(m)
+    if matches!(spec, MeshSpec::Generated(_)) {
+        let unused = m.unused_nodes();
+        if !unused.is_empty() {
+            warnings.push(format!(
+                "mesh `{name}`: {} generated nodes are in no cell (first: {:?})",
+                unused.len(),
+                &unused[..unused.len().min(5)]
+            ));
+        }
+    }
+    Ok((m, warnings))
 }
 
 /// The total-Lagrangian kernel data of an enriched cell: its basis tabulated at the Gauss points of
@@ -260,10 +280,17 @@ impl Model {
     pub fn build(case: &Case) -> Result<Model, ModelError> {
         let dim = case.case.dim;
         let mut bodies = Vec::new();
+        let mut warnings: Vec<String> = Vec::new();
         let (mut node_offset, mut cell_offset) = (0u32, 0usize);
         for (name, spec) in &case.bodies {
             let mesh_spec = &case.meshes[&spec.mesh];
-            let mesh = generate(case, &spec.mesh, mesh_spec)?;
+            let (mesh, w) = generate(case, &spec.mesh, mesh_spec)?;
+            // two bodies on one mesh: say it once
+            warnings.extend(
+                w.into_iter()
+                    .filter(|w| !warnings.contains(w))
+                    .collect::<Vec<_>>(),
+            );
             let material = NeoHookean::from_young_poisson(spec.material.E, spec.material.nu)
                 .map_err(|e| ModelError::Material {
                     file: case.file.clone(),
@@ -462,6 +489,7 @@ impl Model {
             reactions,
             contact_surfaces: Vec::new(),
             contact_pairs: Vec::new(),
+            warnings,
         };
         let (surfaces, pairs) = super::contact::build_contact(case, &model)?;
         model.contact_surfaces = surfaces;

@@ -8,6 +8,7 @@ use std::str::FromStr;
 /// Largest NURBS order accepted in `Q1N<p>`; the paper goes up to Q1N8, beyond that the surface basis
 /// has more support than any mesh here can hold.
 pub const MAX_NURBS_ORDER: u32 = 16;
+const _: () = assert!(MAX_NURBS_ORDER as usize <= crate::geometry::MAX_ORDER);
 
 /// The element family of a body. Enriched families (`Q1N`, `Q1C2`, `Q1CH`) replace the bilinear
 /// (trilinear) interpolation on one surface layer of the body by a richer one.
@@ -91,6 +92,15 @@ impl FromStr for ElementFamily {
             Some(t) => parse(t, "refinement level t")?,
             None => 0,
         };
+        // the refined surface has order p + t, which the basis routines bound
+        let max_t = crate::geometry::MAX_ORDER as u32 - p;
+        if t > max_t {
+            return Err(err(&format!(
+                "refinement level t = {t} is out of range 0..={max_t}: the element order p + t \
+                 must be at most {}",
+                crate::geometry::MAX_ORDER
+            )));
+        }
         Ok(ElementFamily::Q1N { p, t })
     }
 }
@@ -135,6 +145,7 @@ mod tests {
         assert_eq!("Q1N2.1".parse(), Ok(ElementFamily::Q1N { p: 2, t: 1 }));
         assert_eq!("Q1N8".parse(), Ok(ElementFamily::Q1N { p: 8, t: 0 }));
         assert_eq!("Q1N3.1".parse(), Ok(ElementFamily::Q1N { p: 3, t: 1 }));
+        assert_eq!("Q1N2.18".parse(), Ok(ElementFamily::Q1N { p: 2, t: 18 }));
     }
 
     #[test]
@@ -154,6 +165,11 @@ mod tests {
             ("Q1N2.", "refinement level"),
             ("Q1N2.x", "refinement level"),
             ("Q1N-1", "not a non-negative integer"),
+            (
+                "Q1N2.1000",
+                "refinement level t = 1000 is out of range 0..=18",
+            ),
+            ("Q1N16.5", "refinement level t = 5 is out of range 0..=4"),
             ("q1c1", "not a known family"),
         ] {
             let e = name.parse::<ElementFamily>().unwrap_err();

@@ -5,6 +5,7 @@
 //! - [`element_family`]: `Q1C1`, `Q1E4`, `Q1N<p>[.<t>]`, `Q1C2`, `Q1CH` parsed into [`ElementFamily`].
 //! - [`load`]: file -> `toml::Value` -> `--set key.path=value` overrides -> [`Case`] -> [`validate()`].
 //! - [`validate`](mod@validate): semantic checks, and [`validate_sets`] for set names once meshes exist.
+//! - [`size`]: node, cell and memory estimates of generated meshes, checked before building them.
 //! - [`error`]: [`SceneError`], whose messages name the file, the key path and (when known) the line.
 //! - [`examples`]: three complete case files, used as test fixtures and as templates.
 
@@ -15,6 +16,7 @@ pub mod examples;
 mod keypath;
 pub mod load;
 pub mod schema;
+pub mod size;
 pub mod validate;
 
 pub use contact_spec::{BoxSpec, ContactSpec, LawKind, RigidShapeKind, RigidSpec};

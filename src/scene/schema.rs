@@ -133,6 +133,15 @@ impl Generator {
             Generator::HemisphereNurbs(_) => "hemisphere_nurbs",
         }
     }
+
+    /// The key holding the main cell count (where a too-large mesh is reported).
+    pub fn size_key(&self) -> &'static str {
+        match self {
+            Generator::Rectangle(_) | Generator::Box(_) | Generator::Sector(_) => "divisions",
+            Generator::HalfDisk(_) => "n_arc",
+            Generator::Hemisphere(_) | Generator::HemisphereNurbs(_) => "n_surface",
+        }
+    }
 }
 
 /// `generator = "rectangle"`: axis-aligned `size[0] x size[1]` from `origin`, `divisions[0] x divisions[1]` quads.

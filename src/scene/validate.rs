@@ -23,9 +23,7 @@ pub fn validate(case: &Case) -> Result<(), SceneError> {
     if !dim_ok {
         v.push("case.dim", format!("must be 2 or 3, got {dim}"));
     }
-    if case.case.name.trim().is_empty() {
-        v.push("case.name", "must not be empty");
-    }
+    check_case_name(&case.case.name, &mut v);
 
     check_meshes(case, dim_ok, &mut v);
     check_bodies(case, dim_ok, &mut v);
@@ -33,7 +31,105 @@ pub fn validate(case: &Case) -> Result<(), SceneError> {
     check_bcs(case, dim_ok, &mut v);
     check_ties(case, dim_ok, &mut v);
     check_controls(case, &mut v);
+    if v.0.is_empty() {
+        // sizes only mean something once every count is known to be sane
+        check_sizes(case, &mut v);
+    }
     v.finish(case)
+}
+
+/// Smallest and largest Young's modulus accepted: any unit system from GPa (soft gels, 1e-6) to Pa
+/// (diamond, 1.2e12). Below, the first residuals of a moderate load approach the solver's absolute
+/// tolerance (Newton would "converge" without moving); above, forces overflow long before E does.
+pub const YOUNG_RANGE: (f64, f64) = (1e-6, 1e13);
+
+/// How close to -1 or 0.5 Poisson's ratio may come: at 0.5 - 1e-6 the Lame ratio lambda/mu is
+/// already 5e5, beyond which a displacement formulation only measures round-off.
+pub const POISSON_MARGIN: f64 = 1e-6;
+
+/// The case name becomes a directory under `out/` (without `--out`): it must be one plain path
+/// component, so that no name can write elsewhere.
+fn check_case_name(name: &str, v: &mut Issues) {
+    let plain = |c: char| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.');
+    if name.is_empty() {
+        v.push("case.name", "must not be empty");
+    } else if name == "." || name == ".." {
+        v.push(
+            "case.name",
+            format!("`{name}` is not a name (it names a directory relative to out/)"),
+        );
+    } else if let Some(c) = name.chars().find(|&c| !plain(c)) {
+        v.push(
+            "case.name",
+            format!(
+                "`{name}` must be a plain name of letters, digits, `-`, `_` and `.` (it names the \
+                 output directory out/<name>), found {c:?}"
+            ),
+        );
+    }
+}
+
+/// Refuses generated meshes too large to run: more unknowns than PETSc's 32-bit indices hold, or
+/// more memory (mesh arrays plus Jacobian, see [`crate::scene::size`]) than this machine has. Runs
+/// before any mesh is built, from the parameters alone.
+fn check_sizes(case: &Case, v: &mut Issues) {
+    use crate::scene::size::{human_bytes, machine_memory_bytes, MeshSize, MAX_UNKNOWNS};
+    // every body builds its mesh (two bodies on one mesh build it twice)
+    let mut total: Option<(MeshSize, f64, f64)> = None;
+    let mut largest: Option<(f64, String)> = None;
+    for b in case.bodies.values() {
+        let Some(MeshSpec::Generated(g)) = case.meshes.get(&b.mesh) else {
+            continue;
+        };
+        let s = MeshSize::of(g);
+        let key = format!("meshes.{}.{}", b.mesh, g.size_key());
+        if largest.as_ref().is_none_or(|(u, _)| s.unknowns() > *u) {
+            largest = Some((s.unknowns(), key));
+        }
+        let t = total.get_or_insert((
+            MeshSize {
+                dim: s.dim,
+                nodes: 0.0,
+                cells: 0.0,
+            },
+            0.0,
+            0.0,
+        ));
+        t.0.nodes += s.nodes;
+        t.0.cells += s.cells;
+        t.1 += s.mesh_bytes();
+        t.2 += s.matrix_bytes();
+    }
+    let (Some((s, mesh_bytes, matrix_bytes)), Some((_, key))) = (total, largest) else {
+        return;
+    };
+    let what = format!(
+        "{:.3e} nodes, {:.3e} cells, {:.3e} unknowns; estimated memory {} (mesh arrays {} on \
+         every rank + matrix {}, without the linear solver's)",
+        s.nodes,
+        s.cells,
+        s.unknowns(),
+        human_bytes(mesh_bytes + matrix_bytes),
+        human_bytes(mesh_bytes),
+        human_bytes(matrix_bytes)
+    );
+    if s.unknowns() > MAX_UNKNOWNS {
+        v.push(
+            key,
+            format!(
+                "the problem is too large: {what}; PETSc's 32-bit indices hold at most {} unknowns",
+                MAX_UNKNOWNS as i64
+            ),
+        );
+    } else if let Some(mem) = machine_memory_bytes().filter(|&m| mesh_bytes + matrix_bytes > m) {
+        v.push(
+            key,
+            format!(
+                "the problem is too large: {what}, more than this machine's {}",
+                human_bytes(mem)
+            ),
+        );
+    }
 }
 
 /// Check that every set a case names exists on its body, once meshes are built.
@@ -136,8 +232,19 @@ fn check_meshes(case: &Case, dim_ok: bool, v: &mut Issues) {
         match mesh {
             MeshSpec::File(f) => {
                 let p = case.resolve_path(&f.file);
-                if !p.is_file() {
-                    v.push(k("file"), format!("mesh file {} not found", p.display()));
+                match std::fs::metadata(&p) {
+                    Ok(m) if m.is_dir() => v.push(
+                        k("file"),
+                        format!("{} is a directory, not a mesh file", p.display()),
+                    ),
+                    Ok(_) => {}
+                    Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                        v.push(k("file"), format!("mesh file {} not found", p.display()))
+                    }
+                    Err(e) => v.push(
+                        k("file"),
+                        format!("cannot read mesh file {}: {e}", p.display()),
+                    ),
                 }
             }
             MeshSpec::Generated(g) => {
@@ -166,14 +273,22 @@ fn check_meshes(case: &Case, dim_ok: bool, v: &mut Issues) {
                     Generator::HalfDisk(p) => {
                         v.finite(k("center"), &p.center);
                         v.positive(k("radius"), p.radius);
-                        v.divisions(k("n_arc"), &[p.n_arc]);
+                        if p.n_arc < 4 {
+                            v.push(
+                                k("n_arc"),
+                                format!(
+                                    "the O-grid needs at least 4 cells along the arc, got {}",
+                                    p.n_arc
+                                ),
+                            );
+                        }
                         v.divisions(k("n_radial"), &[p.n_radial]);
                     }
                     Generator::Sector(p) => {
                         v.finite(k("center"), &p.center);
                         v.finite(k("theta0_deg"), &[p.theta0_deg, p.theta1_deg]);
-                        if !(p.r_inner.is_finite() && p.r_inner >= 0.0) {
-                            v.push(k("r_inner"), format!("must be >= 0, got {}", p.r_inner));
+                        if !(p.r_inner.is_finite() && p.r_inner > 0.0) {
+                            v.push(k("r_inner"), format!("must be > 0, got {}", p.r_inner));
                         }
                         if !(p.r_outer.is_finite() && p.r_outer > p.r_inner) {
                             v.push(
@@ -182,10 +297,14 @@ fn check_meshes(case: &Case, dim_ok: bool, v: &mut Issues) {
                             );
                         }
                         let span = p.theta1_deg - p.theta0_deg;
-                        if !(span > 0.0 && span <= 360.0) {
+                        if !(span > 0.0 && span < 360.0) {
                             v.push(
                                 k("theta1_deg"),
-                                format!("theta1_deg - theta0_deg must be in (0, 360], got {span}"),
+                                format!(
+                                    "theta1_deg - theta0_deg must be in (0, 360) degrees, got \
+                                     {span} degrees (a full ring would have two separate, \
+                                     coincident end edges)"
+                                ),
                             );
                         }
                         v.divisions(k("divisions"), &p.divisions);
@@ -254,16 +373,38 @@ fn check_bodies(case: &Case, dim_ok: bool, v: &mut Issues) {
             _ => {}
         }
         let m = &b.material;
+        let (e_min, e_max) = YOUNG_RANGE;
         if !(m.E.is_finite() && m.E > 0.0) {
             v.push(
                 k("material.E"),
                 format!("Young's modulus must be > 0, got {}", m.E),
+            );
+        } else if !(e_min..=e_max).contains(&m.E) {
+            v.push(
+                k("material.E"),
+                format!(
+                    "Young's modulus {:e} is outside the range [{e_min:e}, {e_max:e}] that the \
+                     solver's tolerances are made for (from GPa to Pa); rescale the units",
+                    m.E
+                ),
             );
         }
         if !(m.nu > -1.0 && m.nu < 0.5) {
             v.push(
                 k("material.nu"),
                 format!("Poisson's ratio must be in (-1, 0.5), got {}", m.nu),
+            );
+        } else if !(m.nu >= -1.0 + POISSON_MARGIN && m.nu <= 0.5 - POISSON_MARGIN) {
+            v.push(
+                k("material.nu"),
+                format!(
+                    "Poisson's ratio {} is within {POISSON_MARGIN:e} of its limit (-1 or 0.5): \
+                     the Lame constants differ by more than 1e5 and the solve would measure \
+                     round-off; use a value in [{}, {}]",
+                    m.nu,
+                    -1.0 + POISSON_MARGIN,
+                    0.5 - POISSON_MARGIN
+                ),
             );
         }
     }
@@ -531,7 +672,7 @@ mod tests {
             IRONING_2D,
             &["meshes.cylinder.n_arc=0", "meshes.cylinder.radius=0.0"],
         );
-        assert!(has(&i, "meshes.cylinder.n_arc", "> 0"), "{i:?}");
+        assert!(has(&i, "meshes.cylinder.n_arc", "at least 4"), "{i:?}");
         assert!(has(&i, "meshes.cylinder.radius", "positive"), "{i:?}");
     }
 
@@ -614,6 +755,127 @@ mod tests {
             ],
         );
         assert_eq!(i.len(), 3, "{i:?}");
+    }
+
+    #[test]
+    fn case_name_must_be_one_plain_path_component() {
+        for bad in ["../x", "/tmp/x", "a/b", "..", ".", "a b", "x\\y", ""] {
+            let i = issues(BLOCK_COMPRESSION_3D, &[&format!("case.name={bad:?}")]);
+            assert!(i.iter().any(|i| i.key == "case.name"), "{bad}: {i:?}");
+        }
+        for good in ["block-2.v1_final", "..x", "A9"] {
+            let o = [format!("case.name={good:?}")];
+            assert!(
+                parse_case(BLOCK_COMPRESSION_3D, Path::new("c.toml"), &o).is_ok(),
+                "{good}"
+            );
+        }
+    }
+
+    #[test]
+    fn material_constants_must_be_in_a_sane_range() {
+        for (e, ok) in [
+            ("1e308", false),
+            ("1e14", false),
+            ("1e-7", false),
+            ("1e13", true),
+            ("1e-6", true),
+            ("2.1e11", true),
+        ] {
+            let o = [format!("bodies.block.material.E={e}")];
+            let r = parse_case(BLOCK_COMPRESSION_3D, Path::new("c.toml"), &o);
+            assert_eq!(r.is_ok(), ok, "E = {e}: {r:?}");
+            if !ok {
+                let i = issues(BLOCK_COMPRESSION_3D, &[&o[0]]);
+                assert!(
+                    has(&i, "bodies.block.material.E", "outside the range"),
+                    "{i:?}"
+                );
+            }
+        }
+        for (nu, ok) in [
+            ("0.4999999", false),
+            ("-0.9999999", false),
+            ("0.499999", true),
+            ("-0.99", true),
+        ] {
+            let o = [format!("bodies.block.material.nu={nu}")];
+            let r = parse_case(BLOCK_COMPRESSION_3D, Path::new("c.toml"), &o);
+            assert_eq!(r.is_ok(), ok, "nu = {nu}: {r:?}");
+        }
+        let i = issues(
+            BLOCK_COMPRESSION_3D,
+            &["bodies.block.material.nu=0.4999999"],
+        );
+        assert!(has(&i, "bodies.block.material.nu", "within 1e-6"), "{i:?}");
+    }
+
+    #[test]
+    fn full_ring_sector_is_rejected_in_degrees() {
+        let text = IRONING_2D.replace(
+            "[meshes.cylinder]",
+            "[meshes.ring]\ngenerator = \"sector\"\ncenter = [0.0, 0.0]\nr_inner = 1.0\n\
+             r_outer = 2.0\ntheta0_deg = 0.0\ntheta1_deg = 360.0\ndivisions = [2, 8]\n\n\
+             [meshes.cylinder]",
+        );
+        let i = issues(&text, &[]);
+        assert!(
+            has(&i, "meshes.ring.theta1_deg", "got 360 degrees")
+                && has(&i, "meshes.ring.theta1_deg", "(0, 360) degrees"),
+            "{i:?}"
+        );
+        let i = issues(
+            &text,
+            &["meshes.ring.r_inner=0.0", "meshes.ring.theta1_deg=90.0"],
+        );
+        assert!(has(&i, "meshes.ring.r_inner", "> 0"), "{i:?}");
+        assert_eq!(i.len(), 1, "{i:?}");
+    }
+
+    #[test]
+    fn mesh_file_that_is_a_directory_is_reported_as_one() {
+        let text = include_str!("../../cases/plate_hole_2d.toml");
+        let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/plate_hole_2d.toml");
+        let i = match parse_case(text, &file, &["meshes.plate.file=\".\"".to_string()]) {
+            Err(SceneError::Invalid { issues, .. }) => issues,
+            other => panic!("{other:?}"),
+        };
+        assert!(has(&i, "meshes.plate.file", "is a directory"), "{i:?}");
+        let o = ["meshes.plate.file=\"nope.msh\"".to_string()];
+        let e = parse_case(text, &file, &o).unwrap_err().to_string();
+        assert!(e.contains("nope.msh not found"), "{e}");
+        assert!(parse_case(text, &file, &[]).is_ok());
+    }
+
+    #[test]
+    fn meshes_too_large_to_run_are_refused_with_the_estimate() {
+        let i = issues(
+            BLOCK_COMPRESSION_3D,
+            &["meshes.block.divisions=[2000, 2000, 2000]"],
+        );
+        assert!(
+            has(&i, "meshes.block.divisions", "2.404e10 unknowns")
+                && has(&i, "meshes.block.divisions", "2147483647"),
+            "{i:?}"
+        );
+        // under the index limit, but 1e9 unknowns' matrix needs some 6 TB
+        if crate::scene::size::machine_memory_bytes().is_some_and(|m| m < 5e12) {
+            let i = issues(
+                BLOCK_COMPRESSION_3D,
+                &["meshes.block.divisions=[700, 700, 700]"],
+            );
+            assert!(
+                has(&i, "meshes.block.divisions", "estimated memory")
+                    && has(&i, "meshes.block.divisions", "more than this machine's"),
+                "{i:?}"
+            );
+        }
+        // counts that would overflow usize arithmetic are still a clear error
+        let huge = format!("meshes.block.divisions=[{0}, {0}, {0}]", u32::MAX);
+        let i = issues(BLOCK_COMPRESSION_3D, &[&huge]);
+        assert!(has(&i, "meshes.block.divisions", "too large"), "{i:?}");
+        let i = issues(IRONING_2D, &["meshes.cylinder.n_arc=100000000"]);
+        assert!(has(&i, "meshes.cylinder.n_arc", "too large"), "{i:?}");
     }
 
     #[test]

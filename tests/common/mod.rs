@@ -43,6 +43,19 @@ const RUN_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(300);
 /// Runs `nurbs-contact args...` on `np` ranks (np = 1 runs it directly, without mpirun); kills it
 /// and fails the test if it runs past [`RUN_TIMEOUT`].
 pub fn run(np: usize, args: &[&str]) -> Output {
+    run_with(np, args, None, RUN_TIMEOUT).unwrap_or_else(|| {
+        panic!("nurbs-contact {args:?} on {np} ranks did not finish in {RUN_TIMEOUT:?}: a hang?")
+    })
+}
+
+/// [`run`] in the working directory `cwd` (default: the test's), with its own time limit; `None`
+/// if it had to be killed at the limit.
+pub fn run_with(
+    np: usize,
+    args: &[&str],
+    cwd: Option<&Path>,
+    timeout: std::time::Duration,
+) -> Option<Output> {
     use std::io::Read;
     let mut cmd = if np == 1 {
         Command::new(bin())
@@ -55,6 +68,9 @@ pub fn run(np: usize, args: &[&str]) -> Output {
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped());
     mpi_env(&mut cmd);
+    if let Some(dir) = cwd {
+        cmd.current_dir(dir);
+    }
     let mut child = cmd.spawn().expect("failed to start nurbs-contact");
     // Drain both pipes on threads so a chatty run cannot block on a full pipe.
     let mut out_pipe = child.stdout.take().expect("stdout pipe");
@@ -74,20 +90,18 @@ pub fn run(np: usize, args: &[&str]) -> Output {
         if let Some(st) = child.try_wait().expect("wait for nurbs-contact") {
             break st;
         }
-        if t0.elapsed() > RUN_TIMEOUT {
+        if t0.elapsed() > timeout {
             let _ = child.kill();
             let _ = child.wait();
-            panic!(
-                "nurbs-contact {args:?} on {np} ranks did not finish in {RUN_TIMEOUT:?}: a hang?"
-            );
+            return None;
         }
         std::thread::sleep(std::time::Duration::from_millis(10));
     };
-    Output {
+    Some(Output {
         status,
         stdout: out_t.join().unwrap_or_default(),
         stderr: err_t.join().unwrap_or_default(),
-    }
+    })
 }
 
 /// Runs and asserts success, printing the output otherwise.

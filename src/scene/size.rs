@@ -1,0 +1,211 @@
+//! How big a case's generated meshes will be, computed from the generator parameters alone, so that
+//! validation can refuse a problem that cannot fit before anything is allocated.
+//!
+//! The estimate (bytes, for the whole problem):
+//! - mesh arrays, held in full by every rank (each builds the whole model): per node
+//!   `24 dim + 16` (coordinates in the mesh, the model and the partitioning copy; numbering), per
+//!   cell `12 n + 32` for `n` nodes per cell (three copies of the connectivity, offsets, kinds);
+//! - the Jacobian: `12` bytes per stored entry (value and 32-bit column index), with `3^dim dim`
+//!   entries per row of a structured mesh, plus `24` bytes per element-matrix entry
+//!   (`(n dim)^2` per cell) for the COO assembly buffers.
+//!
+//! It leaves out the linear solver's own memory (a direct factorisation fills in far more), so it
+//! is a lower bound of what a run needs: a case refused by it cannot run here.
+
+use crate::scene::schema::Generator;
+
+/// Largest number of unknowns PETSc can index with its 32-bit `PetscInt` (the build used here).
+pub const MAX_UNKNOWNS: f64 = i32::MAX as f64;
+
+/// Node and cell counts of a generated mesh (as `f64`: the parameters may be absurdly large).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MeshSize {
+    pub dim: usize,
+    pub nodes: f64,
+    pub cells: f64,
+}
+
+impl MeshSize {
+    /// Exact counts of what the generator builds (tested against the generators).
+    pub fn of(g: &Generator) -> MeshSize {
+        let f = |n: usize| n as f64;
+        let (dim, nodes, cells) = match g {
+            Generator::Rectangle(p) => {
+                let [nx, ny] = p.divisions.map(f);
+                (2, (nx + 1.0) * (ny + 1.0), nx * ny)
+            }
+            Generator::Box(p) => {
+                let [nx, ny, nz] = p.divisions.map(f);
+                (3, (nx + 1.0) * (ny + 1.0) * (nz + 1.0), nx * ny * nz)
+            }
+            Generator::HalfDisk(p) => {
+                // O-grid: core n_bot x n_side, ring n_arc x n_radial (see mesh::half_disk)
+                let n_side = ((p.n_arc.saturating_add(2)) / 4).max(1);
+                let n_bot = f(p.n_arc) - 2.0 * f(n_side);
+                let (n_side, n_arc, n_rad) = (f(n_side), f(p.n_arc), f(p.n_radial));
+                (
+                    2,
+                    (n_bot + 1.0) * (n_side + 1.0) + (n_arc + 1.0) * n_rad,
+                    n_bot * n_side + n_arc * n_rad,
+                )
+            }
+            Generator::Sector(p) => {
+                let [nr, nt] = p.divisions.map(f);
+                (2, (nr + 1.0) * (nt + 1.0), nr * nt)
+            }
+            Generator::Hemisphere(p) => {
+                let (n, m) = (f(p.n_surface), f(p.n_thickness));
+                (3, (n + 1.0) * (n + 1.0) * (m + 1.0), n * n * m)
+            }
+            Generator::HemisphereNurbs(p) => {
+                let (n, m) = (f(p.n_surface), f(p.n_thickness));
+                (3, ((n - 1.0) * (n + 1.0) + 2.0) * (m + 1.0), n * n * m)
+            }
+        };
+        MeshSize { dim, nodes, cells }
+    }
+
+    /// Unknowns: `dim` per node.
+    pub fn unknowns(&self) -> f64 {
+        self.dim as f64 * self.nodes
+    }
+
+    /// Bytes of the mesh arrays that every rank holds.
+    pub fn mesh_bytes(&self) -> f64 {
+        let (d, n) = (self.dim as f64, (1usize << self.dim) as f64);
+        self.nodes * (24.0 * d + 16.0) + self.cells * (12.0 * n + 32.0)
+    }
+
+    /// Bytes of the Jacobian and its assembly buffers (whole problem).
+    pub fn matrix_bytes(&self) -> f64 {
+        let d = self.dim as f64;
+        let n = (1usize << self.dim) as f64;
+        let nnz = self.unknowns() * 3f64.powi(self.dim as i32) * d;
+        12.0 * nnz + 24.0 * self.cells * (n * d).powi(2)
+    }
+}
+
+/// Physical memory of this machine in bytes (`MemTotal` of `/proc/meminfo`), if known.
+pub fn machine_memory_bytes() -> Option<f64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024.0)
+}
+
+/// `bytes` for people: `1.2 GB`.
+pub fn human_bytes(bytes: f64) -> String {
+    let units = ["B", "kB", "MB", "GB", "TB", "PB", "EB"];
+    let mut x = bytes;
+    let mut u = 0;
+    while x >= 1000.0 && u + 1 < units.len() {
+        x /= 1000.0;
+        u += 1;
+    }
+    if u == 0 {
+        format!("{x:.0} {}", units[u])
+    } else {
+        format!("{x:.1} {}", units[u])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh;
+    use crate::scene::schema::*;
+
+    /// The counts are those of the generators: a generator that changes must change them too.
+    #[test]
+    fn counts_match_what_the_generators_build() {
+        let gens: Vec<(Generator, mesh::Mesh)> = vec![
+            (
+                Generator::Rectangle(RectangleParams {
+                    origin: [0.0; 2],
+                    size: [2.0, 1.0],
+                    divisions: [5, 3],
+                }),
+                mesh::rectangle::rectangle([0.0; 2], [2.0, 1.0], [5, 3]).unwrap(),
+            ),
+            (
+                Generator::Box(BoxParams {
+                    origin: [0.0; 3],
+                    size: [1.0; 3],
+                    divisions: [2, 3, 4],
+                }),
+                mesh::box3d::box3d([0.0; 3], [1.0; 3], [2, 3, 4]).unwrap(),
+            ),
+            (
+                Generator::Sector(SectorParams {
+                    center: [0.0; 2],
+                    r_inner: 1.0,
+                    r_outer: 2.0,
+                    theta0_deg: 0.0,
+                    theta1_deg: 90.0,
+                    divisions: [3, 7],
+                }),
+                mesh::sector::sector([0.0; 2], 1.0, 2.0, [0.0, 1.5], 7, 3).unwrap(),
+            ),
+        ];
+        let mut all = gens;
+        for (n_arc, n_rad) in [(4, 1), (6, 2), (9, 3), (16, 4)] {
+            all.push((
+                Generator::HalfDisk(HalfDiskParams {
+                    center: [0.0; 2],
+                    radius: 1.0,
+                    n_arc,
+                    n_radial: n_rad,
+                }),
+                mesh::half_disk::half_disk([0.0; 2], 1.0, n_arc, n_rad).unwrap(),
+            ));
+        }
+        let shell = |n, m| HemisphereParams {
+            center: [0.0; 3],
+            outer_radius: 1.0,
+            thickness: 0.2,
+            n_surface: n,
+            n_thickness: m,
+        };
+        for (n, m) in [(2, 1), (3, 2), (4, 2)] {
+            all.push((
+                Generator::Hemisphere(shell(n, m)),
+                mesh::hemisphere::hemisphere([0.0; 3], 1.0, 0.2, n, m).unwrap(),
+            ));
+        }
+        for (n, m) in [(2, 1), (4, 2), (6, 1)] {
+            all.push((
+                Generator::HemisphereNurbs(shell(n, m)),
+                mesh::hemisphere_nurbs::hemisphere_nurbs([0.0; 3], 1.0, 0.2, n, m).unwrap(),
+            ));
+        }
+        for (g, m) in &all {
+            let s = MeshSize::of(g);
+            assert_eq!(
+                (s.dim, s.nodes, s.cells),
+                (m.dim, m.n_nodes() as f64, m.n_cells() as f64),
+                "{}",
+                g.name()
+            );
+        }
+    }
+
+    #[test]
+    fn estimates_grow_with_the_mesh_and_print_readably() {
+        let b = |n: usize| {
+            MeshSize::of(&Generator::Box(BoxParams {
+                origin: [0.0; 3],
+                size: [1.0; 3],
+                divisions: [n, n, n],
+            }))
+        };
+        let s = b(2000);
+        assert_eq!(s.unknowns(), 3.0 * 2001f64.powi(3));
+        assert!(s.unknowns() > MAX_UNKNOWNS);
+        // 10^3 hexes: about 1.3 k nodes, a few MB in all
+        let small = b(10).mesh_bytes() + b(10).matrix_bytes();
+        assert!(small > 1e6 && small < 1e8, "{small}");
+        assert_eq!(human_bytes(1.5e9), "1.5 GB");
+        assert_eq!(human_bytes(12.0), "12 B");
+        assert!(machine_memory_bytes().is_none_or(|m| m > 1e8));
+    }
+}
