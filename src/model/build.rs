@@ -7,7 +7,7 @@ use crate::fem::q1e4::Q1e4Element;
 use crate::fem::quadrature::tensor_rule;
 use crate::fem::sets::{Q1e4Set, TlSet};
 use crate::fem::{hex8, quad4};
-use crate::material::NeoHookean;
+use crate::material::{Material, NeoHookean};
 use crate::mesh::{self, CellKind, Mesh, MeshError};
 use crate::scene::{
     validate_sets, BcSpec, Case, ElementFamily, Generator, MeshSpec, SceneError, SetKind,
@@ -98,7 +98,7 @@ pub struct Body {
     /// Element family.
     pub family: ElementFamily,
     /// Material.
-    pub material: NeoHookean,
+    pub material: Material,
     /// The enriched layer (enriched families): new nodes numbered after the mesh's, enriched cells
     /// beside the mesh's linear parents (`mesh.cell_kind` keeps meaning "linear parent").
     pub enrichment: Option<Enrichment>,
@@ -250,7 +250,9 @@ impl Model {
         for (name, spec) in &case.bodies {
             let mesh_spec = &case.meshes[&spec.mesh];
             let mesh = generate(case, &spec.mesh, mesh_spec)?;
-            let material = NeoHookean::from_young_poisson(spec.material.E, spec.material.nu)
+            let m = &spec.material;
+            let material = NeoHookean::from_young_poisson(m.E, m.nu)
+                .map(Material::from)
                 .map_err(|e| ModelError::Material {
                     file: case.file.clone(),
                     body: name.clone(),
