@@ -7,10 +7,11 @@ use crate::fem::q1e4::Q1e4Element;
 use crate::fem::quadrature::tensor_rule;
 use crate::fem::sets::{Q1e4Set, TlSet};
 use crate::fem::{hex8, quad4};
-use crate::material::{Material, NeoHookean};
+use crate::material::{LinearElastic, Material, NeoHookean};
 use crate::mesh::{self, CellKind, Mesh, MeshError};
 use crate::scene::{
-    validate_sets, BcSpec, Case, ElementFamily, Generator, MeshSpec, SceneError, SetKind,
+    validate_sets, BcSpec, Case, ElementFamily, Generator, MaterialModel, MeshSpec, SceneError,
+    SetKind,
 };
 
 /// Why a model could not be built from a (schema-valid) case.
@@ -251,13 +252,19 @@ impl Model {
             let mesh_spec = &case.meshes[&spec.mesh];
             let mesh = generate(case, &spec.mesh, mesh_spec)?;
             let m = &spec.material;
-            let material = NeoHookean::from_young_poisson(m.E, m.nu)
-                .map(Material::from)
-                .map_err(|e| ModelError::Material {
-                    file: case.file.clone(),
-                    body: name.clone(),
-                    msg: e.to_string(),
-                })?;
+            let material = match m.model {
+                MaterialModel::NeoHookean => {
+                    NeoHookean::from_young_poisson(m.E, m.nu).map(Material::from)
+                }
+                MaterialModel::LinearElastic => {
+                    LinearElastic::from_young_poisson(m.E, m.nu).map(Material::from)
+                }
+            }
+            .map_err(|e| ModelError::Material {
+                file: case.file.clone(),
+                body: name.clone(),
+                msg: e.to_string(),
+            })?;
             bodies.push(Body {
                 name: name.clone(),
                 mesh,
