@@ -4,10 +4,14 @@
 //! maps it once to `dN/dX` and `w dV`. Per Newton iteration the kernel computes, with `F = I + sum_a u_a (x) dN_a/dX`,
 //! `r_(a i) = sum_qp P_iJ dN_a/dX_J wdV` and `K_(a i)(b k) = sum_qp dN_a/dX_J A_iJkL dN_b/dX_L wdV`.
 //! The dimension is a const generic inside, so the quadrature-point loop runs on stack arrays without allocation.
+//!
+//! The residual is `int P : grad_X N dV` over the reference configuration, so a small-strain law that returns
+//! `P = sigma(sym(F - I))` with constant `A` ([`crate::material::LinearElastic`]) gives exactly the
+//! geometrically linear weak form `int sigma : grad N dV` (`sigma` symmetric) with a `u`-independent tangent.
 
 use super::ElementError;
 use crate::material::neo_hookean::trace_and_von_mises;
-use crate::material::NeoHookean;
+use crate::material::Material;
 
 /// One element's precomputed geometry for the total Lagrangian kernel.
 #[derive(Debug, Clone, PartialEq)]
@@ -144,7 +148,7 @@ impl TlElement {
     /// [`ElementError::Inverted`].
     pub fn residual_tangent(
         &self,
-        mat: &NeoHookean,
+        mat: &Material,
         u_e: &[f64],
         r_e: &mut [f64],
         k_e: Option<&mut [f64]>,
@@ -165,7 +169,7 @@ impl TlElement {
     #[allow(non_snake_case)]
     fn residual_tangent_d<const D: usize>(
         &self,
-        mat: &NeoHookean,
+        mat: &Material,
         u_e: &[f64],
         r_e: &mut [f64],
         mut k_e: Option<&mut [f64]>,
@@ -249,12 +253,7 @@ impl TlElement {
 
     /// Cauchy stress (3x3 row-major) at one quadrature point.
     #[allow(non_snake_case)]
-    fn cauchy_at(
-        &self,
-        qp: usize,
-        mat: &NeoHookean,
-        u_e: &[f64],
-    ) -> Result<[f64; 9], ElementError> {
+    fn cauchy_at(&self, qp: usize, mat: &Material, u_e: &[f64]) -> Result<[f64; 9], ElementError> {
         let D = self.dim;
         let nd = self.n_dofs();
         let dN = &self.dNdX[qp * nd..(qp + 1) * nd];
@@ -272,7 +271,7 @@ impl TlElement {
     /// Cauchy stress at every quadrature point, `sigma`: [n_qp][9] (3x3 row-major; plane strain includes `sigma_33`).
     pub fn cauchy_at_qps(
         &self,
-        mat: &NeoHookean,
+        mat: &Material,
         u_e: &[f64],
         sigma: &mut [f64],
     ) -> Result<(), ElementError> {
@@ -286,11 +285,7 @@ impl TlElement {
 
     /// Element stress measures `(I1, von Mises)`: the reference-volume weighted averages over the quadrature
     /// points of `I1 = tr sigma` and of the von Mises stress. `I1` is in stress units (not yet divided by `E0`).
-    pub fn stress_measures(
-        &self,
-        mat: &NeoHookean,
-        u_e: &[f64],
-    ) -> Result<(f64, f64), ElementError> {
+    pub fn stress_measures(&self, mat: &Material, u_e: &[f64]) -> Result<(f64, f64), ElementError> {
         check_len("u_e", u_e.len(), self.n_dofs())?;
         let (mut i1, mut vm, mut vol) = (0.0, 0.0, 0.0);
         for (qp, &w) in self.wdV.iter().enumerate() {
@@ -309,9 +304,10 @@ mod tests {
     use super::*;
     use crate::fem::test_support::*;
     use crate::fem::{hex8, quad4};
+    use crate::material::NeoHookean;
 
-    fn mat() -> NeoHookean {
-        NeoHookean::from_young_poisson(3.0, 0.3).unwrap()
+    fn mat() -> Material {
+        NeoHookean::from_young_poisson(3.0, 0.3).unwrap().into()
     }
 
     fn check_tangent(el: &TlElement, u: &[f64]) {
@@ -466,8 +462,8 @@ mod tests {
             .unwrap();
         }
         let J = la * lt.powi(D as i32 - 1);
-        let s11 = (m.lambda * J.ln() + m.mu * (la * la - 1.0)) / J;
-        let s33 = if D == 2 { m.lambda * J.ln() / J } else { 0.0 };
+        let s11 = (m.lambda() * J.ln() + m.mu() * (la * la - 1.0)) / J;
+        let s33 = if D == 2 { m.lambda() * J.ln() / J } else { 0.0 };
         let mut s_exact = [0.0; 9];
         s_exact[0] = s11;
         s_exact[8] = s33;
@@ -520,17 +516,20 @@ mod tests {
         }
         // J = 1: sigma = mu (b - I), b = [[1 + g^2, g, 0], [g, 1, 0], [0, 0, 1]]
         let mut s_exact = [0.0; 9];
-        s_exact[0] = m.mu * gamma * gamma;
-        s_exact[1] = m.mu * gamma;
-        s_exact[3] = m.mu * gamma;
+        s_exact[0] = m.mu() * gamma * gamma;
+        s_exact[1] = m.mu() * gamma;
+        s_exact[3] = m.mu() * gamma;
         for (e, el) in els.iter().enumerate() {
             let mut s = vec![0.0; 9 * el.n_qp()];
             el.cauchy_at_qps(&m, &gather(mesh, e, &u), &mut s).unwrap();
             for sq in s.chunks_exact(9) {
-                assert!(max_abs_diff(sq, &s_exact) < 1e-10 * m.mu * gamma, "{sq:?}");
+                assert!(
+                    max_abs_diff(sq, &s_exact) < 1e-10 * m.mu() * gamma,
+                    "{sq:?}"
+                );
             }
             let (i1, vm) = el.stress_measures(&m, &gather(mesh, e, &u)).unwrap();
-            assert!((i1 - m.mu * gamma * gamma).abs() < 1e-10);
+            assert!((i1 - m.mu() * gamma * gamma).abs() < 1e-10);
             let (_, vm_exact) = trace_and_von_mises(&s_exact);
             assert!((vm - vm_exact).abs() < 1e-10);
         }
@@ -544,5 +543,104 @@ mod tests {
     #[test]
     fn hex8_simple_shear_matches_analytic_neo_hookean() {
         simple_shear(&hex_mesh(2, 2, 2, 1.0, 0.2), 0.5);
+    }
+}
+
+#[cfg(test)]
+#[allow(non_snake_case)]
+mod linear_elastic_tests {
+    use super::*;
+    use crate::fem::test_support::*;
+    use crate::fem::{hex8, quad4};
+    use crate::material::LinearElastic;
+
+    fn mat() -> Material {
+        LinearElastic::from_young_poisson(3.0, 0.3).unwrap().into()
+    }
+
+    /// The residual is linear in `u`: `r(u) = K u` with the same `K` at every `u`, which also matches
+    /// finite differences.
+    fn check_linear(el: &TlElement, rng: &mut Lcg, amp: f64) {
+        let m = mat();
+        let nd = el.n_dofs();
+        let u1: Vec<f64> = (0..nd).map(|_| amp * rng.next()).collect();
+        let u2: Vec<f64> = (0..nd).map(|_| amp * rng.next()).collect();
+        let (mut r1, mut k1) = (vec![0.0; nd], vec![0.0; nd * nd]);
+        let (mut r2, mut k2) = (vec![0.0; nd], vec![0.0; nd * nd]);
+        el.residual_tangent(&m, &u1, &mut r1, Some(&mut k1))
+            .unwrap();
+        el.residual_tangent(&m, &u2, &mut r2, Some(&mut k2))
+            .unwrap();
+        assert!(max_abs_diff(&k1, &k2) < 1e-14 * max_abs(&k1));
+        let ku: Vec<f64> = (0..nd)
+            .map(|p| (0..nd).map(|q| k1[p * nd + q] * u1[q]).sum())
+            .collect();
+        assert!(max_abs_diff(&r1, &ku) < 1e-13 * max_abs(&r1), "r != K u");
+        let k_fd = fd_tangent(nd, &u1, 1e-6, |v, r| el.residual_tangent(&m, v, r, None));
+        assert!(max_abs_diff(&k1, &k_fd) < 1e-7 * max_abs(&k1));
+    }
+
+    #[test]
+    fn linear_elastic_residual_is_k_times_u_on_quad4_and_hex8() {
+        let mut rng = Lcg(9);
+        let X = [0.0, 0.0, 1.2, 0.1, 1.0, 0.9, -0.1, 1.1];
+        check_linear(&quad4::tl_element(&X, 2).unwrap(), &mut rng, 0.5);
+        let X: Vec<f64> = hex8::NODES
+            .iter()
+            .flat_map(|n| n.map(|c| 0.5 * c + 0.08 * rng.next()))
+            .collect();
+        check_linear(&hex8::tl_element(&X, 2).unwrap(), &mut rng, 0.5);
+    }
+
+    /// Affine `u = H X` with a non-symmetric `H` on the boundary: one Newton iteration reproduces it, and every
+    /// quadrature point carries Hooke's stress of `sym H` (the skew part of `H` is stress free).
+    #[test]
+    fn linear_elastic_patch_test_converges_in_one_iteration() {
+        let m = mat();
+        for (mesh, H) in [
+            (
+                quad_mesh(3, 3, 1.0, 1.0, 0.25),
+                vec![0.02, -0.05, 0.09, -0.01],
+            ),
+            (
+                hex_mesh(2, 2, 2, 1.0, 0.2),
+                vec![0.01, -0.05, 0.08, 0.03, -0.02, 0.02, -0.07, 0.06, 0.015],
+            ),
+        ] {
+            let D = mesh.dim;
+            let els = tl_elements(&mesh);
+            let exact = affine(&mesh, &H);
+            let fixed: Vec<(usize, f64)> = boundary_dofs(&mesh)
+                .into_iter()
+                .map(|d| (d, exact[d]))
+                .collect();
+            let mut u = vec![0.0; exact.len()];
+            let its = newton_solve(&fixed, &vec![0.0; u.len()], &mut u, |u, r, k| {
+                assemble(&mesh, &els, &m, u, r, k)
+            })
+            .unwrap();
+            assert_eq!(its, 1, "dim {D}: a linear problem takes one Newton step");
+            assert!(max_abs_diff(&u, &exact) < 1e-12 * max_abs(&exact));
+            let mut eps = [0.0; 9];
+            for i in 0..D {
+                for j in 0..D {
+                    eps[i * 3 + j] = 0.5 * (H[i * D + j] + H[j * D + i]);
+                }
+            }
+            let tr = eps[0] + eps[4] + eps[8];
+            let s_exact: [f64; 9] = std::array::from_fn(|p| {
+                m.lambda() * tr * if p % 4 == 0 { 1.0 } else { 0.0 } + 2.0 * m.mu() * eps[p]
+            });
+            for (e, el) in els.iter().enumerate() {
+                let mut s = vec![0.0; 9 * el.n_qp()];
+                el.cauchy_at_qps(&m, &gather(&mesh, e, &u), &mut s).unwrap();
+                for sq in s.chunks_exact(9) {
+                    assert!(
+                        max_abs_diff(sq, &s_exact) < 1e-11 * max_abs(&s_exact),
+                        "{sq:?} vs {s_exact:?}"
+                    );
+                }
+            }
+        }
     }
 }

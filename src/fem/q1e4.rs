@@ -14,7 +14,7 @@ use super::kernel::TlElement;
 use super::quad4;
 use super::quadrature::tensor_rule;
 use super::ElementError;
-use crate::material::NeoHookean;
+use crate::material::Material;
 use nalgebra::Matrix4;
 
 /// Bound on local Newton iterations for `alpha`.
@@ -107,7 +107,7 @@ impl Q1e4Element {
     /// warm start on entry and the converged enhanced parameters on success; on error it is left unchanged.
     pub fn residual_tangent(
         &self,
-        mat: &NeoHookean,
+        mat: &Material,
         u_e: &[f64; 8],
         alpha: &mut [f64; 4],
         r_e: &mut [f64; 8],
@@ -116,7 +116,7 @@ impl Q1e4Element {
         let mut a = *alpha;
         let mut r = [0.0; 12];
         let mut k = [0.0; 144];
-        let floor = ROUNDOFF_FLOOR * (mat.mu + mat.lambda.abs()) * self.area();
+        let floor = ROUNDOFF_FLOOR * (mat.mu() + mat.lambda().abs()) * self.area();
         let mut residual = f64::NAN;
         let mut tolerance = f64::NAN;
         for it in 0..=MAX_LOCAL_ITERATIONS {
@@ -170,7 +170,7 @@ impl Q1e4Element {
     /// Cauchy stress at the 4 Gauss points, [4][9], for converged `alpha`.
     pub fn cauchy_at_qps(
         &self,
-        mat: &NeoHookean,
+        mat: &Material,
         u_e: &[f64; 8],
         alpha: &[f64; 4],
         sigma: &mut [f64; 36],
@@ -183,7 +183,7 @@ impl Q1e4Element {
     /// using the enhanced `F`; `alpha` must be the converged value from [`Self::residual_tangent`].
     pub fn stress_measures(
         &self,
-        mat: &NeoHookean,
+        mat: &Material,
         u_e: &[f64; 8],
         alpha: &[f64; 4],
     ) -> Result<(f64, f64), ElementError> {
@@ -198,7 +198,7 @@ pub fn q1e4_residual_tangent(
     X_e: &[f64; 8],
     u_e: &[f64; 8],
     alpha: &mut [f64; 4],
-    mat: &NeoHookean,
+    mat: &Material,
     r_e: &mut [f64; 8],
     k_e: Option<&mut [f64; 64]>,
 ) -> Result<(), ElementError> {
@@ -211,7 +211,7 @@ pub fn q1e4_stress_measures(
     X_e: &[f64; 8],
     u_e: &[f64; 8],
     alpha: &[f64; 4],
-    mat: &NeoHookean,
+    mat: &Material,
 ) -> Result<(f64, f64), ElementError> {
     Q1e4Element::new(X_e)?.stress_measures(mat, u_e, alpha)
 }
@@ -221,10 +221,11 @@ pub fn q1e4_stress_measures(
 mod tests {
     use super::*;
     use crate::fem::test_support::*;
+    use crate::material::{LinearElastic, NeoHookean};
     use nalgebra::DMatrix;
 
-    fn mat() -> NeoHookean {
-        NeoHookean::from_young_poisson(3.0, 0.3).unwrap()
+    fn mat() -> Material {
+        NeoHookean::from_young_poisson(3.0, 0.3).unwrap().into()
     }
 
     const X_DISTORTED: [f64; 8] = [0.0, 0.0, 1.2, 0.1, 1.0, 0.9, -0.1, 1.1];
@@ -254,6 +255,35 @@ mod tests {
         let (mut a2, mut r2) = ([0.0; 4], [0.0; 8]);
         q1e4_residual_tangent(&X_DISTORTED, &u, &mut a2, &m, &mut r2, None).unwrap();
         assert!(max_abs_diff(&r, &r2) < 1e-12 * max_abs(&r));
+    }
+
+    /// With the small-strain law the enhanced equations are linear too: the local solve converges from any
+    /// warm start, `alpha` is linear in `u`, and the condensed residual is `K u` with a constant `K`.
+    #[test]
+    fn q1e4_with_linear_elastic_is_linear_in_u() {
+        let m: Material = LinearElastic::from_young_poisson(3.0, 0.3).unwrap().into();
+        let el = Q1e4Element::new(&X_DISTORTED).unwrap();
+        let mut rng = Lcg(13);
+        let u1: [f64; 8] = std::array::from_fn(|_| 0.3 * rng.next());
+        let u2: [f64; 8] = std::array::from_fn(|_| 0.3 * rng.next());
+        let eval = |u: &[f64; 8]| {
+            let mut alpha = [0.05, -0.1, 0.2, 0.07];
+            let (mut r, mut k) = ([0.0; 8], [0.0; 64]);
+            el.residual_tangent(&m, u, &mut alpha, &mut r, Some(&mut k))
+                .unwrap();
+            (alpha, r, k)
+        };
+        let (a1, r1, k1) = eval(&u1);
+        let (a2, _, k2) = eval(&u2);
+        let (a12, _, _) = eval(&std::array::from_fn(|p| u1[p] + 2.0 * u2[p]));
+        assert!(max_abs(&a1) > 1e-3, "alpha = {a1:?}");
+        let a_lin: Vec<f64> = (0..4).map(|s| a1[s] + 2.0 * a2[s]).collect();
+        assert!(max_abs_diff(&a12, &a_lin) < 1e-12 * max_abs(&a12));
+        assert!(max_abs_diff(&k1, &k2) < 1e-13 * max_abs(&k1));
+        let ku: Vec<f64> = (0..8)
+            .map(|p| (0..8).map(|q| k1[p * 8 + q] * u1[q]).sum())
+            .collect();
+        assert!(max_abs_diff(&r1, &ku) < 1e-12 * max_abs(&r1), "r != K u");
     }
 
     #[test]
@@ -300,7 +330,7 @@ mod tests {
     /// Newton solve of a quad mesh of Q1E4 elements; returns the converged enhanced parameters.
     fn solve_q1e4(
         mesh: &Mesh,
-        m: &NeoHookean,
+        m: &Material,
         fixed: &[(usize, f64)],
         f_ext: &[f64],
         u: &mut [f64],
@@ -374,7 +404,7 @@ mod tests {
             alphas = solve_q1e4(&mesh, &m, &fixed, &vec![0.0; u.len()], &mut u);
         }
         let J = la * lt;
-        let s11 = (m.lambda * J.ln() + m.mu * (la * la - 1.0)) / J;
+        let s11 = (m.lambda() * J.ln() + m.mu() * (la * la - 1.0)) / J;
         for (a, x) in mesh.coords.chunks_exact(2).enumerate() {
             assert!((u[2 * a] - (la - 1.0) * x[0]).abs() < 1e-10);
             assert!((u[2 * a + 1] - (lt - 1.0) * x[1]).abs() < 1e-10);
@@ -386,7 +416,7 @@ mod tests {
                 .stress_measures(&m, &gather(&mesh, e, &u).try_into().unwrap(), a)
                 .unwrap();
             // sigma = diag(s11, 0, Lambda ln J / J) in plane strain
-            let s33 = m.lambda * J.ln() / J;
+            let s33 = m.lambda() * J.ln() / J;
             assert!((i1 - (s11 + s33)).abs() < 1e-10 * s11);
             let vm_exact = (s11 * s11 + s33 * s33 - s11 * s33).sqrt();
             assert!((vm - vm_exact).abs() < 1e-10 * s11);
@@ -397,7 +427,7 @@ mod tests {
     /// Euler-Bernoulli value `M L^2 / (2 E' I)` (plane strain `E' = E/(1 - nu^2)`).
     fn bending_ratio(enhanced: bool) -> f64 {
         let (E, nu) = (3.0, 0.3);
-        let m = NeoHookean::from_young_poisson(E, nu).unwrap();
+        let m: Material = NeoHookean::from_young_poisson(E, nu).unwrap().into();
         let (L, h) = (10.0, 1.0);
         let mesh = quad_mesh(4, 1, L, h, 0.0);
         let n = mesh.n_nodes() * 2;

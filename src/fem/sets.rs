@@ -4,7 +4,7 @@
 use super::kernel::TlElement;
 use super::q1e4::Q1e4Element;
 use crate::assembly::{ElementFailure, ElementSet};
-use crate::material::NeoHookean;
+use crate::material::Material;
 
 /// Elements that all use the generic total-Lagrangian kernel (Q1C1 quads and hexes, and every family
 /// that only differs in its reference basis).
@@ -12,7 +12,7 @@ pub struct TlSet {
     body: usize,
     body_name: String,
     family: String,
-    material: NeoHookean,
+    material: Material,
     /// Global node ids, `n_nodes` per element. [n_el][n_nodes]
     nodes: Vec<u32>,
     /// Start of each element's nodes. [n_el + 1]
@@ -24,7 +24,7 @@ pub struct TlSet {
 
 impl TlSet {
     /// An empty set for `family` elements of body `body`.
-    pub fn new(body: usize, body_name: &str, family: &str, material: NeoHookean) -> Self {
+    pub fn new(body: usize, body_name: &str, family: &str, material: Material) -> Self {
         TlSet {
             body,
             body_name: body_name.into(),
@@ -100,7 +100,7 @@ pub struct Q1e4Set {
 
 impl Q1e4Set {
     /// An empty set of body `body`.
-    pub fn new(body: usize, body_name: &str, material: NeoHookean) -> Self {
+    pub fn new(body: usize, body_name: &str, material: Material) -> Self {
         Q1e4Set {
             base: TlSet::new(body, body_name, "Q1E4", material),
             elements: Vec::new(),

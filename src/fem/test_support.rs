@@ -3,7 +3,7 @@
 
 use super::kernel::TlElement;
 use super::{hex8, quad4, ElementError};
-use crate::material::NeoHookean;
+use crate::material::Material;
 use nalgebra::{DMatrix, DVector};
 
 /// Small linear congruential generator giving values in [-1, 1).
@@ -220,7 +220,7 @@ pub fn tl_elements(mesh: &Mesh) -> Vec<TlElement> {
 pub fn assemble(
     mesh: &Mesh,
     els: &[TlElement],
-    mat: &NeoHookean,
+    mat: &Material,
     u: &[f64],
     r: &mut [f64],
     k: &mut DMatrix<f64>,
@@ -282,12 +282,12 @@ pub fn newton_solve(
 /// Lateral stretch `lt` with zero lateral Cauchy stress for axial stretch `la`:
 /// `Lambda ln J + mu (lt^2 - 1) = 0`, `J = la lt^(D-1)`.
 #[allow(non_snake_case)]
-pub fn lateral_stretch(m: &NeoHookean, D: usize, la: f64) -> f64 {
+pub fn lateral_stretch(m: &Material, D: usize, la: f64) -> f64 {
     let mut lt: f64 = 1.0;
     for _ in 0..50 {
         let J = la * lt.powi(D as i32 - 1);
-        let g = m.lambda * J.ln() + m.mu * (lt * lt - 1.0);
-        let dg = m.lambda * (D as f64 - 1.0) / lt + 2.0 * m.mu * lt;
+        let g = m.lambda() * J.ln() + m.mu() * (lt * lt - 1.0);
+        let dg = m.lambda() * (D as f64 - 1.0) / lt + 2.0 * m.mu() * lt;
         lt -= g / dg;
     }
     lt

@@ -67,7 +67,12 @@ impl NeoHookean {
         })
     }
 
-    fn check(dim: usize, what: &'static str, got: usize, power: u32) -> Result<(), MaterialError> {
+    pub(super) fn check(
+        dim: usize,
+        what: &'static str,
+        got: usize,
+        power: u32,
+    ) -> Result<(), MaterialError> {
         if dim != 2 && dim != 3 {
             return Err(MaterialError::UnsupportedDimension { dim });
         }

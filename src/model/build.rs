@@ -7,10 +7,11 @@ use crate::fem::q1e4::Q1e4Element;
 use crate::fem::quadrature::tensor_rule;
 use crate::fem::sets::{Q1e4Set, TlSet};
 use crate::fem::{hex8, quad4};
-use crate::material::NeoHookean;
+use crate::material::{LinearElastic, Material, NeoHookean};
 use crate::mesh::{self, CellKind, Mesh, MeshError};
 use crate::scene::{
-    validate_sets, BcSpec, Case, ElementFamily, Generator, MeshSpec, SceneError, SetKind,
+    validate_sets, BcSpec, Case, ElementFamily, Generator, MaterialModel, MeshSpec, SceneError,
+    SetKind,
 };
 
 /// Why a model could not be built from a (schema-valid) case.
@@ -108,7 +109,7 @@ pub struct Body {
     /// Element family.
     pub family: ElementFamily,
     /// Material.
-    pub material: NeoHookean,
+    pub material: Material,
     /// The enriched layer (enriched families): new nodes numbered after the mesh's, enriched cells
     /// beside the mesh's linear parents (`mesh.cell_kind` keeps meaning "linear parent").
     pub enrichment: Option<Enrichment>,
@@ -291,12 +292,20 @@ impl Model {
                     .filter(|w| !warnings.contains(w))
                     .collect::<Vec<_>>(),
             );
-            let material = NeoHookean::from_young_poisson(spec.material.E, spec.material.nu)
-                .map_err(|e| ModelError::Material {
-                    file: case.file.clone(),
-                    body: name.clone(),
-                    msg: e.to_string(),
-                })?;
+            let m = &spec.material;
+            let material = match m.model {
+                MaterialModel::NeoHookean => {
+                    NeoHookean::from_young_poisson(m.E, m.nu).map(Material::from)
+                }
+                MaterialModel::LinearElastic => {
+                    LinearElastic::from_young_poisson(m.E, m.nu).map(Material::from)
+                }
+            }
+            .map_err(|e| ModelError::Material {
+                file: case.file.clone(),
+                body: name.clone(),
+                msg: e.to_string(),
+            })?;
             bodies.push(Body {
                 name: name.clone(),
                 mesh,

@@ -332,7 +332,7 @@ fn parse_value(raw: &str) -> toml::Value {
 mod tests {
     use super::*;
     use crate::scene::examples::{BLOCK_COMPRESSION_3D, IRONING_2D, STRIP_BENDING_2D};
-    use crate::scene::{BcSpec, ElementFamily, Generator, MeshSpec, OutputField};
+    use crate::scene::{BcSpec, ElementFamily, Generator, MaterialModel, MeshSpec, OutputField};
 
     const FILE: &str = "cases/example.toml";
 
@@ -433,6 +433,40 @@ mod tests {
         let shown = assert_names(&e, "bodies.block.material.poisson");
         let line = line_containing(&text, "poisson");
         assert!(shown.contains(&format!("{FILE}:{line}:")), "{shown}");
+    }
+
+    #[test]
+    fn linear_elastic_material_parses_and_is_validated_like_neo_hookean() {
+        let text = edit(
+            BLOCK_COMPRESSION_3D,
+            "model = \"neo_hookean\"",
+            "model = \"linear_elastic\"",
+        );
+        let c = parse(&text, &[]).unwrap();
+        assert_eq!(
+            c.bodies["block"].material.model,
+            MaterialModel::LinearElastic
+        );
+        let e = parse(&text, &["bodies.block.material.nu=0.5"]).unwrap_err();
+        assert_names(&e, "bodies.block.material.nu");
+        let e = parse(&text, &["bodies.block.material.E=0"]).unwrap_err();
+        assert_names(&e, "bodies.block.material.E");
+    }
+
+    #[test]
+    fn scene_rejects_misspelt_material_model_listing_the_models() {
+        let text = edit(
+            BLOCK_COMPRESSION_3D,
+            "model = \"neo_hookean\"",
+            "model = \"linear_elastc\"",
+        );
+        let e = parse(&text, &[]).unwrap_err();
+        let shown = assert_names(&e, "bodies.block.material.model");
+        let line = line_containing(&text, "linear_elastc");
+        assert!(shown.contains(&format!("{FILE}:{line}:")), "{shown}");
+        for accepted in ["`linear_elastc`", "`neo_hookean`", "`linear_elastic`"] {
+            assert!(shown.contains(accepted), "no {accepted} in: {shown}");
+        }
     }
 
     #[test]

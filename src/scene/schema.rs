@@ -235,12 +235,17 @@ pub struct MaterialSpec {
     pub nu: f64,
 }
 
-/// Material laws. Only the Neo-Hookean law of eq. (21) of Corbett & Sauer 2014 so far; a model with
-/// other parameters would turn [`MaterialSpec`] into a tagged table like [`Generator`].
+/// Material laws, both parametrised by `E` and `nu`; a model with other parameters would turn
+/// [`MaterialSpec`] into a tagged table like [`Generator`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum MaterialModel {
+    /// `"neo_hookean"`: the compressible Neo-Hookean law of eq. (21) of Corbett & Sauer 2014.
     NeoHookean,
+    /// `"linear_elastic"`: small-strain, geometrically linear Hooke law
+    /// `sigma = lambda tr(eps) I + 2 mu eps`, `eps = sym(grad u)` (plane strain in 2D), for
+    /// validation against classical solutions such as Hertz contact.
+    LinearElastic,
 }
 
 /// A displacement component name.
