@@ -403,7 +403,7 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
             )
             .map_err(|msg| Error::Usage(format!("{}: contact: {msg}", case.file.display()))),
         )?;
-        asm.set_contact(sys, &x)?;
+        asm.set_contact(sys, &x, case.solver.contact_pattern_ring)?;
     }
     // Options: code defaults (in Snes::new), then the case's petsc_options, then the command line;
     // inserted before any object reads them (the matrix reads -mat_* at creation).
@@ -549,6 +549,7 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
         t.residual,
         t.jacobian,
         t.pattern,
+        t.contact,
     ];
     let local = times;
     comm.all_reduce_into(&local[..], &mut times[..], SystemOperation::max());
@@ -572,11 +573,21 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
             residual: times[3],
             jacobian: times[4],
             pattern: times[5],
+            contact: times[6],
             solve: times[1],
             output: times[2],
             total: t_start.elapsed().as_secs_f64(),
         },
         peak_memory_mb,
+        contact_pattern: asm.contact_pattern_stats().map(|(ring, missing)| {
+            let mut total = 0usize;
+            comm.all_reduce_into(&missing, &mut total, SystemOperation::sum());
+            io::ContactPatternStats {
+                rebuilds: t.pattern_rebuilds,
+                missing_blocks: total,
+                ring,
+            }
+        }),
         steps: step_log,
         status,
     };

@@ -55,6 +55,13 @@ struct ContactHook<'p> {
     /// Coupling blocks of the current pattern, sorted; block `i` has COO slot `first_slot + i`.
     couplings: Vec<Coupling>,
     first_slot: usize,
+    /// Side-neighbour rings reserved around each point's partner element (see
+    /// [`ContactSystem::band_couplings`]).
+    ring: usize,
+    /// A Jacobian since the last pattern needed a coupling outside it.
+    stale: bool,
+    /// Coupling blocks found outside the pattern (each stopped a solve for a rebuild).
+    pub missing_blocks: usize,
 }
 
 /// Per element set: the element unknowns' local and global indices, flattened.
@@ -190,6 +197,7 @@ impl<'p> Assembler<'p> {
         &mut self,
         sys: ContactSystem,
         global_template: &Vector<'p>,
+        ring: usize,
     ) -> Result<(), PetscError> {
         let idx: Vec<PetscInt> = sys.table_dofs(&self.dofs);
         let u_table = Vector::new_seq(self.petsc, idx.len())?;
@@ -200,14 +208,70 @@ impl<'p> Assembler<'p> {
             u_table,
             couplings: Vec::new(),
             first_slot: 0,
+            ring,
+            stale: false,
+            missing_blocks: 0,
         });
         self.pattern_ready = false;
         Ok(())
     }
 
+    /// Before a Newton solve from `x`: if the contact couplings at `x` (or those a Jacobian of the
+    /// last solves needed) are not all in the sparsity pattern, builds a new pattern reserving a
+    /// band around them, on a new matrix that replaces `jac`. PETSc's COO preallocation is set once
+    /// per matrix (setting it again on a parallel matrix corrupted memory in PETSc 3.18), and
+    /// never inside a Newton solve. Returns whether the pattern was rebuilt.
+    ///
+    /// Collective.
+    pub fn refresh_pattern(
+        &mut self,
+        x: &Vector,
+        jac: &mut Matrix<'p>,
+    ) -> Result<bool, PetscError> {
+        if self.contact.is_none() {
+            return Ok(false);
+        }
+        // a failed projection here only means the solve will cut back; the pattern uses the rest
+        let _ = self.contact_update(x);
+        let need = match &self.contact {
+            Some(c) => {
+                !self.pattern_ready
+                    || c.stale
+                    || c.sys
+                        .couplings()
+                        .iter()
+                        .any(|cp| c.couplings.binary_search(cp).is_err())
+            }
+            None => false,
+        } as i32;
+        let mut any = 0i32;
+        self.petsc
+            .comm()
+            .all_reduce_into(&need, &mut any, SystemOperation::max());
+        if any == 0 {
+            return Ok(false);
+        }
+        let t0 = Instant::now();
+        *jac = Matrix::new_aij(self.petsc, self.dofs.n_owned())?;
+        if self.pattern_ready {
+            self.timers.pattern_rebuilds += 1;
+        }
+        self.timers.pattern += t0.elapsed().as_secs_f64();
+        self.build_pattern(jac)?;
+        if let Some(c) = &mut self.contact {
+            c.stale = false;
+        }
+        Ok(true)
+    }
+
     /// The contact pairs, if any.
     pub fn contact(&self) -> Option<&ContactSystem> {
         self.contact.as_ref().map(|c| &c.sys)
+    }
+
+    /// Contact pattern statistics of this rank: (ring, coupling blocks left out of Jacobians).
+    pub fn contact_pattern_stats(&self) -> Option<(usize, usize)> {
+        self.contact.as_ref().map(|c| (c.ring, c.missing_blocks))
     }
 
     /// Sets the load parameter (rigid contact partners move with it).
@@ -270,7 +334,7 @@ impl<'p> Assembler<'p> {
                 }
                 // Contact coupling blocks: rows of a surface element, columns of it and its partner.
                 if let Some(c) = &mut self.contact {
-                    c.couplings = c.sys.couplings();
+                    c.couplings = c.sys.band_couplings(c.ring);
                     c.first_slot = self.coo_offsets.len() - 1;
                     for cp in &c.couplings {
                         let (rws, cls) = c.sys.block_dofs(cp);
@@ -414,39 +478,57 @@ impl<'p> Assembler<'p> {
         Ok(failure)
     }
 
-    /// Projects the contact points at `x` and agrees on the outcome; in a Jacobian evaluation also
-    /// rebuilds the sparsity pattern when the coupled element pairs changed on any rank.
+    /// Projects the contact points at `x` and agrees on the outcome. In a Jacobian evaluation,
+    /// a coupling outside the sparsity pattern (a point whose partner element moved beyond the
+    /// reserved band) stops the Newton solve with a domain error and marks the pattern outdated:
+    /// the load stepping rebuilds it on a new matrix and continues Newton from the same iterate
+    /// ([`Assembler::pattern_outdated`]); the pattern is never changed inside a solve.
     ///
     /// Collective.
-    fn prepare_contact(&mut self, x: &Vector, j: Option<&mut Matrix>) -> Result<(), ProblemError> {
+    fn prepare_contact(&mut self, x: &Vector, jacobian: bool) -> Result<(), ProblemError> {
         if self.contact.is_none() {
             return Ok(());
         }
         let cu = self.contact_update(x);
         self.agree(cu)?;
-        let Some(j) = j else {
+        if !jacobian || !self.pattern_ready {
             return Ok(());
-        };
+        }
         if self.mode == MatrixAssembly::Preallocated {
             return Err(ProblemError::Fatal(
                 "contact needs the COO assembly path (drop --matsetvalues)".into(),
             ));
         }
-        let changed = match &self.contact {
-            Some(c) => (c.sys.couplings() != c.couplings) as i32,
+        let missing = match &self.contact {
+            Some(c) => c
+                .sys
+                .couplings()
+                .iter()
+                .filter(|cp| c.couplings.binary_search(cp).is_err())
+                .count(),
             None => 0,
         };
-        let mut any = 0i32;
-        self.petsc
-            .comm()
-            .all_reduce_into(&changed, &mut any, SystemOperation::max());
-        if any != 0 || !self.pattern_ready {
-            if self.pattern_ready {
-                self.timers.pattern_rebuilds += 1;
+        let local = if missing > 0 {
+            Err(ProblemError::Domain(format!(
+                "{missing} contact coupling blocks outside the sparsity pattern"
+            )))
+        } else {
+            Ok(())
+        };
+        let agreed = self.agree(local);
+        if agreed.is_err() {
+            if let Some(c) = &mut self.contact {
+                c.stale = true;
+                c.missing_blocks += missing;
             }
-            self.build_pattern(j).map_err(fatal)?;
         }
-        Ok(())
+        agreed
+    }
+
+    /// True when the last solve stopped because the contact couplings left the sparsity pattern
+    /// (the same on every rank): rebuild it ([`Assembler::refresh_pattern`]) and continue.
+    pub fn pattern_outdated(&self) -> bool {
+        self.contact.as_ref().is_some_and(|c| c.stale)
     }
 
     /// Makes a rank-local outcome collective: every rank learns the worst outcome of any rank
@@ -580,7 +662,7 @@ impl<'p> Assembler<'p> {
 impl NonlinearProblem for Assembler<'_> {
     fn residual(&mut self, x: &Vector, f: &mut Vector) -> Result<(), ProblemError> {
         let t0 = Instant::now();
-        if let Err(e) = self.prepare_contact(x, None) {
+        if let Err(e) = self.prepare_contact(x, false) {
             self.timers.residual += t0.elapsed().as_secs_f64();
             return Err(e);
         }
@@ -607,7 +689,7 @@ impl NonlinearProblem for Assembler<'_> {
     fn jacobian(&mut self, x: &Vector, j: &mut Matrix) -> Result<(), ProblemError> {
         // The pattern is timed on its own (`timers.pattern`), not as part of this evaluation.
         let t0 = Instant::now();
-        self.prepare_contact(x, Some(j))?;
+        self.prepare_contact(x, true)?;
         if !self.pattern_ready {
             self.build_pattern(j).map_err(fatal)?;
         }
@@ -615,6 +697,11 @@ impl NonlinearProblem for Assembler<'_> {
             MatrixAssembly::Coo => {
                 let mut values = std::mem::take(&mut self.coo_values);
                 let offsets = std::mem::take(&mut self.coo_offsets);
+                // reserved contact blocks that no point uses now must not keep old values
+                if let Some(c) = &self.contact {
+                    let (a, b) = (offsets[c.first_slot], offsets[offsets.len() - 2]);
+                    values[a..b].fill(0.0);
+                }
                 let res = {
                     let mut sink = CooSink {
                         offsets: &offsets,

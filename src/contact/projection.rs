@@ -6,7 +6,8 @@
 //! gradient pushing outward is *bound*. A bound coordinate on a side that has a neighbour moves the
 //! search there (the paper's transfer to the neighbouring element); where both elements end on their
 //! shared edge, the closest point is that edge or corner of a C0 (faceted) surface, and the caller
-//! takes the normal along the gap. A search starts from the last projection of the same point (warm
+//! takes the normal along the gap. A point held on a side of the surface's boundary lies beyond the
+//! end of the partner surface and has no partner. A search starts from the last projection of the same point (warm
 //! start) or, without one or when the walk fails, from every element whose bounding box holds the
 //! point (`crate::contact::search`).
 #![allow(clippy::needless_range_loop)]
@@ -206,24 +207,26 @@ fn solve_free(
     Some(d)
 }
 
-/// Which side a bound projection leans on (the bound coordinate with the larger outward push is
-/// approximated by the one at its bound; in 3D corners the first bound coordinate).
-fn exit_side(dim: usize, p: &Projection) -> Option<usize> {
-    let m = dim - 1;
-    for i in 0..m {
-        if !p.free[i] {
-            let hi = p.xi[i] >= 1.0;
-            return Some(match (dim, i, hi) {
-                (2, _, false) => 0,
-                (2, _, true) => 1,
-                (_, 0, true) => 1,
-                (_, 0, false) => 3,
-                (_, _, false) => 0,
-                (_, _, true) => 2,
-            });
+/// The sides a bound projection leans on (one per bound coordinate).
+fn exit_sides(dim: usize, p: &Projection) -> impl Iterator<Item = usize> + '_ {
+    (0..dim - 1).filter(|&i| !p.free[i]).map(move |i| {
+        let hi = p.xi[i] >= 1.0;
+        match (dim, i, hi) {
+            (2, _, false) => 0,
+            (2, _, true) => 1,
+            (_, 0, true) => 1,
+            (_, 0, false) => 3,
+            (_, _, false) => 0,
+            (_, _, true) => 2,
         }
-    }
-    None
+    })
+}
+
+/// True when the projection is held on a side of the surface's boundary (no neighbour there): the
+/// point lies beyond the end of the partner surface and has no partner. (Held on a side that has a
+/// neighbour, it is an edge or corner projection of a faceted surface.)
+fn off_the_edge(s: &ContactSurface, p: &Projection) -> bool {
+    exit_sides(s.dim, p).any(|side| s.elements[p.elem as usize].neighbours[side].is_none())
 }
 
 /// Walks from a warm start across neighbours to the closest point. `None` if it does not settle.
@@ -246,9 +249,12 @@ pub fn walk(
             best = Some(p);
         }
         visited.push(e);
-        let Some(side) = exit_side(dim, &p) else {
+        let Some(side) = exit_sides(dim, &p).next() else {
             return Some(p); // orthogonal projection inside the element
         };
+        if off_the_edge(s, &p) {
+            return None; // beyond the end of the surface: no partner
+        }
         match s.elements[e].neighbours[side] {
             Some((f, s2, rev)) if !visited.contains(&(f as usize)) => {
                 let (t, _) = side_coordinates(dim, side, &p.xi);
@@ -256,12 +262,11 @@ pub fn walk(
                 xi = side_point(dim, s2 as usize, t2, 0.0);
                 e = f as usize;
             }
-            // surface boundary, or both elements hold the point on their shared edge: an edge or
-            // corner projection
-            _ => return best,
+            // both elements hold the point on their shared edge: an edge or corner projection
+            _ => return best.filter(|b| !off_the_edge(s, b)),
         }
     }
-    best
+    best.filter(|b| !off_the_edge(s, b))
 }
 
 impl Projection {
@@ -272,14 +277,16 @@ impl Projection {
 }
 
 /// Global search: every element whose (inflated) box holds `x`, each projected from its centre; the
-/// closest wins, an orthogonal projection over an edge projection at equal distance.
+/// closest wins, an orthogonal projection over an edge projection at equal distance. `Ok(None)`:
+/// no partner (no candidate, or the closest point lies beyond the end of the surface); `Err` only
+/// when there were candidates and the projection failed on every one of them.
 pub fn global_search(
     s: &ContactSurface,
     pos: &Positions,
     grid: &BinGrid,
     x: &[f64; 3],
     scratch: &mut Vec<u32>,
-) -> Option<Projection> {
+) -> Result<Option<Projection>, ()> {
     grid.candidates(&x[..s.dim], scratch);
     let mut best: Option<Projection> = None;
     for &e in scratch.iter() {
@@ -297,7 +304,11 @@ pub fn global_search(
             }
         }
     }
-    best
+    if best.is_none() && !scratch.is_empty() {
+        return Err(());
+    }
+    // the closest point of the whole surface decides: beyond its end, no partner
+    Ok(best.filter(|b| !off_the_edge(s, b)))
 }
 
 /// Outward unit normal of element `e` at `xi` (the surface normal, also at edges and corners).

@@ -319,7 +319,9 @@ impl ContactSystem {
                             grid,
                             &x,
                             &mut self.cand,
-                        );
+                        )
+                        .ok()
+                        .flatten();
                         if let Some(p) = p.filter(|p| p.dist <= self.pairs[pi].def.search_distance)
                         {
                             self.pairs[pi].passes[qi].points[q].pairing = Some((p.elem, p.xi));
@@ -453,23 +455,23 @@ impl ContactSystem {
                                         grid,
                                         &x,
                                         &mut self.cand,
-                                    );
-                                    if found.is_none()
-                                        && !self.cand.is_empty()
-                                        && p.is_none()
-                                        && qp.warm.is_some()
-                                    {
-                                        return Err(format!(
-                                            "contact `{}`: the projection of a point of `{}` (element {e}) at {:?} onto `{}` failed",
+                                    )
+                                    .map_err(|()| {
+                                        format!(
+                                            "contact `{}`: the projection of a point of `{}` (element {e}) at {:?} onto `{}` failed on every candidate element",
                                             self.pairs[pi].def.name,
                                             self.surfaces[k].name,
                                             &x[..dim],
                                             self.surfaces[l].name
-                                        ));
-                                    }
-                                    if found.is_some_and(|f| p.is_none_or(|p| f.dist < p.dist)) {
-                                        p = found;
-                                    }
+                                        )
+                                    })?;
+                                    // the global search sees every element in reach: its answer
+                                    // wins (None: no partner in reach, or beyond the surface's end)
+                                    p = match found {
+                                        Some(f) if p.is_none_or(|p| f.dist < p.dist) => Some(f),
+                                        Some(_) => p,
+                                        None => None,
+                                    };
                                 }
                                 let p = p.filter(|p| p.dist <= dist);
                                 let pt = &mut self.pairs[pi].passes[qi].points[q];
@@ -505,6 +507,64 @@ impl ContactSystem {
                         }
                         if let Some((l, _)) = qp.pairing {
                             out.push((pass_id, oe.e, l));
+                        }
+                    }
+                }
+                pass_id += 1;
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
+    /// The couplings to reserve in the sparsity pattern: for every point with a partner (or a
+    /// cohesive pairing), its partner element and the elements within `ring` side-neighbour steps of
+    /// it, so that points sliding to a neighbouring element during the next Newton solves still find
+    /// their block (`ring = 0`: exactly the current couplings). Rigid partners couple an element
+    /// with itself only. Sorted, unique.
+    pub fn band_couplings(&self, ring: usize) -> Vec<Coupling> {
+        let mut out = Vec::new();
+        let mut pass_id = 0u32;
+        let mut near: Vec<u32> = Vec::new();
+        for pair in &self.pairs {
+            for pass in &pair.passes {
+                let l = match pass.partner {
+                    Partner::Surface(l) => Some(l),
+                    Partner::Rigid(..) => None,
+                };
+                for oe in &pass.elems {
+                    let Some(l) = l else {
+                        out.push((pass_id, oe.e, u32::MAX));
+                        continue;
+                    };
+                    for q in oe.first..oe.first + oe.n {
+                        let qp = &pass.points[q];
+                        for le in qp
+                            .current
+                            .map(|p| p.elem)
+                            .into_iter()
+                            .chain(qp.pairing.map(|p| p.0))
+                        {
+                            near.clear();
+                            near.push(le);
+                            let mut front = 0;
+                            for _ in 0..ring {
+                                let end = near.len();
+                                for i in front..end {
+                                    for nb in self.surfaces[l].elements[near[i] as usize]
+                                        .neighbours
+                                        .iter()
+                                        .flatten()
+                                    {
+                                        if !near.contains(&nb.0) {
+                                            near.push(nb.0);
+                                        }
+                                    }
+                                }
+                                front = end;
+                            }
+                            out.extend(near.iter().map(|&f| (pass_id, oe.e, f)));
                         }
                     }
                 }

@@ -22,4 +22,6 @@ pub use error::IoError;
 pub use hdf5_xdmf::{CellKind, Center, FieldData, GridDef, ResultsWriter};
 pub use history::{HistoryRow, HistoryWriter};
 pub use outdir::{claim_output_dir, RUN_MARKER};
-pub use summary::{write_summary, NewtonStats, PhaseTimes, RunStatus, StepLog, Summary};
+pub use summary::{
+    write_summary, ContactPatternStats, NewtonStats, PhaseTimes, RunStatus, StepLog, Summary,
+};

@@ -39,6 +39,10 @@ pub struct PhaseTimes {
     /// Of `assembly`: building sparsity patterns and preallocating.
     #[serde(default)]
     pub pattern: f64,
+    /// Of `assembly`: contact (gathering surface displacements, search, projection, contact
+    /// residual and tangent blocks).
+    #[serde(default)]
+    pub contact: f64,
     pub solve: f64,
     pub output: f64,
     pub total: f64,
@@ -84,10 +88,25 @@ pub struct Summary {
     pub wall_time: PhaseTimes,
     /// Peak resident memory of rank 0 as PETSc measured it (MB).
     pub peak_memory_mb: f64,
+    /// Contact sparsity pattern: (re)builds between Newton solves, and coupling blocks that
+    /// Jacobians left out because the pattern lacked them (summed over ranks). Absent without contact.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact_pattern: Option<ContactPatternStats>,
     /// One entry per converged load step, with its Newton residual history.
     pub steps: Vec<StepLog>,
     #[serde(flatten)]
     pub status: RunStatus,
+}
+
+/// Contact sparsity pattern statistics of a run.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ContactPatternStats {
+    /// Patterns built after the first (each on a new matrix, between Newton solves).
+    pub rebuilds: usize,
+    /// Coupling blocks left out of Jacobians (summed over ranks and Jacobians).
+    pub missing_blocks: usize,
+    /// Side-neighbour rings reserved around each point's partner element.
+    pub ring: usize,
 }
 
 /// Write `dir/summary.json` atomically; returns its path.
@@ -126,8 +145,10 @@ mod tests {
                 solve: 2.25,
                 output: 0.125,
                 total: 4.0,
+                contact: 0.0,
             },
             peak_memory_mb: 54.0,
+            contact_pattern: None,
             steps: vec![StepLog {
                 step: 1,
                 load: 0.5,

@@ -420,13 +420,31 @@ impl Default for StepControl {
 }
 
 /// `[solver]`.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SolverOptions {
     /// Passed verbatim to the PETSc options database after the code's defaults (newtonls + MUMPS), so
     /// these win. Default: empty.
     #[serde(default)]
     pub petsc_options: String,
+    /// Contact: the sparsity pattern reserves, around each contact point's partner element, the
+    /// elements this many side-neighbour steps away, and is rebuilt (between Newton solves) only
+    /// when a point needs an element outside it. 0 reserves exactly the current couplings. Default: 1.
+    #[serde(default = "default_contact_pattern_ring")]
+    pub contact_pattern_ring: usize,
+}
+
+fn default_contact_pattern_ring() -> usize {
+    1
+}
+
+impl Default for SolverOptions {
+    fn default() -> Self {
+        SolverOptions {
+            petsc_options: String::new(),
+            contact_pattern_ring: default_contact_pattern_ring(),
+        }
+    }
 }
 
 /// `[output]`.

@@ -11,6 +11,9 @@ use crate::assembly::{prescribed_values, Assembler, ConflictError, DirichletBc};
 use crate::petsc::{Matrix, PetscError, Snes, Vector};
 use std::time::Instant;
 
+/// Newton solves of one attempt that may stop for a new contact sparsity pattern and resume.
+const MAX_PATTERN_RETRIES: usize = 4;
+
 /// How the load is stepped.
 #[derive(Debug, Clone)]
 pub struct StepControl {
@@ -100,6 +103,10 @@ pub fn run_load_steps<'p>(
         let t_step = Instant::now();
         let mut cutbacks = 0;
         let mut failed_attempts = Vec::new();
+        let mut resume = false;
+        let mut pattern_retries = 0;
+        // iterations of solves that stopped for a new contact pattern and were resumed
+        let mut resumed_iterations = 0;
         let (out, target) = loop {
             let target = sizer.target();
             let values = prescribed_values(bcs, &asm.dofs, coords, target)?;
@@ -107,12 +114,23 @@ pub fn run_load_steps<'p>(
             asm.set_load(target);
             // Newton starts from the converged state: its first iteration lifts the new boundary
             // values into the interior through the tangent, which inverts far fewer elements than
-            // starting from a guess that moves only the boundary.
-            x_conv.copy_to(x)?;
+            // starting from a guess that moves only the boundary. After a stop for a new contact
+            // sparsity pattern it resumes from the iterate it reached.
+            if !resume {
+                x_conv.copy_to(x)?;
+            }
+            asm.refresh_pattern(x, jac)?;
             let out = snes.solve(asm, x, jac)?;
             if out.converged {
                 break (out, target);
             }
+            resume = asm.pattern_outdated() && pattern_retries < MAX_PATTERN_RETRIES;
+            if resume {
+                pattern_retries += 1;
+                resumed_iterations += out.iterations;
+                continue;
+            }
+            resumed_iterations = 0;
             asm.rollback();
             let why = out
                 .domain_error
@@ -133,7 +151,8 @@ pub fn run_load_steps<'p>(
             }
             cutbacks += 1;
         };
-        sizer.accept(target, out.iterations, cutbacks);
+        let iterations = out.iterations + resumed_iterations;
+        sizer.accept(target, iterations, cutbacks);
         step += 1;
         asm.commit();
         x.copy_to(&mut x_conv)?;
@@ -141,7 +160,7 @@ pub fn run_load_steps<'p>(
             step,
             stage,
             load: target,
-            iterations: out.iterations,
+            iterations,
             residual: out.residual_history.last().copied().unwrap_or(0.0),
             cutbacks,
             residual_history: out.residual_history,

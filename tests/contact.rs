@@ -1,0 +1,292 @@
+//! Contact end to end: the contact patch test in 2D and 3D, frictionless sliding of flat blocks,
+//! force balance between the two half-passes, Newton's convergence while contact points cross
+//! element boundaries, and the same answer on 1 and 2 ranks with contact surfaces split by METIS.
+
+mod common;
+use common::*;
+use std::path::{Path, PathBuf};
+
+fn run_case(name: &str, case: &str, np: usize, sets: &[&str]) -> PathBuf {
+    let d = scratch(name);
+    let c = common::case(case);
+    let mut args = vec![
+        "run",
+        c.to_str().unwrap(),
+        "--out",
+        d.to_str().unwrap(),
+        "-q",
+        "--overwrite",
+    ];
+    for s in sets {
+        args.extend(["--set", s]);
+    }
+    run_ok(np, &args);
+    d
+}
+
+fn last(dir: &Path, col: &str) -> f64 {
+    *history_col(dir, col).last().expect("a converged step")
+}
+
+fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1e-300);
+    a.iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+        / scale
+}
+
+#[test]
+fn contact_patch_test_pressure_is_uniform_on_both_surfaces_in_2d_and_3d() {
+    for (case, dim, upper, lower) in [
+        ("contact_patch_2d.toml", 2, "upper.bottom", "lower.top"),
+        ("contact_patch_3d.toml", 3, "upper.zmin", "lower.zmax"),
+    ] {
+        for fam in ["Q1C1", "Q1N2"] {
+            let d = run_case(
+                &format!("patch-{dim}d-{fam}"),
+                case,
+                1,
+                &[
+                    &format!("bodies.lower.element={fam}"),
+                    &format!("bodies.upper.element={fam}"),
+                ],
+            );
+            let p = h5_last(&d, "bulk", "contact_pressure");
+            let on: Vec<f64> = p.iter().copied().filter(|&v| v != 0.0).collect();
+            // both surfaces' nodes (and control points) carry the projected pressure
+            let (n_lower, n_upper) = if dim == 2 { (7, 5) } else { (49, 25) };
+            assert!(
+                on.len() >= n_lower + n_upper,
+                "{case} {fam}: pressure on {} nodes only",
+                on.len()
+            );
+            let mean = on.iter().sum::<f64>() / on.len() as f64;
+            let dev = on.iter().fold(0.0f64, |m, v| m.max((v - mean).abs())) / mean;
+            assert!(mean > 0.0, "{case} {fam}: compressive pressure expected");
+            assert!(dev < 1e-8, "{case} {fam}: pressure varies by {dev:e}");
+            // both half-passes carry the load that the top reaction measures
+            let z = if dim == 2 { "y" } else { "z" };
+            let r = last(
+                &d,
+                &format!("R_upper_{}_{z}", if dim == 2 { "top" } else { "zmax" }),
+            );
+            let pu = last(&d, &format!("P_patch_{}_{z}", upper.replace('.', "_")));
+            let pl = last(&d, &format!("P_patch_{}_{z}", lower.replace('.', "_")));
+            assert!(r < 0.0, "the top is pushed down");
+            assert!(
+                (pu + r).abs() < 1e-9 * r.abs(),
+                "{case} {fam}: P_upper {pu} vs reaction {r}"
+            );
+            assert!(
+                (pl - r).abs() < 1e-9 * r.abs(),
+                "{case} {fam}: P_lower {pl} vs reaction {r}"
+            );
+            // the mean pressure (per current area, which lateral expansion enlarges by a few %) times
+            // the reference area is about the load
+            let area = if dim == 2 { 2.0 } else { 4.0 };
+            assert!(
+                (mean * area + r).abs() < 5e-2 * r.abs(),
+                "{case} {fam}: pressure {mean} over the (reference) area vs load {r}"
+            );
+        }
+    }
+}
+
+#[test]
+fn frictionless_sliding_of_a_flat_block_has_no_horizontal_contact_force() {
+    for fam in ["Q1C1", "Q1N2"] {
+        let d = run_case(
+            &format!("slide-flat-{fam}"),
+            "sliding_flat_2d.toml",
+            1,
+            &[
+                &format!("bodies.lower.element={fam}"),
+                &format!("bodies.upper.element={fam}"),
+            ],
+        );
+        let load = history_col(&d, "load_factor");
+        assert!((load.last().unwrap() - 2.0).abs() < 1e-12, "all stages ran");
+        for pass in ["upper_bottom", "lower_top"] {
+            let px = history_col(&d, &format!("P_slide_{pass}_x"));
+            let py = history_col(&d, &format!("P_slide_{pass}_y"));
+            let scale = py.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            assert!(
+                scale > 1e-3,
+                "{fam} {pass}: the blocks are pressed together"
+            );
+            for (x, y) in px.iter().zip(&py) {
+                assert!(
+                    x.abs() < 1e-12 * scale,
+                    "{fam} {pass}: P_x = {x} with P_y = {y}"
+                );
+            }
+        }
+        // the upper block is in homogeneous compression: its reaction does not change while sliding
+        let r = history_col(&d, "R_upper_top_y");
+        let slide: Vec<f64> = r[r.len() - 10..].to_vec();
+        assert!(
+            rel_diff(&slide, &vec![slide[0]; slide.len()]) < 1e-9,
+            "{slide:?}"
+        );
+    }
+}
+
+#[test]
+fn newton_converges_fast_while_contact_points_cross_element_boundaries() {
+    // ironing: 40 slide steps of 1/10 block element, so every point crosses element boundaries
+    let d = run_case("ironing-newton", "ironing_2d.toml", 1, &[]);
+    let s = summary(&d);
+    assert_eq!(s["status"], "converged");
+    let steps = s["steps"].as_array().unwrap();
+    let mut checked = 0;
+    for st in &steps[20..] {
+        let h: Vec<f64> = st["residual_history"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        let last = *h.last().unwrap();
+        assert!(
+            last < 1e-10 * h[0] || last < 1e-11,
+            "step converged tightly: {h:?}"
+        );
+        // the best rate over consecutive triples above round-off: about 2 once the active set has
+        // settled (a wrong tangent converges linearly, order ~1, everywhere)
+        let best = h[1..]
+            .windows(3)
+            .filter(|w| w[2] > 1e-12 * h[0] && w[1] < w[0])
+            .map(|w| (w[2] / w[1]).ln() / (w[1] / w[0]).ln())
+            .fold(f64::MIN, f64::max);
+        if best > f64::MIN {
+            assert!(best > 1.8, "convergence order {best:.2} in history {h:?}");
+            checked += 1;
+        }
+    }
+    assert!(
+        checked >= 20,
+        "too few sliding steps with a measurable rate ({checked})"
+    );
+    // both half-passes see about the same vertical force, and the cylinder's reaction balances it
+    let r = last(&d, "R_cylinder_top_y");
+    let p1 = last(&d, "P_ironing_cylinder_arc_y");
+    let p2 = last(&d, "P_ironing_block_top_y");
+    assert!(r < -0.1, "the cylinder is pressed into the block: R = {r}");
+    assert!((p1 + r).abs() < 1e-8 * r.abs(), "P_1 {p1} vs reaction {r}");
+    assert!(
+        (p1 + p2).abs() < 0.05 * r.abs(),
+        "half-passes differ too much: {p1} vs {p2}"
+    );
+}
+
+/// Cell centres of the bulk grid [n_cells][3] and the owning rank of each cell.
+fn cells_and_ranks(dir: &Path, dim: usize) -> (Vec<[f64; 3]>, Vec<f64>) {
+    let f = hdf5::File::open(dir.join("results.h5")).unwrap();
+    let coords = f
+        .dataset("grids/bulk/coordinates")
+        .unwrap()
+        .read_raw::<f64>()
+        .unwrap();
+    let conn = f
+        .dataset("grids/bulk/connectivity")
+        .unwrap()
+        .read_raw::<i64>()
+        .unwrap();
+    let npc = if dim == 2 { 4 } else { 8 };
+    let centres = conn
+        .chunks_exact(npc)
+        .map(|c| {
+            let mut x = [0.0; 3];
+            for &n in c {
+                for k in 0..3 {
+                    x[k] += coords[n as usize * 3 + k] / npc as f64;
+                }
+            }
+            x
+        })
+        .collect();
+    (centres, h5_last(dir, "bulk", "rank"))
+}
+
+#[test]
+fn contact_is_rank_invariant_in_2d_and_3d_with_split_contact_surfaces() {
+    // 2D: ironing, depression and a short slide
+    let sets = [
+        "output.fields=[\"displacement\", \"rank\"]",
+        "stages.1.steps=5",
+        "bcs.1.value=[[0.0, -0.6666666666666666], [0.125, -0.6666666666666666]]",
+    ];
+    let d1 = run_case("ironing-np1", "ironing_2d.toml", 1, &sets);
+    let d2 = run_case("ironing-np2", "ironing_2d.toml", 2, &sets);
+    let e = rel_diff(
+        &h5_last(&d1, "bulk", "displacement"),
+        &h5_last(&d2, "bulk", "displacement"),
+    );
+    assert!(e < 1e-10, "ironing: 1 vs 2 ranks differ by {e:e}");
+    for col in [
+        "P_ironing_cylinder_arc_y",
+        "P_ironing_block_top_x",
+        "M_ironing_block_top",
+    ] {
+        let e = rel_diff(&history_col(&d1, col), &history_col(&d2, col));
+        assert!(e < 1e-10, "ironing {col}: 1 vs 2 ranks differ by {e:e}");
+    }
+    // both contact surfaces are split: cells along the block's top and the cylinder's arc on both ranks
+    let (c, r) = cells_and_ranks(&d2, 2);
+    let top: Vec<f64> = (0..c.len())
+        .filter(|&i| c[i][1] > 1.75 && c[i][1] < 2.0)
+        .map(|i| r[i])
+        .collect();
+    let arc: Vec<f64> = (0..c.len())
+        .filter(|&i| ((c[i][0]).powi(2) + (c[i][1] - 3.0).powi(2)).sqrt() > 0.75 && c[i][1] < 3.0)
+        .map(|i| r[i])
+        .collect();
+    for (name, v) in [("block top", &top), ("cylinder arc", &arc)] {
+        assert!(
+            v.contains(&0.0) && v.contains(&1.0),
+            "METIS did not split the {name}: {v:?}"
+        );
+    }
+
+    // 3D: the Q1N2 patch test
+    let sets = [
+        "bodies.lower.element=Q1N2",
+        "bodies.upper.element=Q1N2",
+        "meshes.lower.divisions=[6,6,3]",
+        "output.fields=[\"displacement\", \"rank\"]",
+    ];
+    let d1 = run_case("patch3d-np1", "contact_patch_3d.toml", 1, &sets);
+    let d2 = run_case("patch3d-np2", "contact_patch_3d.toml", 2, &sets);
+    let e = rel_diff(
+        &h5_last(&d1, "bulk", "displacement"),
+        &h5_last(&d2, "bulk", "displacement"),
+    );
+    assert!(e < 1e-10, "3D patch: 1 vs 2 ranks differ by {e:e}");
+    let e = rel_diff(
+        &h5_last(&d1, "bulk", "contact_pressure"),
+        &h5_last(&d2, "bulk", "contact_pressure"),
+    );
+    assert!(e < 1e-10, "3D patch pressure: 1 vs 2 ranks differ by {e:e}");
+    let (c, r) = cells_and_ranks(&d2, 3);
+    let lower_top: Vec<f64> = (0..c.len())
+        .filter(|&i| c[i][2] > 0.6 && c[i][2] < 1.0)
+        .map(|i| r[i])
+        .collect();
+    let upper: Vec<f64> = (0..c.len())
+        .filter(|&i| c[i][2] > 1.0)
+        .map(|i| r[i])
+        .collect();
+    // METIS keeps the smaller body whole here; the lower contact layer is split, so contact pairs
+    // points and partner elements owned by different ranks
+    assert!(
+        lower_top.contains(&0.0) && lower_top.contains(&1.0),
+        "METIS did not split the lower contact layer: {lower_top:?}"
+    );
+    let up = upper[0];
+    assert!(
+        lower_top.iter().any(|&r| r != up),
+        "some lower contact cells live on the other rank than the upper block"
+    );
+}
