@@ -276,6 +276,10 @@ impl Projection {
     }
 }
 
+/// Newton did not settle on any candidate element of a global search.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ProjectionFailed;
+
 /// Global search: every element whose (inflated) box holds `x`, each projected from its centre; the
 /// closest wins, an orthogonal projection over an edge projection at equal distance. `Ok(None)`:
 /// no partner (no candidate, or the closest point lies beyond the end of the surface); `Err` only
@@ -286,7 +290,7 @@ pub fn global_search(
     grid: &BinGrid,
     x: &[f64; 3],
     scratch: &mut Vec<u32>,
-) -> Result<Option<Projection>, ()> {
+) -> Result<Option<Projection>, ProjectionFailed> {
     grid.candidates(&x[..s.dim], scratch);
     let mut best: Option<Projection> = None;
     for &e in scratch.iter() {
@@ -305,7 +309,7 @@ pub fn global_search(
         }
     }
     if best.is_none() && !scratch.is_empty() {
-        return Err(());
+        return Err(ProjectionFailed);
     }
     // the closest point of the whole surface decides: beyond its end, no partner
     Ok(best.filter(|b| !off_the_edge(s, b)))

@@ -456,7 +456,7 @@ impl ContactSystem {
                                         &x,
                                         &mut self.cand,
                                     )
-                                    .map_err(|()| {
+                                    .map_err(|_| {
                                         format!(
                                             "contact `{}`: the projection of a point of `{}` (element {e}) at {:?} onto `{}` failed on every candidate element",
                                             self.pairs[pi].def.name,
