@@ -262,10 +262,17 @@ fn apply_override(
             walked.push('.');
         }
         walked.push_str(seg);
+        // a top-level table the case leaves at its defaults (`[steps]`, `[solver]`) is created; a
+        // misspelt one is then rejected by the schema like any unknown key
+        let top_level = !walked.contains('.');
         node = match node {
-            toml::Value::Table(t) => t
-                .get_mut(*seg)
-                .ok_or_else(|| err(&walked, "no such key in the case".to_string()))?,
+            toml::Value::Table(t) => {
+                if top_level && !t.contains_key(*seg) {
+                    t.insert(seg.to_string(), toml::Value::Table(toml::Table::new()));
+                }
+                t.get_mut(*seg)
+                    .ok_or_else(|| err(&walked, "no such key in the case".to_string()))?
+            }
             toml::Value::Array(a) => {
                 let len = a.len();
                 let i = array_index(seg).ok_or_else(|| {
@@ -615,6 +622,14 @@ mod tests {
             let line = line_containing(&text, bad);
             assert!(shown.contains(&format!("{FILE}:{line}:")), "{shown}");
         }
+    }
+
+    #[test]
+    fn override_creates_a_top_level_table_the_case_left_at_defaults() {
+        let c = parse(BLOCK_COMPRESSION_3D, &["steps.max_cutbacks=3"]).unwrap();
+        assert_eq!(c.steps.max_cutbacks, 3);
+        let e = parse(BLOCK_COMPRESSION_3D, &["stpes.max_cutbacks=3"]).unwrap_err();
+        assert!(e.to_string().contains("unknown field `stpes`"), "{e}");
     }
 
     #[test]

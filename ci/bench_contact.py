@@ -1,0 +1,113 @@
+#!/usr/bin/env python3
+"""Contact benchmarks (BENCHMARKS.md, issue 7). Usage: python3 ci/bench_contact.py [share|pattern|hertz|all]
+
+share   - contact (surface gather, search, projection, contact residual and tangent) as a share of the
+          solve, per Newton iteration, on the 2D ironing case at 16 block elements per unit length
+          (depression + a short slide) and on the 3D hemisphere pressed onto an 8^3 block, 1 and 2 ranks
+pattern - sparsity pattern strategies on ironing_2d (4 elements per unit, 1-unit slide): reserved
+          side-neighbour rings 0, 1, 2: pattern rebuilds, Newton iterations, cutbacks, wall time
+hertz   - the 2D Hertz case (linear elastic half disk on a rigid flat) for Q1C1, Q1N2, Q1N2.1 at three
+          meshes: peak of the post-processed pressure and half-width against Hertz for the computed load
+Times are from summary.json (slowest rank)."""
+import json, math, os, re, subprocess, sys, tempfile
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+BIN = os.path.join(ROOT, "target", "release", "nurbs-contact")
+ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+           OMPI_MCA_btl="self,vader", OPENBLAS_NUM_THREADS="1")
+
+
+def run(case, np=1, sets=(), extra=()):
+    out = tempfile.mkdtemp(prefix="bench")
+    cmd = [BIN, "run", os.path.join(ROOT, "cases", case), "--out", out, "-q", "--overwrite"]
+    for s in sets:
+        cmd += ["--set", s]
+    cmd += list(extra)
+    if np > 1:
+        cmd = ["mpirun", "--oversubscribe", "-np", str(np)] + cmd
+    p = subprocess.run(cmd, env=ENV, capture_output=True, text=True)
+    if p.returncode != 0:
+        sys.exit(f"failed: {' '.join(cmd)}\n{p.stderr}")
+    return out, json.load(open(os.path.join(out, "summary.json")))
+
+
+def newton(s):
+    return sum(st["iterations"] for st in s["steps"])
+
+
+def share():
+    print("| case | unknowns | ranks | steps | Newton its | contact s | assembly s | solve s (LU, line search) | total s | contact s/it | total s/it | contact share |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    cases = [
+        ("ironing_2d.toml, 16/unit", "ironing_2d.toml",
+         ["meshes.block.divisions=[160,32]", "meshes.cylinder.n_arc=48", "meshes.cylinder.n_radial=12",
+          "stages.1.steps=10", "bcs.1.value=[[0.0, -0.6666666666666666], [0.0625, -0.6666666666666666]]",
+          "output.every=1000"]),
+        ("hemisphere_block_3d.toml, 8^3", "hemisphere_block_3d.toml", ["output.every=1000"]),
+    ]
+    for label, case, sets in cases:
+        for np in (1, 2):
+            _, s = run(case, np, sets)
+            w = s["wall_time"]
+            n = newton(s)
+            busy = w["assembly"] + w["solve"]
+            print(f"| {label} | {s['unknowns']} | {np} | {len(s['steps'])} | {n} | {w['contact']:.3f} | {w['assembly']:.3f} | "
+                  f"{w['solve']:.3f} | {w['total']:.2f} | {w['contact']/n:.4f} | {busy/n:.4f} | {100*w['contact']/busy:.1f} % |")
+
+
+def pattern():
+    print("| ring | ranks | steps | Newton its | cutbacks | pattern rebuilds | blocks outside the pattern | pattern s | contact s | total s |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for ring in (0, 1, 2):
+        for np in (1, 2):
+            _, s = run("ironing_2d.toml", np, [f"solver.contact_pattern_ring={ring}"])
+            cp, w = s["contact_pattern"], s["wall_time"]
+            print(f"| {ring} | {np} | {len(s['steps'])} | {newton(s)} | {sum(st['cutbacks'] for st in s['steps'])} | "
+                  f"{cp['rebuilds']} | {cp['missing_blocks']} | {w['pattern']:.3f} | {w['contact']:.3f} | {w['total']:.2f} |")
+
+
+def h5(path, dataset):
+    txt = subprocess.run(["h5dump", "-m", "%.17g", "-d", dataset, "-y", "-w", "0", "-o", "/dev/stdout", path],
+                         capture_output=True, text=True).stdout
+    body = txt[txt.find("DATA {") + 6:] if "DATA {" in txt else txt
+    return [float(v) for v in re.findall(r"-?\d+\.?\d*(?:[eE][-+]?\d+)?", body)]
+
+
+def hertz():
+    print("| family | n_arc | unknowns | load P | peak p (ours) | p0 (Hertz) | error p0 | half-width (ours) | a (Hertz) | error a | Newton its | wall s |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for fam in ("Q1C1", "Q1N2", "Q1N2.1"):
+        for n in (64, 128, 256):
+            out, s = run("hertz_2d.toml", 1, [f"bodies.disk.element={fam}", f"meshes.disk.n_arc={n}",
+                                               f"meshes.disk.n_radial={n // 4}"])
+            hist = open(os.path.join(out, "history.csv")).read().splitlines()
+            head, last = hist[0].split(","), hist[-1].split(",")
+            P = float(last[head.index("P_flat_disk_arc_y")])
+            f = os.path.join(out, "results.h5")
+            grid = "bulk" if fam == "Q1C1" else "surface"
+            steps = sorted(set(re.findall(r"/steps/(\d+)/", subprocess.run(["h5ls", "-r", f], capture_output=True, text=True).stdout)))
+            p = h5(f, f"/steps/{steps[-1]}/{grid}/contact_pressure")
+            x = h5(f, f"/grids/{grid}/coordinates")
+            u = h5(f, f"/steps/{steps[-1]}/{grid}/displacement")
+            pts = sorted((x[3 * i] + u[3 * i], p[i]) for i in range(len(p)) if abs(x[3 * i + 1] - 0.0) < 0.5 and p[i] != 0.0)
+            peak = max(v for _, v in pts)
+            # half-width: first zero crossing of the projected pressure from the centre outwards (right side)
+            right = [(xx, v) for xx, v in pts if xx >= 0]
+            a_ours = right[-1][0]
+            for (x0, v0), (x1, v1) in zip(right, right[1:]):
+                if v1 <= 0 < v0:
+                    a_ours = x0 + (x1 - x0) * v0 / (v0 - v1)
+                    break
+            Es = 1.0 / (1 - 0.3 ** 2)
+            a = math.sqrt(4 * P / (math.pi * Es))
+            p0 = 2 * P / (math.pi * a)
+            print(f"| {fam} | {n} | {s['unknowns']} | {P:.6g} | {peak:.6g} | {p0:.6g} | {100*(peak-p0)/p0:+.2f} % | {a_ours:.5f} | {a:.5f} | "
+                  f"{100*(a_ours-a)/a:+.2f} % | {newton(s)} | {s['wall_time']['total']:.2f} |")
+
+
+if __name__ == "__main__":
+    what = sys.argv[1] if len(sys.argv) > 1 else "all"
+    for name, f in (("share", share), ("pattern", pattern), ("hertz", hertz)):
+        if what in (name, "all"):
+            print(f"\n## {name}\n")
+            f()
