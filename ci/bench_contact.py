@@ -67,10 +67,11 @@ def pattern():
 
 
 def h5(path, dataset):
-    txt = subprocess.run(["h5dump", "-m", "%.17g", "-d", dataset, "-y", "-w", "0", "-o", "/dev/stdout", path],
-                         capture_output=True, text=True).stdout
-    body = txt[txt.find("DATA {") + 6:] if "DATA {" in txt else txt
-    return [float(v) for v in re.findall(r"-?\d+\.?\d*(?:[eE][-+]?\d+)?", body)]
+    """A dataset's values, flattened (through h5dump: no Python HDF5 package needed)."""
+    with tempfile.NamedTemporaryFile(suffix=".txt") as f:
+        subprocess.run(["h5dump", "-m", "%.17g", "-d", dataset, "-y", "-w", "0", "-o", f.name, path],
+                       capture_output=True, text=True, check=True)
+        return [float(v) for v in re.split(r"[,\s]+", open(f.name).read()) if v]
 
 
 def hertz():

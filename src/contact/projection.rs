@@ -292,8 +292,20 @@ pub fn global_search(
     scratch: &mut Vec<u32>,
 ) -> Result<Option<Projection>, ProjectionFailed> {
     grid.candidates(&x[..s.dim], scratch);
+    // nearest boxes first: once an element's box is farther than the best point found, so are the
+    // rest (branch and bound), which skips most Newton projections of a global search
+    let mut order: Vec<(f64, u32)> = scratch
+        .iter()
+        .map(|&e| (grid.distance_lower_bound(e, &x[..s.dim]), e))
+        .collect();
+    order.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut best: Option<Projection> = None;
-    for &e in scratch.iter() {
+    let mut tried = 0;
+    for &(lb, e) in &order {
+        if best.is_some_and(|b| lb > b.dist * (1.0 + 1e-10) + 1e-14 * s.h) {
+            break;
+        }
+        tried += 1;
         if let Some(p) = project_on_element(s, pos, e as usize, x, [0.0; 2]) {
             let better = match best {
                 None => true,
@@ -308,7 +320,7 @@ pub fn global_search(
             }
         }
     }
-    if best.is_none() && !scratch.is_empty() {
+    if best.is_none() && tried > 0 {
         return Err(ProjectionFailed);
     }
     // the closest point of the whole surface decides: beyond its end, no partner

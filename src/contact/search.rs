@@ -56,6 +56,9 @@ pub struct BinGrid {
     start: Vec<usize>,
     items: Vec<u32>,
     boxes: Vec<Aabb>,
+    /// The elements' own boxes, before inflation by the search distance (lower bounds of the
+    /// distance from a point to an element). Empty: not known.
+    raw: Vec<Aabb>,
 }
 
 /// Most bins per axis (keeps the grid's memory bounded for extreme aspect ratios).
@@ -95,6 +98,7 @@ impl BinGrid {
             start: Vec::new(),
             items: Vec::new(),
             boxes,
+            raw: Vec::new(),
         };
         // counting sort of (bin, element) pairs
         let n_bins = n[0] * n[1] * n[2];
@@ -132,6 +136,30 @@ impl BinGrid {
             b[k] = (i.max(0.0) as usize).min(self.n[k] - 1);
         }
         b
+    }
+
+    /// The grid of `boxes` (inflated by the search distance) that also knows each element's own box
+    /// `raw` (for [`BinGrid::distance_lower_bound`]).
+    pub fn with_raw(dim: usize, boxes: Vec<Aabb>, raw: Vec<Aabb>) -> BinGrid {
+        let mut g = BinGrid::new(dim, boxes);
+        g.raw = raw;
+        g
+    }
+
+    /// A lower bound of the distance from `x` [dim] to element `e`: the distance to its own box
+    /// (0 without raw boxes).
+    pub fn distance_lower_bound(&self, e: u32, x: &[f64]) -> f64 {
+        let Some(b) = self.raw.get(e as usize) else {
+            return 0.0;
+        };
+        x.iter()
+            .enumerate()
+            .map(|(k, &v)| {
+                let d = (b.lo[k] - v).max(v - b.hi[k]).max(0.0);
+                d * d
+            })
+            .sum::<f64>()
+            .sqrt()
     }
 
     /// Elements whose box contains `x` [dim], ascending, into `out` (cleared first).

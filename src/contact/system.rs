@@ -384,7 +384,7 @@ impl ContactSystem {
         }
         let dim = self.dim;
         let s = &self.surfaces[l];
-        let boxes = (0..s.elements.len())
+        let raw: Vec<Aabb> = (0..s.elements.len())
             .map(|e| {
                 // sample the element (the control net bounds NURBS, not Hermite tangents)
                 let mut b = Aabb::EMPTY;
@@ -411,11 +411,13 @@ impl ContactSystem {
                         b.grow(&x[..dim]);
                     }
                 }
+                // a margin for the surface between the samples
                 let size = (0..dim).map(|c| b.hi[c] - b.lo[c]).fold(0.0, f64::max);
-                b.inflated(dim, dist + 0.25 * size)
+                b.inflated(dim, 0.25 * size)
             })
             .collect();
-        self.grids[l] = Some(BinGrid::new(dim, boxes));
+        let boxes = raw.iter().map(|b| b.inflated(dim, dist)).collect();
+        self.grids[l] = Some(BinGrid::with_raw(dim, boxes, raw));
     }
 
     /// Moves to the displacement `u_table` [n_table][dim] and projects every point this rank

@@ -1,0 +1,125 @@
+//! Cost of the global contact search against the size of the partner surface, for BENCHMARKS.md:
+//!
+//! ```text
+//! cargo run --release --example contact_search_cost -- [sizes...]   (default 16 32 64 128)
+//! ```
+//! For each size n, the top face of a box with n x n x 1 elements (Q1C1, and Q1N2) is the partner
+//! surface; every quadrature point of a second, shifted and slightly lifted n x n surface is
+//! searched for (bin grid of the partner's element boxes, nearest boxes first, Newton projection).
+//! Reported: building the grid, searching all points (per point), and for n <= 32 the brute force
+//! (every element projected) for comparison.
+use nurbs_contact::contact::projection::{global_search, project_on_element, Positions};
+use nurbs_contact::contact::search::{Aabb, BinGrid};
+use nurbs_contact::contact::surface::{frame, reference_positions, ContactSurface};
+use nurbs_contact::model::Model;
+use nurbs_contact::scene::parse_case;
+use std::path::Path;
+use std::time::Instant;
+
+fn case(n: usize, family: &str) -> String {
+    format!(
+        r#"
+[case]
+name = "search"
+dim = 3
+[meshes.m]
+generator = "box"
+origin = [0.0, 0.0, -1.0]
+size = [1.0, 1.0, 1.0]
+divisions = [{n}, {n}, 1]
+[bodies.b]
+mesh = "m"
+element = "{family}"
+enriched_surface = "zmax"
+[bodies.b.material]
+model = "neo_hookean"
+E = 1.0
+nu = 0.3
+[[stages]]
+name = "s"
+steps = 1
+"#
+    )
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<usize> = std::env::args()
+        .skip(1)
+        .map(|s| s.parse())
+        .collect::<Result<_, _>>()?;
+    let sizes = if args.is_empty() { vec![16, 32, 64, 128] } else { args };
+    println!("| family | n | elements | points | grid build ms | search us/point | brute force us/point |");
+    println!("|---|---|---|---|---|---|---|");
+    for family in ["Q1C1", "Q1N2"] {
+        for &n in &sizes {
+            let c = parse_case(&case(n, family), Path::new("search.toml"), &[])?;
+            let model = Model::build(&c)?;
+            let s = ContactSurface::build(&model, 0, "zmax").map_err(|e| e.0)?;
+            let mut pos = Positions::default();
+            pos.offsets.push(0);
+            for e in &s.elements {
+                pos.x.extend(reference_positions(&model, &e.nodes));
+                pos.offsets.push(pos.x.len());
+            }
+            // query points: 3 x 3 per element, shifted by a third of an element and lifted by 0.1 h
+            let h = 1.0 / n as f64;
+            let mut pts = Vec::new();
+            for j in 0..3 * n {
+                for i in 0..3 * n {
+                    pts.push([(i as f64 + 0.5) / (3 * n) as f64 + h / 3.0, (j as f64 + 0.5) / (3 * n) as f64, 0.1 * h]);
+                }
+            }
+            let dist = 2.0 * h;
+            let t0 = Instant::now();
+            let raw: Vec<Aabb> = (0..s.elements.len())
+                .map(|e| {
+                    let mut b = Aabb::EMPTY;
+                    for jj in 0..=4 {
+                        for ii in 0..=4 {
+                            let xi = [-1.0 + 0.5 * ii as f64, -1.0 + 0.5 * jj as f64];
+                            b.grow(&frame(&s.elements[e], 3, pos.of(e), &xi).0);
+                        }
+                    }
+                    let size = (0..3).map(|c| b.hi[c] - b.lo[c]).fold(0.0, f64::max);
+                    b.inflated(3, 0.25 * size)
+                })
+                .collect();
+            let boxes = raw.iter().map(|b| b.inflated(3, dist)).collect();
+            let grid = BinGrid::with_raw(3, boxes, raw);
+            let t_build = t0.elapsed().as_secs_f64();
+            let mut scratch = Vec::new();
+            let t1 = Instant::now();
+            let mut found = 0;
+            for x in &pts {
+                if let Ok(Some(p)) = global_search(&s, &pos, &grid, x, &mut scratch) {
+                    found += (p.dist < dist) as usize;
+                }
+            }
+            let t_search = t1.elapsed().as_secs_f64() / pts.len() as f64;
+            assert!(found > pts.len() / 2, "most points find their partner");
+            let brute = if n <= 32 {
+                let t2 = Instant::now();
+                for x in &pts {
+                    let mut best = f64::MAX;
+                    for e in 0..s.elements.len() {
+                        if let Some(p) = project_on_element(&s, &pos, e, x, [0.0; 2]) {
+                            best = best.min(p.dist);
+                        }
+                    }
+                    std::hint::black_box(best);
+                }
+                format!("{:.2}", 1e6 * t2.elapsed().as_secs_f64() / pts.len() as f64)
+            } else {
+                "-".to_string()
+            };
+            println!(
+                "| {family} | {n} | {} | {} | {:.2} | {:.2} | {brute} |",
+                s.elements.len(),
+                pts.len(),
+                1e3 * t_build,
+                1e6 * t_search
+            );
+        }
+    }
+    Ok(())
+}
