@@ -47,7 +47,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .skip(1)
         .map(|s| s.parse())
         .collect::<Result<_, _>>()?;
-    let sizes = if args.is_empty() { vec![16, 32, 64, 128] } else { args };
+    let sizes = if args.is_empty() {
+        vec![16, 32, 64, 128]
+    } else {
+        args
+    };
     println!("| family | n | elements | points | grid build ms | search us/point | brute force us/point |");
     println!("|---|---|---|---|---|---|---|");
     for family in ["Q1C1", "Q1N2"] {
@@ -66,7 +70,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let mut pts = Vec::new();
             for j in 0..3 * n {
                 for i in 0..3 * n {
-                    pts.push([(i as f64 + 0.5) / (3 * n) as f64 + h / 3.0, (j as f64 + 0.5) / (3 * n) as f64, 0.1 * h]);
+                    pts.push([
+                        (i as f64 + 0.5) / (3 * n) as f64 + h / 3.0,
+                        (j as f64 + 0.5) / (3 * n) as f64,
+                        0.1 * h,
+                    ]);
                 }
             }
             let dist = 2.0 * h;

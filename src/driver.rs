@@ -469,14 +469,25 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
             .iter()
             .flat_map(|(_, nodes)| asm.reaction(nodes))
             .collect();
-        let contact_columns = contact_history(asm, model.dim);
+        let mut extra_columns = Vec::new();
+        for (_, nodes, center) in &model.reaction_moments {
+            let m = asm
+                .reaction_moment(nodes, x, &model.coords, *center)
+                .map_err(|e| e.to_string())?;
+            if model.dim == 2 {
+                extra_columns.push(m[2]);
+            } else {
+                extra_columns.extend_from_slice(&m);
+            }
+        }
+        extra_columns.extend(contact_history(asm, model.dim));
         let last = (rec.load - n_stages).abs() < 1e-12;
         let write = last || rec.step.is_multiple_of(case_ref.output.every);
         output
             .step(
                 rec,
                 &reactions,
-                &contact_columns,
+                &extra_columns,
                 t_start.elapsed().as_secs_f64(),
                 write,
                 x,
@@ -602,6 +613,21 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
         file: case.file.clone(),
         source,
     })
+}
+
+/// `history.csv` columns after the reaction forces: reaction moments `M_<body>_<set>[_<x|y|z>]`
+/// (2D: about z), then the contact columns.
+fn history_extra_labels(model: &Model) -> Vec<String> {
+    let mut out = Vec::new();
+    for (label, _, _) in &model.reaction_moments {
+        if model.dim == 2 {
+            out.push(format!("M_{label}"));
+        } else {
+            out.extend(["x", "y", "z"].map(|a| format!("M_{label}_{a}")));
+        }
+    }
+    out.extend(contact_history_labels(model));
+    out
 }
 
 /// `history.csv` columns of the contact pairs, per pair and half-pass (named after the integrated
@@ -832,7 +858,7 @@ impl<'p> Output<'p> {
                 out_dir,
                 dim,
                 &labels,
-                &contact_history_labels(model),
+                &history_extra_labels(model),
             )?);
         }
         Ok(())

@@ -290,3 +290,56 @@ fn contact_is_rank_invariant_in_2d_and_3d_with_split_contact_surfaces() {
         "some lower contact cells live on the other rank than the upper block"
     );
 }
+
+/// Peak of the post-processed pressure and the load of a `hertz_2d` run.
+fn hertz_peak(family: &str, n_arc: usize, depth: f64) -> (f64, f64) {
+    let d = run_case(
+        &format!("hertz-{family}-{n_arc}-{depth}"),
+        "hertz_2d.toml",
+        1,
+        &[
+            &format!("bodies.disk.element={family}"),
+            &format!("meshes.disk.n_arc={n_arc}"),
+            &format!("meshes.disk.n_radial={}", n_arc / 4),
+            &format!("bcs.0.value=[[0.0, -{depth}]]"),
+        ],
+    );
+    let grid = if family == "Q1C1" { "bulk" } else { "surface" };
+    let p = h5_last(&d, grid, "contact_pressure");
+    let peak = p.iter().fold(f64::MIN, |m, &v| m.max(v));
+    let load = last(&d, "P_flat_disk_arc_y");
+    let r = last(&d, "R_disk_top_y");
+    assert!(
+        (load + r).abs() < 1e-8 * load,
+        "contact force {load} vs reaction {r}"
+    );
+    (peak, load)
+}
+
+/// Relative error of a peak pressure against Hertz's p0 for load `p` (R = 1, E = 1, nu = 0.3).
+fn hertz_error(peak: f64, p: f64) -> f64 {
+    let e_star = 1.0 / (1.0 - 0.3f64 * 0.3);
+    let a = (4.0 * p / (std::f64::consts::PI * e_star)).sqrt();
+    let p0 = 2.0 * p / (std::f64::consts::PI * a);
+    (peak - p0) / p0
+}
+
+#[test]
+fn hertz_2d_peak_pressure_approaches_hertz_as_the_contact_shrinks() {
+    // Q1N2 at the middle mesh of BENCHMARKS.md: +4.35 % (the target of 1 % is not met; the
+    // half disk is not a half-space: see BENCHMARKS.md)
+    let (peak, p) = hertz_peak("Q1N2", 128, 0.015);
+    let e = hertz_error(peak, p);
+    assert!(
+        e.abs() < 0.05,
+        "Q1N2: peak pressure {peak} is {e:+.4} from Hertz"
+    );
+    // the gap to the half-space solution closes as a/R falls (same mesh, Q1C1)
+    let (pk1, p1) = hertz_peak("Q1C1", 128, 0.015);
+    let (pk2, p2) = hertz_peak("Q1C1", 128, 0.005);
+    let (e1, e2) = (hertz_error(pk1, p1), hertz_error(pk2, p2));
+    assert!(
+        e1.abs() < 0.04 && e2.abs() < e1.abs(),
+        "errors {e1:+.4} (a/R 0.1), {e2:+.4} (a/R 0.05)"
+    );
+}

@@ -605,6 +605,51 @@ impl<'p> Assembler<'p> {
         global
     }
 
+    /// Moment about `center` [3] of the reaction forces on `nodes` at the last residual evaluation,
+    /// taken at the nodes' current positions `X + u` (`coords` [n_nodes][dim] the reference
+    /// positions, `x` the current displacement). Tied nodes count once. Returns [3] (2D: only the
+    /// z component is non-zero).
+    ///
+    /// Collective.
+    pub fn reaction_moment(
+        &self,
+        nodes: &[u32],
+        x: &Vector,
+        coords: &[f64],
+        center: [f64; 3],
+    ) -> Result<[f64; 3], PetscError> {
+        let dim = self.dofs.dim;
+        let (lo, hi) = self.dofs.owned_range();
+        let mut reps: Vec<u32> = nodes.iter().map(|&n| self.dofs.rep[n as usize]).collect();
+        reps.sort_unstable();
+        reps.dedup();
+        let xa = x.read()?;
+        let mut local = [0.0; 3];
+        for n in reps {
+            // the owner of the node's first unknown owns them all (contiguous per node)
+            let Some(g0) = self.dofs.global(n, 0) else {
+                continue;
+            };
+            if g0.0 < lo || g0.0 >= hi {
+                continue;
+            }
+            let (mut r, mut d) = ([0.0; 3], [0.0; 3]);
+            for c in 0..dim {
+                let i = (g0.0 - lo) as usize + c;
+                r[c] = self.raw_residual[i];
+                d[c] = coords[n as usize * dim + c] + xa[i] - center[c];
+            }
+            local[0] += d[1] * r[2] - d[2] * r[1];
+            local[1] += d[2] * r[0] - d[0] * r[2];
+            local[2] += d[0] * r[1] - d[1] * r[0];
+        }
+        let mut global = [0.0; 3];
+        self.petsc
+            .comm()
+            .all_reduce_into(&local[..], &mut global[..], SystemOperation::sum());
+        Ok(global)
+    }
+
     /// Element stress measures of every owned element: (body, cell, tr sigma, von Mises). An element
     /// whose measures cannot be evaluated reports NaN rather than failing, so that the collective
     /// output that follows stays in step on every rank.

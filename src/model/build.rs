@@ -168,6 +168,8 @@ pub struct Model {
     pub ties: Vec<(u32, u32)>,
     /// Reaction sets for the history: (column label `<body>_<set>`, global nodes).
     pub reactions: Vec<(String, Vec<u32>)>,
+    /// Reaction sets whose moment the history reports: (label, global nodes, point [3]).
+    pub reaction_moments: Vec<(String, Vec<u32>, [f64; 3])>,
     /// Contact surfaces named by the case's pairs (each once).
     pub contact_surfaces: Vec<crate::contact::surface::ContactSurface>,
     /// Contact pairs.
@@ -477,12 +479,23 @@ impl Model {
         }
 
         let mut reactions = Vec::new();
-        for r in &case.output.reactions {
+        let mut reaction_moments = Vec::new();
+        for (i, r) in case.output.reactions.iter().enumerate() {
             if let Some(body) = find(&r.body) {
-                reactions.push((
-                    format!("{}_{}", r.body, r.set),
-                    set_nodes(body, &r.set).unwrap_or_default(),
-                ));
+                let nodes = set_nodes(body, &r.set).unwrap_or_default();
+                if let Some(c) = &r.moment_about {
+                    if c.len() != dim || c.iter().any(|v| !v.is_finite()) {
+                        return Err(ModelError::Unsupported {
+                            file: case.file.clone(),
+                            key: format!("output.reactions.{i}.moment_about"),
+                            msg: format!("expected {dim} finite numbers, found {c:?}"),
+                        });
+                    }
+                    let mut p = [0.0; 3];
+                    p[..dim].copy_from_slice(c);
+                    reaction_moments.push((format!("{}_{}", r.body, r.set), nodes.clone(), p));
+                }
+                reactions.push((format!("{}_{}", r.body, r.set), nodes));
             }
         }
 
@@ -496,6 +509,7 @@ impl Model {
             bcs,
             ties,
             reactions,
+            reaction_moments,
             contact_surfaces: Vec::new(),
             contact_pairs: Vec::new(),
             warnings,

@@ -514,6 +514,11 @@ impl OutputField {
 pub struct ReactionSpec {
     pub body: String,
     pub set: String,
+    /// `[dim]`: also report the moment of the reaction forces about this point (2D: about the z
+    /// axis through it; 3D: the moment vector), from the nodes' current positions: the peeling
+    /// moment at a rotated end, the torque on a twisted rim. Default: no moment.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub moment_about: Option<Vec<f64>>,
 }
 
 /// Deserialise `T` from a table taken out of a tagged table, carrying the inner key path up in the
