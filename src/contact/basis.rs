@@ -193,21 +193,65 @@ fn nurbs_surface(
     let mut ddBv = [0.0; MAX_ORDER + 1];
     bernstein2(p, xi, &mut Bu, &mut dBu, &mut ddBu);
     bernstein2(q, eta, &mut Bv, &mut dBv, &mut ddBv);
+    // C = C_v (x) C_u: the univariate extracted B-splines N_u = C_u B_u and N_v = C_v B_v give
+    // A_(i,j) = N_u,i N_v,j, (p+1)^2 + (q+1)^2 products instead of (p+1)^2 (q+1)^2 per function.
+    // C_u and C_v are read off C up to a scale fixed by the entry of the last functions
+    // (C_u[p][p] C_v[q][q] > 0: the last function of an element is positive at its right end).
+    let last = p + wu * q;
+    let c0 = C[last * n + last];
+    let (mut nu, mut dnu, mut ddnu) = (
+        [0.0; MAX_ORDER + 1],
+        [0.0; MAX_ORDER + 1],
+        [0.0; MAX_ORDER + 1],
+    );
+    let (mut nv, mut dnv, mut ddnv) = (
+        [0.0; MAX_ORDER + 1],
+        [0.0; MAX_ORDER + 1],
+        [0.0; MAX_ORDER + 1],
+    );
+    let tensor = c0 != 0.0;
+    if tensor {
+        for i in 0..wu {
+            let row = &C[(i + wu * q) * n..];
+            for r in 0..wu {
+                let c = row[r + wu * q] / c0;
+                nu[i] += c * Bu[r];
+                dnu[i] += c * dBu[r];
+                ddnu[i] += c * ddBu[r];
+            }
+        }
+        for j in 0..wv {
+            let row = &C[(p + wu * j) * n..];
+            for s in 0..wv {
+                let c = row[p + wu * s];
+                nv[j] += c * Bv[s];
+                dnv[j] += c * dBv[s];
+                ddnv[j] += c * ddBv[s];
+            }
+        }
+    }
     // W, W_i, W_ij (symmetric: [xx, xe, ee])
     let (mut W, mut dW, mut ddW) = (0.0, [0.0; 2], [0.0; 3]);
     for a in 0..n {
-        let row = &C[a * n..(a + 1) * n];
         let (mut A, mut dA, mut ddA) = (0.0, [0.0; 2], [0.0; 3]);
-        for s in 0..wv {
-            for r in 0..wu {
-                let c = row[r + wu * s];
-                if c != 0.0 {
-                    A += c * Bu[r] * Bv[s];
-                    dA[0] += c * dBu[r] * Bv[s];
-                    dA[1] += c * Bu[r] * dBv[s];
-                    ddA[0] += c * ddBu[r] * Bv[s];
-                    ddA[1] += c * dBu[r] * dBv[s];
-                    ddA[2] += c * Bu[r] * ddBv[s];
+        if tensor {
+            let (i, j) = (a % wu, a / wu);
+            A = nu[i] * nv[j];
+            dA = [dnu[i] * nv[j], nu[i] * dnv[j]];
+            ddA = [ddnu[i] * nv[j], dnu[i] * dnv[j], nu[i] * ddnv[j]];
+        } else {
+            let row = &C[a * n..(a + 1) * n];
+            for s in 0..wv {
+                for r in 0..wu {
+                    let c = row[r + wu * s];
+                    if c != 0.0 {
+                        A += c * Bu[r] * Bv[s];
+                        dA[0] += c * dBu[r] * Bv[s];
+                        dA[1] += c * Bu[r] * dBv[s];
+                        ddA[0] += c * ddBu[r] * Bv[s];
+                        ddA[1] += c * dBu[r] * dBv[s];
+                        ddA[2] += c * Bu[r] * ddBv[s];
+                    }
                 }
             }
         }

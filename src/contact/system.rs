@@ -386,8 +386,20 @@ impl ContactSystem {
         let s = &self.surfaces[l];
         let raw: Vec<Aabb> = (0..s.elements.len())
             .map(|e| {
-                // sample the element (the control net bounds NURBS, not Hermite tangents)
+                use crate::contact::basis::FaceBasis;
                 let mut b = Aabb::EMPTY;
+                // NURBS (positive weights) and linear faces lie in the convex hull of their nodes
+                if matches!(
+                    s.elements[e].basis,
+                    FaceBasis::Nurbs(_) | FaceBasis::Line2 | FaceBasis::Quad4
+                ) {
+                    for x in self.pos[l].of(e).chunks_exact(dim) {
+                        b.grow(x);
+                    }
+                    return b;
+                }
+                // Lagrange and Hermite faces: sampled, with a margin for the surface between the
+                // samples (Hermite tangents are not positions)
                 let k = 4usize;
                 let m = dim - 1;
                 let n2 = if m == 2 { k + 1 } else { 1 };
@@ -411,7 +423,6 @@ impl ContactSystem {
                         b.grow(&x[..dim]);
                     }
                 }
-                // a margin for the surface between the samples
                 let size = (0..dim).map(|c| b.hi[c] - b.lo[c]).fold(0.0, f64::max);
                 b.inflated(dim, 0.25 * size)
             })
