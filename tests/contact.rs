@@ -250,6 +250,30 @@ fn contact_is_rank_invariant_in_2d_and_3d_with_split_contact_surfaces() {
         );
     }
 
+    // 2D one-pass (master/slave): the master's rows travel through the contact table's scatter
+    let one = [
+        sets[0],
+        sets[1],
+        sets[2],
+        "contact.0.algorithm=\"one_pass\"",
+    ];
+    let o1 = run_case("ironing-one-pass-np1", "ironing_2d.toml", 1, &one);
+    let o2 = run_case("ironing-one-pass-np2", "ironing_2d.toml", 2, &one);
+    let e = rel_diff(
+        &h5_last(&o1, "bulk", "displacement"),
+        &h5_last(&o2, "bulk", "displacement"),
+    );
+    assert!(e < 1e-10, "one-pass ironing: 1 vs 2 ranks differ by {e:e}");
+    // one pass balances momentum: the cylinder's reaction carries the block's load
+    let (r_cyl, r_blk) = (
+        last(&o1, "R_cylinder_top_y"),
+        last(&o1, "P_ironing_cylinder_arc_y"),
+    );
+    assert!(
+        (r_cyl + r_blk).abs() < 1e-8 * r_blk.abs(),
+        "{r_cyl} vs {r_blk}"
+    );
+
     // 3D: the Q1N2 patch test
     let sets = [
         "bodies.lower.element=Q1N2",

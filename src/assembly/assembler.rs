@@ -338,7 +338,7 @@ impl<'p> Assembler<'p> {
                     c.first_slot = self.coo_offsets.len() - 1;
                     for cp in &c.couplings {
                         let (rws, cls) = c.sys.block_dofs(cp);
-                        for &gi in rws {
+                        for &gi in &rws {
                             let row = if gi >= 0 && self.constrained[gi as usize] {
                                 -1
                             } else {
@@ -718,6 +718,16 @@ impl NonlinearProblem for Assembler<'_> {
         }
         f.set(0.0).map_err(fatal)?;
         self.scatter.add_back(&self.f_local, f).map_err(fatal)?;
+        // one-pass contact: the master surfaces' rows, through the contact table's scatter
+        if let Some(c) = &mut self.contact {
+            if c.sys.has_one_pass() {
+                c.u_table
+                    .write()
+                    .map_err(fatal)?
+                    .copy_from_slice(c.sys.table_residual());
+                c.scatter.add_back(&c.u_table, f).map_err(fatal)?;
+            }
+        }
         {
             let xa = x.read().map_err(fatal)?;
             let mut fa = f.write().map_err(fatal)?;

@@ -14,6 +14,10 @@
 //!   `dn = s (I - n n) dg / |g|`.
 //! - a fixed material pairing (cohesive law): `dg = dx_k - N_b(xi_0) dy_b`, no normal.
 //! - a rigid partner: `dg = G dx_k`, `dn = N dx_k` from [`crate::contact::rigid`].
+//!
+//! One-pass (master/slave) adds the opposite force to the partner (master) element through its
+//! shape functions at the projection point, `r_b = +N_b(xi_p) t J w`, whose linearisation also
+//! carries `N_b,a dxi_a`.
 #![allow(clippy::needless_range_loop)]
 #![allow(non_snake_case)]
 
@@ -86,6 +90,7 @@ pub struct Scratch {
     dg: Vec<[f64; 3]>,
     dn: Vec<[f64; 3]>,
     dJ: Vec<f64>,
+    dxi: Vec<[f64; 2]>,
 }
 
 fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
@@ -146,6 +151,23 @@ pub fn contact_point(
     partner: &PartnerPoint,
     law: &dyn Fn(&[f64; 3], &[f64; 3]) -> Traction,
     area: Area,
+    r: &mut [f64],
+    K: Option<&mut [f64]>,
+    s: &mut Scratch,
+) -> PointResult {
+    contact_point_pass(dim, own, partner, law, area, false, r, K, s)
+}
+
+/// [`contact_point`], with `one_pass`: the partner element's rows follow the own rows in `r`
+/// [(n_k + n_l) * dim] and `K` [(n_k + n_l) * dim][n_cols] (no effect for a rigid partner).
+#[allow(clippy::too_many_arguments)]
+pub fn contact_point_pass(
+    dim: usize,
+    own: &OwnPoint,
+    partner: &PartnerPoint,
+    law: &dyn Fn(&[f64; 3], &[f64; 3]) -> Traction,
+    area: Area,
+    one_pass: bool,
     r: &mut [f64],
     K: Option<&mut [f64]>,
     s: &mut Scratch,
@@ -217,6 +239,15 @@ pub fn contact_point(
             r[a * dim + i] -= own.N[a] * tr.t[i] * J * own.w;
         }
     }
+    let master = one_pass && nl > 0;
+    if master {
+        let ge = geom.as_ref().expect("a deformable partner");
+        for b in 0..nl {
+            for i in 0..dim {
+                r[(nk + b) * dim + i] += ge.N[b] * tr.t[i] * J * own.w;
+            }
+        }
+    }
     let Some(K) = K else {
         return out;
     };
@@ -229,6 +260,8 @@ pub fn contact_point(
     s.dn.resize(nc, [0.0; 3]);
     s.dJ.clear();
     s.dJ.resize(nc, 0.0);
+    s.dxi.clear();
+    s.dxi.resize(nc, [0.0; 2]);
     // area element of the current configuration
     if area == Area::Current {
         let nu = nu_raw.map(|c| c / Jc);
@@ -330,6 +363,7 @@ pub fn contact_point(
                     dxi[0] = (A[1][1] * rhs[0] - A[0][1] * rhs[1]) / det;
                     dxi[1] = (-A[1][0] * rhs[0] + A[0][0] * rhs[1]) / det;
                 }
+                s.dxi[c] = dxi;
                 let mut dg = dd;
                 for &be in &fr {
                     for k in 0..3 {
@@ -372,6 +406,24 @@ pub fn contact_point(
                     v += tr.dt_dg[3 * i + j] * s.dg[c][j] + tr.dt_dn[3 * i + j] * s.dn[c][j];
                 }
                 K[row + c] += f * (v * J + tr.t[i] * s.dJ[c]);
+            }
+        }
+    }
+    if master {
+        // rows of the master element: +N_b(xi_p) t J w, with xi_p moving
+        let ge = geom.as_ref().expect("a deformable partner");
+        for b in 0..nl {
+            for i in 0..dim {
+                let row = ((nk + b) * dim + i) * nc;
+                for c in 0..nc {
+                    let mut v = 0.0;
+                    for j in 0..dim {
+                        v += tr.dt_dg[3 * i + j] * s.dg[c][j] + tr.dt_dn[3 * i + j] * s.dn[c][j];
+                    }
+                    let dNb: f64 = (0..m).map(|al| ge.dN[b * m + al] * s.dxi[c][al]).sum();
+                    K[row + c] +=
+                        own.w * (ge.N[b] * (v * J + tr.t[i] * s.dJ[c]) + dNb * tr.t[i] * J);
+                }
             }
         }
     }

@@ -11,7 +11,7 @@
 #![allow(non_snake_case)]
 
 use crate::assembly::{DofMap, MatrixSink};
-use crate::contact::kernel::{contact_point, Area, OwnPoint, PartnerPoint, Scratch};
+use crate::contact::kernel::{contact_point_pass, Area, OwnPoint, PartnerPoint, Scratch};
 use crate::contact::law::{self, Traction};
 use crate::contact::projection::{global_search, walk, Positions, Projection};
 use crate::contact::rigid::{RigidMotion, RigidShape};
@@ -55,6 +55,9 @@ pub struct PairDef {
     pub moment_point: [f64; 3],
     /// Reference-configuration box whose points carry no cohesive traction (initially debonded).
     pub debonded: Option<Aabb>,
+    /// One-pass (master/slave): the single half-pass also applies the opposite force to the
+    /// partner (master) surface.
+    pub one_pass: bool,
 }
 
 /// Projection state of one quadrature point.
@@ -147,6 +150,11 @@ pub struct ContactSystem {
     lambda: f64,
     scratch: Scratch,
     cand: Vec<u32>,
+    /// One-pass residual of the master surfaces' nodes, per table node [n_table][dim] (their rows
+    /// may belong to elements of other ranks, so they go back through the table's scatter).
+    r_table: Vec<f64>,
+    /// Scratch residual of one contribution [(n_k + n_l) * dim].
+    rc: Vec<f64>,
 }
 
 /// Evaluation of a pass's point: what kind of partner and traction.
@@ -226,7 +234,10 @@ impl ContactSystem {
             lambda: 0.0,
             scratch: Scratch::default(),
             cand: Vec::new(),
+            r_table: Vec::new(),
+            rc: Vec::new(),
         };
+        sys.r_table = vec![0.0; sys.table.len() * dim];
         sys.update_positions(&vec![0.0; sys.X.len()]);
         for def in defs {
             let mut passes = Vec::new();
@@ -590,29 +601,28 @@ impl ContactSystem {
     }
 
     /// Rows (own element, constrained rows dropped by the caller) and columns of a coupling block.
-    pub fn block_dofs(&self, c: &Coupling) -> (&[i32], Vec<i32>) {
+    pub fn block_dofs(&self, c: &Coupling) -> (Vec<i32>, Vec<i32>) {
         let (pass, k_e, l_e) = *c;
-        let (k, partner) = self.pass_surfaces(pass as usize);
-        let rows = &self.gdofs[k][k_e as usize][..];
-        let mut cols = rows.to_vec();
+        let (k, partner, one_pass) = self.pass_surfaces(pass as usize);
+        let own = &self.gdofs[k][k_e as usize][..];
+        let mut cols = own.to_vec();
         if let Some(l) = partner {
             cols.extend_from_slice(&self.gdofs[l][l_e as usize]);
         }
+        let rows = if one_pass { cols.clone() } else { own.to_vec() };
         (rows, cols)
     }
 
-    fn pass_surfaces(&self, pass: usize) -> (usize, Option<usize>) {
+    fn pass_surfaces(&self, pass: usize) -> (usize, Option<usize>, bool) {
         let mut i = 0;
         for pair in &self.pairs {
             for p in &pair.passes {
                 if i == pass {
-                    return (
-                        p.k,
-                        match p.partner {
-                            Partner::Surface(l) => Some(l),
-                            Partner::Rigid(..) => None,
-                        },
-                    );
+                    let l = match p.partner {
+                        Partner::Surface(l) => Some(l),
+                        Partner::Rigid(..) => None,
+                    };
+                    return (p.k, l, pair.def.one_pass && l.is_some());
                 }
                 i += 1;
             }
@@ -636,6 +646,7 @@ impl ContactSystem {
             [0.0; 2 * MAX_FACE_NODES],
             [0.0; 4 * MAX_FACE_NODES],
         );
+        self.r_table.fill(0.0);
         // blocks of the current own element, keyed by partner element
         let mut blocks: Vec<(u32, Vec<f64>)> = Vec::new();
         let mut r = Vec::new();
@@ -643,6 +654,7 @@ impl ContactSystem {
             let law = self.pairs[pi].def.law;
             let mpt = self.pairs[pi].def.moment_point;
             let dist = self.pairs[pi].def.search_distance;
+            let one_pass = self.pairs[pi].def.one_pass;
             for qi in 0..self.pairs[pi].passes.len() {
                 let pass = &mut self.pairs[pi].passes[qi];
                 let k = pass.k;
@@ -740,7 +752,8 @@ impl ContactSystem {
                                 let i = match blocks.iter().position(|(b, _)| *b == le) {
                                     Some(i) => i,
                                     None => {
-                                        blocks.push((le, vec![0.0; nk * dim * nc]));
+                                        let rows = if one_pass { nc } else { nk * dim };
+                                        blocks.push((le, vec![0.0; rows * nc]));
                                         blocks.len() - 1
                                     }
                                 };
@@ -757,16 +770,32 @@ impl ContactSystem {
                                     law_traction(&law, touch, g, n)
                                 }
                             };
-                            let pr = contact_point(
+                            let master = one_pass && nl > 0;
+                            self.rc.clear();
+                            self.rc.resize(nc, 0.0);
+                            let pr = contact_point_pass(
                                 dim,
                                 &own,
                                 &pp,
                                 &lawf,
                                 area,
-                                &mut r,
+                                master,
+                                if master { &mut self.rc } else { &mut r },
                                 kslice,
                                 &mut self.scratch,
                             );
+                            if master {
+                                for (v, rv) in r.iter_mut().zip(&self.rc[..nk * dim]) {
+                                    *v += rv;
+                                }
+                                let l = l.expect("a master surface");
+                                for (b, &t) in self.slots[l][le as usize].iter().enumerate() {
+                                    for c in 0..dim {
+                                        self.r_table[t as usize * dim + c] +=
+                                            self.rc[(nk + b) * dim + c];
+                                    }
+                                }
+                            }
                             if !cohesive {
                                 gap =
                                     Some(pr.g[0] * pr.n[0] + pr.g[1] * pr.n[1] + pr.g[2] * pr.n[2]);
@@ -808,13 +837,18 @@ impl ContactSystem {
                     if let Some((sink, slot_of)) = jac.as_mut() {
                         for (le, kb) in &blocks {
                             let c: Coupling = (pass_id, oe.e, *le);
-                            let rows = &self.gdofs[k][e];
-                            let mut cols = rows.clone();
+                            let own_rows = &self.gdofs[k][e];
+                            let mut cols = own_rows.clone();
                             if let Some(l) = l {
                                 if *le != u32::MAX {
                                     cols.extend_from_slice(&self.gdofs[l][*le as usize]);
                                 }
                             }
+                            let rows = if one_pass && l.is_some() {
+                                &cols
+                            } else {
+                                own_rows
+                            };
                             if let Some(slot) = slot_of(&c) {
                                 sink.add_block(slot, rows, &cols, kb);
                             }
@@ -986,6 +1020,17 @@ impl ContactSystem {
             }
         }
         x
+    }
+
+    /// The one-pass residual of master-surface nodes from the last [`ContactSystem::assemble`],
+    /// per table node [n_table][dim] (zero without one-pass pairs).
+    pub fn table_residual(&self) -> &[f64] {
+        &self.r_table
+    }
+
+    /// True when some pair is one-pass (its master rows go back through the table).
+    pub fn has_one_pass(&self) -> bool {
+        self.pairs.iter().any(|p| p.def.one_pass)
     }
 
     /// Table indices of the nodes of surface `s`, sorted.

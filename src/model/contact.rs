@@ -8,7 +8,7 @@ use crate::contact::rigid::{RigidMotion, RigidShape};
 use crate::contact::search::Aabb;
 use crate::contact::surface::ContactSurface;
 use crate::contact::{Law, PairDef, Partner};
-use crate::scene::{Case, ContactSpec, LawKind, RigidShapeKind, RigidSpec};
+use crate::scene::{Algorithm, Case, ContactSpec, LawKind, RigidShapeKind, RigidSpec};
 
 fn err(case: &Case, key: String, msg: impl Into<String>) -> ModelError {
     ModelError::Contact {
@@ -228,6 +228,9 @@ pub fn build_contact(
                     "a rigid partner goes with exactly one surface",
                 ))
             }
+            (None, 2) if spec.algorithm == Algorithm::OnePass => {
+                vec![(idx[0], Partner::Surface(idx[1]))]
+            }
             (None, 2) => vec![
                 (idx[0], Partner::Surface(idx[1])),
                 (idx[1], Partner::Surface(idx[0])),
@@ -247,6 +250,7 @@ pub fn build_contact(
             search_distance,
             moment_point,
             debonded,
+            one_pass: spec.algorithm == Algorithm::OnePass && spec.rigid.is_none(),
         });
     }
     Ok((surfaces, pairs))

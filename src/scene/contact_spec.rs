@@ -33,6 +33,12 @@ pub struct ContactSpec {
     pub rigid: Option<RigidSpec>,
     /// `penalty` (eq. 5), `van_der_waals` (eq. 6) or `cohesive` (eq. 7).
     pub law: LawKind,
+    /// `two_half_pass` (default: each surface integrated on its own points, traction on its own
+    /// body only) or `one_pass` (classic master/slave, kept for comparison: the first surface is
+    /// the slave whose points are integrated, the opposite force goes to the second, the master,
+    /// through its shape functions).
+    #[serde(default)]
+    pub algorithm: Algorithm,
     /// Penalty parameter (> 0; force per length^3 in 3D, per length^2 in 2D): `penalty`, and the
     /// penalty against penetration of `cohesive`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -61,6 +67,15 @@ pub struct ContactSpec {
     /// Default: the origin.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub moment_point: Option<Vec<f64>>,
+}
+
+/// Contact algorithms.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Algorithm {
+    #[default]
+    TwoHalfPass,
+    OnePass,
 }
 
 /// Contact laws.
