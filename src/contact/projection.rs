@@ -13,9 +13,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::contact::search::BinGrid;
-use crate::contact::surface::{
-    raw_normal, side_coordinates, side_point, ContactSurface, MAX_FACE_NODES,
-};
+use crate::contact::surface::{side_coordinates, side_point, ContactSurface, MAX_FACE_NODES};
 
 /// Current nodal positions of every element of a surface: element `e` has
 /// `x[offsets[e]..offsets[e + 1]]` [n_nodes][dim].
@@ -325,13 +323,4 @@ pub fn global_search(
     }
     // the closest point of the whole surface decides: beyond its end, no partner
     Ok(best.filter(|b| !off_the_edge(s, b)))
-}
-
-/// Outward unit normal of element `e` at `xi` (the surface normal, also at edges and corners).
-pub fn surface_normal(s: &ContactSurface, pos: &Positions, e: usize, xi: &[f64; 2]) -> [f64; 3] {
-    let el = &s.elements[e];
-    let (_, a, _) = crate::contact::surface::frame(el, s.dim, pos.of(e), xi);
-    let nu = raw_normal(s.dim, &a);
-    let l = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt();
-    nu.map(|c| el.sign * c / l)
 }
