@@ -116,11 +116,13 @@ pub fn project_on_element(
         let step = solve_free(&H, &M, &grad, &free, m);
         let Some(step) = step else {
             // all bound: a corner
-            return Some(Projection {
+            let dist = (2.0 * f0).sqrt();
+            // a non-finite geometry (a diverged Newton iterate) is a failed projection
+            return dist.is_finite().then_some(Projection {
                 elem: e as u32,
                 xi,
                 free,
-                dist: (2.0 * f0).sqrt(),
+                dist,
             });
         };
         let len = step[0].abs().max(step[1].abs());
@@ -152,11 +154,12 @@ pub fn project_on_element(
                 let gi = -(0..dim).map(|k| g[k] * a[i][k]).sum::<f64>();
                 free[i] = !((xi[i] >= 1.0 && gi < -tol) || (xi[i] <= -1.0 && gi > tol));
             }
-            return Some(Projection {
+            let dist = (2.0 * f_of(&p)).sqrt();
+            return (dist.is_finite() && xi.iter().all(|v| v.is_finite())).then_some(Projection {
                 elem: e as u32,
                 xi,
                 free,
-                dist: (2.0 * f_of(&p)).sqrt(),
+                dist,
             });
         }
     }

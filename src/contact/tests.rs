@@ -762,3 +762,29 @@ fn one_pass_tangent_matches_central_differences_and_balances_momentum() {
         }
     }
 }
+
+#[test]
+fn a_projection_that_fails_on_every_candidate_is_an_error_for_the_step() {
+    // a non-finite partner geometry (what a diverged Newton iterate gives) makes every candidate's
+    // projection fail: `update` reports it (the assembler turns it into a domain error, and the
+    // load step is cut back as for an inverted element)
+    let mut h = Harness::new(&case_2d("Q1C1", "Q1N2", "law = \"penalty\"\neps_n = 100.0"));
+    let u = pressed(&h, 0.05, 0.0, 0.0, 1);
+    h.eval(&u, false);
+    let mut bad = u.clone();
+    // every other node of the block's top (the partner of the disk's points) becomes NaN: each
+    // element's box stays finite (so it is a candidate) but its geometry is not
+    let block = &h.model.bodies[0];
+    assert_eq!(block.name, "block");
+    for g in h.model.set_nodes("block", "top").unwrap().into_iter().step_by(2) {
+        for c in 0..2 {
+            bad[h.dofs.global(g, c).unwrap().0 as usize] = f64::NAN;
+        }
+    }
+    let ut: Vec<f64> = h.table.iter().map(|&g| bad[g as usize]).collect();
+    let e = h.sys.update(&ut).expect_err("the projection must fail");
+    assert!(e.contains("projection") && e.contains("block.top"), "{e}");
+    // and a finite state projects again
+    let ut: Vec<f64> = h.table.iter().map(|&g| u[g as usize]).collect();
+    h.sys.update(&ut).expect("finite state");
+}
