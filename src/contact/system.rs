@@ -547,8 +547,8 @@ impl ContactSystem {
     /// it, so that points sliding to a neighbouring element during the next Newton solves still find
     /// their block (`ring = 0`: exactly the current couplings). Rigid partners couple an element
     /// with itself only. Sorted, unique.
-    pub fn band_couplings(&self, ring: usize) -> Vec<Coupling> {
-        let mut out = Vec::new();
+    pub fn band_couplings(&mut self, ring: usize) -> Vec<Coupling> {
+        let mut out = self.approach_couplings(ring);
         let mut pass_id = 0u32;
         let mut near: Vec<u32> = Vec::new();
         for pair in &self.pairs {
@@ -597,6 +597,50 @@ impl ContactSystem {
         }
         out.sort_unstable();
         out.dedup();
+        out
+    }
+
+    /// With `ring >= 1`, the couplings of points that have no partner yet but lie within the search
+    /// distance of a partner element's box: the elements they may reach during the next solves
+    /// (a contact zone that grows, as under an indenter, then needs no pattern rebuild).
+    fn approach_couplings(&mut self, ring: usize) -> Vec<Coupling> {
+        let mut out = Vec::new();
+        if ring == 0 {
+            return out;
+        }
+        let mut pass_id = 0u32;
+        for pi in 0..self.pairs.len() {
+            let dist = self.pairs[pi].def.search_distance;
+            for qi in 0..self.pairs[pi].passes.len() {
+                let (k, partner) = {
+                    let p = &self.pairs[pi].passes[qi];
+                    (p.k, p.partner.clone())
+                };
+                if let Partner::Surface(l) = partner {
+                    let waiting: Vec<(u32, [f64; 2])> = {
+                        let pass = &self.pairs[pi].passes[qi];
+                        pass.elems
+                            .iter()
+                            .flat_map(|oe| {
+                                (oe.first..oe.first + oe.n)
+                                    .filter(|&q| pass.points[q].current.is_none())
+                                    .map(move |q| (oe.e, pass.points[q].xi))
+                            })
+                            .collect()
+                    };
+                    if !waiting.is_empty() {
+                        self.ensure_grid(l, dist);
+                    }
+                    for (e, xi) in waiting {
+                        let x = self.point_position(k, e as usize, &xi);
+                        let grid = self.grids[l].as_ref().expect("built above");
+                        grid.candidates(&x[..self.dim], &mut self.cand);
+                        out.extend(self.cand.iter().map(|&f| (pass_id, e, f)));
+                    }
+                }
+                pass_id += 1;
+            }
+        }
         out
     }
 

@@ -776,7 +776,13 @@ fn a_projection_that_fails_on_every_candidate_is_an_error_for_the_step() {
     // element's box stays finite (so it is a candidate) but its geometry is not
     let block = &h.model.bodies[0];
     assert_eq!(block.name, "block");
-    for g in h.model.set_nodes("block", "top").unwrap().into_iter().step_by(2) {
+    for g in h
+        .model
+        .set_nodes("block", "top")
+        .unwrap()
+        .into_iter()
+        .step_by(2)
+    {
         for c in 0..2 {
             bad[h.dofs.global(g, c).unwrap().0 as usize] = f64::NAN;
         }
