@@ -302,6 +302,42 @@ fn contact_is_rank_invariant_in_2d_and_3d_with_split_contact_surfaces() {
         .filter(|&i| c[i][2] > 1.0)
         .map(|i| r[i])
         .collect();
+    // 3D curved: the Q1N2 hemisphere pressed onto a Q1N2 block (coarse)
+    let sets = [
+        "meshes.block.divisions=[6,6,3]",
+        "meshes.shell.n_surface=4",
+        "meshes.shell.n_thickness=1",
+        "stages.0.steps=3",
+        "output.fields=[\"displacement\", \"rank\"]",
+    ];
+    let h1 = run_case("hemisphere-np1", "hemisphere_block_3d.toml", 1, &sets);
+    let h2 = run_case("hemisphere-np2", "hemisphere_block_3d.toml", 2, &sets);
+    let e = rel_diff(
+        &h5_last(&h1, "bulk", "displacement"),
+        &h5_last(&h2, "bulk", "displacement"),
+    );
+    assert!(e < 1e-10, "3D hemisphere: 1 vs 2 ranks differ by {e:e}");
+    for col in ["P_press_shell_outer_z", "P_press_block_zmax_z"] {
+        let e = rel_diff(&history_col(&h1, col), &history_col(&h2, col));
+        assert!(
+            e < 1e-10,
+            "3D hemisphere {col}: 1 vs 2 ranks differ by {e:e}"
+        );
+    }
+    assert!(
+        last(&h1, "P_press_block_zmax_z") < -0.1,
+        "the shell presses the block"
+    );
+    let (c, r) = cells_and_ranks(&h2, 3);
+    let top: Vec<f64> = (0..c.len())
+        .filter(|&i| c[i][2] > -1.0 / 3.0 && c[i][2] < 0.0)
+        .map(|i| r[i])
+        .collect();
+    assert!(
+        top.contains(&0.0) && top.contains(&1.0),
+        "METIS did not split the block's contact layer: {top:?}"
+    );
+
     // METIS keeps the smaller body whole here; the lower contact layer is split, so contact pairs
     // points and partner elements owned by different ranks
     assert!(
