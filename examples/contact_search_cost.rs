@@ -6,11 +6,13 @@
 //! For each size n, the top face of a box with n x n x 1 elements (Q1C1, and Q1N2) is the partner
 //! surface; every quadrature point of a second, shifted and slightly lifted n x n surface is
 //! searched for (bin grid of the partner's element boxes, nearest boxes first, Newton projection).
+//! The grid is the one a run builds (`surface_grid`: element boxes from the control points).
 //! Reported: building the grid, searching all points (per point), and for n <= 32 the brute force
 //! (every element projected) for comparison.
-use nurbs_contact::contact::projection::{global_search, project_on_element, Positions};
-use nurbs_contact::contact::search::{Aabb, BinGrid};
-use nurbs_contact::contact::surface::{frame, reference_positions, ContactSurface};
+use nurbs_contact::contact::projection::{
+    global_search, project_on_element, surface_grid, Positions,
+};
+use nurbs_contact::contact::surface::{reference_positions, ContactSurface};
 use nurbs_contact::model::Model;
 use nurbs_contact::scene::parse_case;
 use std::path::Path;
@@ -79,21 +81,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
             let dist = 2.0 * h;
             let t0 = Instant::now();
-            let raw: Vec<Aabb> = (0..s.elements.len())
-                .map(|e| {
-                    let mut b = Aabb::EMPTY;
-                    for jj in 0..=4 {
-                        for ii in 0..=4 {
-                            let xi = [-1.0 + 0.5 * ii as f64, -1.0 + 0.5 * jj as f64];
-                            b.grow(&frame(&s.elements[e], 3, pos.of(e), &xi).0);
-                        }
-                    }
-                    let size = (0..3).map(|c| b.hi[c] - b.lo[c]).fold(0.0, f64::max);
-                    b.inflated(3, 0.25 * size)
-                })
-                .collect();
-            let boxes = raw.iter().map(|b| b.inflated(3, dist)).collect();
-            let grid = BinGrid::with_raw(3, boxes, raw);
+            let grid = surface_grid(&s, &pos, dist);
             let t_build = t0.elapsed().as_secs_f64();
             let mut scratch = Vec::new();
             let t1 = Instant::now();

@@ -12,7 +12,8 @@
 //! point (`crate::contact::search`).
 #![allow(clippy::needless_range_loop)]
 
-use crate::contact::search::BinGrid;
+use crate::contact::basis::FaceBasis;
+use crate::contact::search::{Aabb, BinGrid};
 use crate::contact::surface::{side_coordinates, side_point, ContactSurface, MAX_FACE_NODES};
 
 /// Current nodal positions of every element of a surface: element `e` has
@@ -275,6 +276,47 @@ impl Projection {
     pub fn free_count(&self) -> usize {
         self.free.iter().filter(|&&f| f).count()
     }
+}
+
+/// The global-search grid of a surface at the positions `pos`: each element's own box (NURBS with
+/// positive weights and linear faces lie in the convex hull of their nodes; Lagrange and Hermite
+/// faces are sampled, with a margin for the surface between the samples, as Hermite tangents are
+/// not positions), inflated by the search distance `dist` for binning.
+pub fn surface_grid(s: &ContactSurface, pos: &Positions, dist: f64) -> BinGrid {
+    let dim = s.dim;
+    let m = dim - 1;
+    let raw: Vec<Aabb> = (0..s.elements.len())
+        .map(|e| {
+            let mut b = Aabb::EMPTY;
+            if matches!(
+                s.elements[e].basis,
+                FaceBasis::Nurbs(_) | FaceBasis::Line2 | FaceBasis::Quad4
+            ) {
+                for x in pos.of(e).chunks_exact(dim) {
+                    b.grow(x);
+                }
+                return b;
+            }
+            let k = 4usize;
+            let n2 = if m == 2 { k + 1 } else { 1 };
+            for j in 0..n2 {
+                for i in 0..=k {
+                    let eta = if m == 2 {
+                        -1.0 + 2.0 * j as f64 / k as f64
+                    } else {
+                        0.0
+                    };
+                    let xi = [-1.0 + 2.0 * i as f64 / k as f64, eta];
+                    let x = crate::contact::surface::frame(&s.elements[e], dim, pos.of(e), &xi).0;
+                    b.grow(&x[..dim]);
+                }
+            }
+            let size = (0..dim).map(|c| b.hi[c] - b.lo[c]).fold(0.0, f64::max);
+            b.inflated(dim, 0.25 * size)
+        })
+        .collect();
+    let boxes = raw.iter().map(|b| b.inflated(dim, dist)).collect();
+    BinGrid::with_raw(dim, boxes, raw)
 }
 
 /// Newton did not settle on any candidate element of a global search.

@@ -13,9 +13,10 @@
 use crate::assembly::{DofMap, MatrixSink};
 use crate::contact::kernel::{contact_point_pass, Area, OwnPoint, PartnerPoint, Scratch};
 use crate::contact::law::{self, Traction};
-use crate::contact::projection::{global_search, walk, Positions, Projection};
+use crate::contact::projection::{global_search, surface_grid, walk, Positions, Projection};
 use crate::contact::rigid::{RigidMotion, RigidShape};
 use crate::contact::search::{Aabb, BinGrid};
+
 use crate::contact::surface::{raw_normal, ContactSurface, MAX_FACE_NODES};
 use crate::fem::quadrature::tensor_rule;
 use std::collections::HashMap;
@@ -155,6 +156,9 @@ pub struct ContactSystem {
     r_table: Vec<f64>,
     /// Scratch residual of one contribution [(n_k + n_l) * dim].
     rc: Vec<f64>,
+    /// Tangent blocks of the element being assembled, keyed by partner element; the buffers are
+    /// kept between elements and evaluations (no allocation per element once they have grown).
+    blocks: Vec<(u32, Vec<f64>)>,
 }
 
 /// Evaluation of a pass's point: what kind of partner and traction.
@@ -236,6 +240,7 @@ impl ContactSystem {
             cand: Vec::new(),
             r_table: Vec::new(),
             rc: Vec::new(),
+            blocks: Vec::new(),
         };
         sys.r_table = vec![0.0; sys.table.len() * dim];
         sys.update_positions(&vec![0.0; sys.X.len()]);
@@ -390,56 +395,9 @@ impl ContactSystem {
     }
 
     fn ensure_grid(&mut self, l: usize, dist: f64) {
-        if self.grids[l].is_some() {
-            return;
+        if self.grids[l].is_none() {
+            self.grids[l] = Some(surface_grid(&self.surfaces[l], &self.pos[l], dist));
         }
-        let dim = self.dim;
-        let s = &self.surfaces[l];
-        let raw: Vec<Aabb> = (0..s.elements.len())
-            .map(|e| {
-                use crate::contact::basis::FaceBasis;
-                let mut b = Aabb::EMPTY;
-                // NURBS (positive weights) and linear faces lie in the convex hull of their nodes
-                if matches!(
-                    s.elements[e].basis,
-                    FaceBasis::Nurbs(_) | FaceBasis::Line2 | FaceBasis::Quad4
-                ) {
-                    for x in self.pos[l].of(e).chunks_exact(dim) {
-                        b.grow(x);
-                    }
-                    return b;
-                }
-                // Lagrange and Hermite faces: sampled, with a margin for the surface between the
-                // samples (Hermite tangents are not positions)
-                let k = 4usize;
-                let m = dim - 1;
-                let n2 = if m == 2 { k + 1 } else { 1 };
-                for j in 0..n2 {
-                    for i in 0..=k {
-                        let xi = [
-                            -1.0 + 2.0 * i as f64 / k as f64,
-                            if m == 2 {
-                                -1.0 + 2.0 * j as f64 / k as f64
-                            } else {
-                                0.0
-                            },
-                        ];
-                        let x = crate::contact::surface::frame(
-                            &s.elements[e],
-                            dim,
-                            self.pos[l].of(e),
-                            &xi,
-                        )
-                        .0;
-                        b.grow(&x[..dim]);
-                    }
-                }
-                let size = (0..dim).map(|c| b.hi[c] - b.lo[c]).fold(0.0, f64::max);
-                b.inflated(dim, 0.25 * size)
-            })
-            .collect();
-        let boxes = raw.iter().map(|b| b.inflated(dim, dist)).collect();
-        self.grids[l] = Some(BinGrid::with_raw(dim, boxes, raw));
     }
 
     /// Moves to the displacement `u_table` [n_table][dim] and projects every point this rank
@@ -692,7 +650,8 @@ impl ContactSystem {
         );
         self.r_table.fill(0.0);
         // blocks of the current own element, keyed by partner element
-        let mut blocks: Vec<(u32, Vec<f64>)> = Vec::new();
+        let mut blocks = std::mem::take(&mut self.blocks);
+        let mut n_used;
         let mut r = Vec::new();
         for pi in 0..self.pairs.len() {
             let law = self.pairs[pi].def.law;
@@ -715,7 +674,7 @@ impl ContactSystem {
                     let x = self.pos[k].of(e);
                     r.clear();
                     r.resize(nk * dim, 0.0);
-                    blocks.clear();
+                    n_used = 0;
                     for q in oe.first..oe.first + oe.n {
                         let qp = pass.points[q];
                         el.basis.eval(&qp.xi[..m], &mut N, &mut dN, &mut ddN);
@@ -793,15 +752,21 @@ impl ContactSystem {
                             };
                             let nc = (nk + nl) * dim;
                             let kb = jac.as_ref().map(|_| {
-                                let i = match blocks.iter().position(|(b, _)| *b == le) {
+                                match blocks[..n_used].iter().position(|(b, _)| *b == le) {
                                     Some(i) => i,
                                     None => {
                                         let rows = if one_pass { nc } else { nk * dim };
-                                        blocks.push((le, vec![0.0; rows * nc]));
-                                        blocks.len() - 1
+                                        if n_used == blocks.len() {
+                                            blocks.push((le, Vec::new()));
+                                        }
+                                        let (key, buf) = &mut blocks[n_used];
+                                        *key = le;
+                                        buf.clear();
+                                        buf.resize(rows * nc, 0.0);
+                                        n_used += 1;
+                                        n_used - 1
                                     }
-                                };
-                                i
+                                }
                             });
                             let kslice = kb.map(|i| &mut blocks[i].1[..]);
                             let lawf = |g: &[f64; 3], n: &[f64; 3]| -> Traction {
@@ -879,7 +844,7 @@ impl ContactSystem {
                         }
                     }
                     if let Some((sink, slot_of)) = jac.as_mut() {
-                        for (le, kb) in &blocks {
+                        for (le, kb) in &blocks[..n_used] {
                             let c: Coupling = (pass_id, oe.e, *le);
                             let own_rows = &self.gdofs[k][e];
                             let mut cols = own_rows.clone();
@@ -903,6 +868,7 @@ impl ContactSystem {
                 pass_id += 1;
             }
         }
+        self.blocks = blocks;
     }
 
     /// Resultants of every half-pass over this rank's points, pair by pair.

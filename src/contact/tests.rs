@@ -547,26 +547,7 @@ fn grid_of(
     pos: &crate::contact::projection::Positions,
     dist: f64,
 ) -> crate::contact::search::BinGrid {
-    use crate::contact::search::{Aabb, BinGrid};
-    let dim = s.dim;
-    let raw: Vec<Aabb> = (0..s.elements.len())
-        .map(|e| {
-            let mut b = Aabb::EMPTY;
-            for j in 0..=4 {
-                for i in 0..=4 {
-                    let xi = [-1.0 + 0.5 * i as f64, -1.0 + 0.5 * j as f64];
-                    b.grow(
-                        &crate::contact::surface::frame(&s.elements[e], dim, pos.of(e), &xi).0
-                            [..dim],
-                    );
-                }
-            }
-            let size = (0..dim).map(|c| b.hi[c] - b.lo[c]).fold(0.0, f64::max);
-            b.inflated(dim, 0.25 * size)
-        })
-        .collect();
-    let boxes = raw.iter().map(|b| b.inflated(dim, dist)).collect();
-    BinGrid::with_raw(dim, boxes, raw)
+    crate::contact::projection::surface_grid(s, pos, dist)
 }
 
 #[test]
