@@ -21,6 +21,9 @@ pub enum Prescription {
         center: [f64; 3],
         /// Angle at each stage end. [n_stages]
         angles: Vec<f64>,
+        /// Translation at each stage end, `x = center + t + R (X - center)`. [n_stages][3];
+        /// empty: none.
+        translations: Vec<[f64; 3]>,
     },
 }
 
@@ -100,6 +103,7 @@ impl DirichletBc {
                 axis,
                 center,
                 angles,
+                translations,
             } => {
                 let theta = stage_lerp(angles, lambda, 0.0, |a, b, f| a + (b - a) * f);
                 let dim = x.len();
@@ -111,7 +115,10 @@ impl DirichletBc {
                 let ax = if dim == 2 { [0.0, 0.0, 1.0] } else { *axis };
                 let rr = rotate(r, ax, theta);
                 let comp = self.components[comp_index];
-                rr[comp] - r[comp]
+                let t = stage_lerp(translations, lambda, [0.0; 3], |a, b, f| {
+                    [0, 1, 2].map(|i| a[i] + (b[i] - a[i]) * f)
+                });
+                rr[comp] - r[comp] + t[comp]
             }
         }
     }
@@ -204,12 +211,37 @@ mod tests {
                 axis: [0.0, 0.0, 1.0],
                 center: [1.0, 0.0, 0.0],
                 angles: vec![std::f64::consts::FRAC_PI_2],
+                translations: vec![],
             },
         };
         // (2,0,5) about the z axis through (1,0,0) by 90 degrees -> (1,1,5).
         let x = [2.0, 0.0, 5.0];
         let u: Vec<f64> = (0..3).map(|c| bc.value(c, &x, 1.0)).collect();
         assert!((u[0] + 1.0).abs() < 1e-14 && (u[1] - 1.0).abs() < 1e-14 && u[2].abs() < 1e-14);
+    }
+
+    #[test]
+    fn rotation_with_translation_presses_then_twists() {
+        // stage 1: down by 1 without turning; stage 2: a quarter turn about the moved axis
+        let bc = DirichletBc {
+            label: "r".into(),
+            nodes: vec![0],
+            components: vec![0, 1, 2],
+            kind: Prescription::Rotation {
+                axis: [0.0, 0.0, 1.0],
+                center: [0.0, 0.0, 0.0],
+                angles: vec![0.0, std::f64::consts::FRAC_PI_2],
+                translations: vec![[0.0, 0.0, -1.0], [0.0, 0.0, -1.0]],
+            },
+        };
+        let x = [1.0, 0.0, 2.0];
+        let u = |l: f64| -> Vec<f64> { (0..3).map(|c| bc.value(c, &x, l)).collect() };
+        let half = u(0.5);
+        assert!(half[0].abs() < 1e-15 && half[1].abs() < 1e-15 && (half[2] + 0.5).abs() < 1e-15);
+        // (1,0,2) -> (0,1,1) at the end
+        let end = u(2.0);
+        assert!((end[0] + 1.0).abs() < 1e-14 && (end[1] - 1.0).abs() < 1e-14);
+        assert!((end[2] + 1.0).abs() < 1e-14, "{end:?}");
     }
 
     #[test]

@@ -66,6 +66,27 @@ pub fn penalty(eps_n: f64, touch: f64, g: &[f64; 3], n: &[f64; 3]) -> Traction {
     out
 }
 
+/// Quadratic penalty against penetration: `t = eps_n g_n^2 n` where `g_n = g . n < 0`, zero
+/// otherwise. Its traction and tangent are continuous at `g_n = 0`, so a bonded interface that sits
+/// at `g_n = 0` (the cohesive law's material pairing) has no kink there (`eps_n` in force per
+/// length^4 in 3D, per length^3 in 2D).
+pub fn penalty_quadratic(eps_n: f64, g: &[f64; 3], n: &[f64; 3]) -> Traction {
+    let g_n = dot(g, n);
+    if g_n >= 0.0 {
+        return Traction::ZERO;
+    }
+    let mut out = Traction::ZERO;
+    for i in 0..3 {
+        out.t[i] = eps_n * g_n * g_n * n[i];
+        for j in 0..3 {
+            out.dt_dg[3 * i + j] = 2.0 * eps_n * g_n * n[i] * n[j];
+            out.dt_dn[3 * i + j] =
+                eps_n * (2.0 * g_n * g[j] * n[i] + if i == j { g_n * g_n } else { 0.0 });
+        }
+    }
+    out
+}
+
 /// Magnitude of the van der Waals traction, eq. (6), and its derivative in `r = |g|`:
 /// `T_c(r) = A_H / (2 pi r0^3) [ (r0/r)^9 / 45 - (r0/r)^3 / 3 ]`; it vanishes where
 /// `(r0/r)^6 = 15`, the equilibrium spacing `r_eq = 15^(-1/6) r0`.
@@ -160,6 +181,25 @@ mod tests {
     fn unit(v: [f64; 3]) -> [f64; 3] {
         let l = norm(&v);
         [v[0] / l, v[1] / l, v[2] / l]
+    }
+
+    #[test]
+    fn quadratic_penalty_derivatives_match_central_differences_and_vanish_at_contact() {
+        let n = unit([0.3, -0.2, 0.9]);
+        check(
+            &|g, n| penalty_quadratic(50.0, g, n),
+            [0.01, 0.02, -0.03],
+            n,
+            1e-6,
+        );
+        // open: nothing; just touching: traction and tangent both zero (no kink)
+        assert_eq!(penalty_quadratic(50.0, &[0.0, 0.0, 0.1], &n).t, [0.0; 3]);
+        let t = penalty_quadratic(50.0, &[0.0; 3], &n);
+        assert!(t.t.iter().chain(&t.dt_dg).all(|&v| v == 0.0));
+        // penetrating by d: pushed out along n with eps d^2
+        let d = 0.02;
+        let t = penalty_quadratic(50.0, &[-d * n[0], -d * n[1], -d * n[2]], &n);
+        assert!((dot(&t.t, &n) - 50.0 * d * d).abs() < 1e-15);
     }
 
     #[test]

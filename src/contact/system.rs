@@ -30,7 +30,13 @@ pub enum Law {
     VanDerWaals { a_h: f64, r0: f64 },
     /// Eq. (7): exponential cohesive zone with material point pairing, plus a penalty `eps_n`
     /// against penetration.
-    Cohesive { t0: f64, g0: f64, eps_n: f64 },
+    Cohesive {
+        t0: f64,
+        g0: f64,
+        eps_n: f64,
+        /// The penalty against penetration is quadratic in the penetration (else linear).
+        quadratic: bool,
+    },
 }
 
 /// The partner of a half-pass.
@@ -56,6 +62,8 @@ pub struct PairDef {
     pub moment_point: [f64; 3],
     /// Reference-configuration box whose points carry no cohesive traction (initially debonded).
     pub debonded: Option<Aabb>,
+    /// Reference-configuration box outside which the pair's quadrature points are not integrated.
+    pub region: Option<Aabb>,
     /// One-pass (master/slave): the single half-pass also applies the opposite force to the
     /// partner (master) surface.
     pub one_pass: bool,
@@ -167,7 +175,16 @@ fn law_traction(law: &Law, touch: f64, g: &[f64; 3], n: &[f64; 3]) -> Traction {
     match *law {
         Law::Penalty { eps_n } => law::penalty(eps_n, touch, g, n),
         Law::VanDerWaals { a_h, r0 } => law::van_der_waals(a_h, r0, g, n),
-        Law::Cohesive { eps_n, .. } => law::penalty(eps_n, touch, g, n),
+        Law::Cohesive {
+            eps_n,
+            quadratic: false,
+            ..
+        } => law::penalty(eps_n, touch, g, n),
+        Law::Cohesive {
+            eps_n,
+            quadratic: true,
+            ..
+        } => law::penalty_quadratic(eps_n, g, n),
     }
 }
 
@@ -262,7 +279,10 @@ impl ContactSystem {
                     for (q, xi) in rule.points.chunks_exact(m).enumerate() {
                         let mut x2 = [0.0; 2];
                         x2[..m].copy_from_slice(xi);
-                        let (_, a, _) = crate::contact::surface::frame(el, dim, &Xe, &x2);
+                        let (xr, a, _) = crate::contact::surface::frame(el, dim, &Xe, &x2);
+                        if def.region.as_ref().is_some_and(|b| !b.contains(&xr[..dim])) {
+                            continue;
+                        }
                         let nu = raw_normal(dim, &a);
                         let J0 = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt();
                         points.push(QPoint {
@@ -279,6 +299,9 @@ impl ContactSystem {
                                 .map_or(u32::MAX, |l| l.0)
                         })
                         .collect();
+                    if points.len() == first {
+                        continue; // outside the pair's region
+                    }
                     elems.push(OwnElem {
                         e: e as u32,
                         first,

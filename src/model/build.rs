@@ -84,6 +84,16 @@ pub enum ModelError {
         /// What is wrong.
         msg: String,
     },
+    /// A `[bodies.<name>.node_sets.<set>]` selection is invalid or selects nothing.
+    #[error("{}: `{key}`: {msg}", .file.display())]
+    NodeSelection {
+        /// The case file.
+        file: std::path::PathBuf,
+        /// The key.
+        key: String,
+        /// What is wrong.
+        msg: String,
+    },
     /// The case asks for something this version cannot build yet.
     #[error("{}: `{key}`: {msg}", .file.display())]
     Unsupported {
@@ -110,6 +120,8 @@ pub struct Body {
     pub family: ElementFamily,
     /// Material.
     pub material: Material,
+    /// The cells below an enriched layer are Q1E4 (2D) instead of Q1C1.
+    pub bulk_q1e4: bool,
     /// The enriched layer (enriched families): new nodes numbered after the mesh's, enriched cells
     /// beside the mesh's linear parents (`mesh.cell_kind` keeps meaning "linear parent").
     pub enrichment: Option<Enrichment>,
@@ -263,6 +275,88 @@ pub fn enriched_tl_element(
     TlElement::new(dim, &X, &dN_ref, &rule.weights)
 }
 
+/// The Q1E4 element of linear quad `c` of body `b` and its global nodes.
+#[allow(non_snake_case)]
+fn q1e4_element(b: &Body, c: usize) -> Result<(Q1e4Element, Vec<u32>), String> {
+    let nodes = b.mesh.cell(c);
+    let mut X = [0.0; 8];
+    for (a, &n) in nodes.iter().enumerate().take(4) {
+        X[2 * a..2 * a + 2].copy_from_slice(b.mesh.node(n));
+    }
+    let el = Q1e4Element::new(&X).map_err(|e| e.to_string())?;
+    Ok((el, nodes.iter().map(|&n| n + b.node_offset).collect()))
+}
+
+/// Adds the node sets a body selects by position (`[bodies.<body>.node_sets]`) to its mesh.
+fn select_node_sets(
+    case: &Case,
+    body: &str,
+    sets: &std::collections::BTreeMap<String, crate::scene::NodeSelection>,
+    mesh: &mut Mesh,
+) -> Result<(), ModelError> {
+    for (name, sel) in sets {
+        let err = |field: &str, msg: String| ModelError::NodeSelection {
+            file: case.file.clone(),
+            key: if field.is_empty() {
+                format!("bodies.{body}.node_sets.{name}")
+            } else {
+                format!("bodies.{body}.node_sets.{name}.{field}")
+            },
+            msg,
+        };
+        if mesh.node_sets.contains_key(name) || mesh.face_sets.contains_key(name) {
+            return Err(err(
+                "",
+                format!("the mesh already has a set `{name}`; choose another name"),
+            ));
+        }
+        let candidates: Vec<u32> = match &sel.within {
+            None => (0..mesh.n_nodes() as u32).collect(),
+            Some(w) => match mesh.node_sets.get(w) {
+                Some(n) => n.clone(),
+                None => mesh.node_set_from_faces(w).map_err(|_| {
+                    err("within", format!("the mesh has no node or face set `{w}`"))
+                })?,
+            },
+        };
+        let dim = mesh.dim;
+        let chosen: Vec<u32> = match (&sel.min, &sel.max, &sel.nearest) {
+            (Some(lo), Some(hi), None) => candidates
+                .into_iter()
+                .filter(|&n| {
+                    let x = mesh.node(n);
+                    (0..dim).all(|c| x[c] >= lo[c] && x[c] <= hi[c])
+                })
+                .collect(),
+            (None, None, Some(p)) => {
+                let d2 = |n: u32| -> f64 {
+                    mesh.node(n)
+                        .iter()
+                        .zip(p)
+                        .map(|(a, b)| (a - b).powi(2))
+                        .sum()
+                };
+                // ties go to the lower node number
+                let best = candidates
+                    .into_iter()
+                    .fold(None::<(u32, f64)>, |best, n| match best {
+                        Some((_, bd)) if d2(n) >= bd => best,
+                        _ => Some((n, d2(n))),
+                    });
+                best.map(|(n, _)| vec![n]).unwrap_or_default()
+            }
+            _ => return Err(err("", "needs either `min` and `max` or `nearest`".into())),
+        };
+        if chosen.is_empty() {
+            return Err(err("", "selects no node".into()));
+        }
+        let mut chosen = chosen;
+        chosen.sort_unstable();
+        mesh.node_sets.insert(name.clone(), chosen);
+    }
+    Ok(())
+}
+
 /// The nodes of a named set of a body: a node set, or the nodes of a face set.
 /// Sets holding surface nodes of an enriched layer are remapped to its control points (see
 /// `crate::model::enrich`).
@@ -294,6 +388,8 @@ impl Model {
                     .filter(|w| !warnings.contains(w))
                     .collect::<Vec<_>>(),
             );
+            let mut mesh = mesh;
+            select_node_sets(case, name, &spec.node_sets, &mut mesh)?;
             let m = &spec.material;
             let material = match m.model {
                 MaterialModel::NeoHookean => {
@@ -314,6 +410,7 @@ impl Model {
                 node_offset: 0,
                 cell_offset: 0,
                 family: spec.element,
+                bulk_q1e4: spec.element.is_enriched() && spec.bulk == Some(ElementFamily::Q1E4),
                 material,
                 enrichment: None,
             });
@@ -401,6 +498,15 @@ impl Model {
                             axis: a.map(|x| x / norm),
                             center,
                             angles: r.angle_deg.iter().map(|d| d.to_radians()).collect(),
+                            translations: r
+                                .translation
+                                .iter()
+                                .map(|t| {
+                                    let mut v = [0.0; 3];
+                                    v[..t.len().min(3)].copy_from_slice(&t[..t.len().min(3)]);
+                                    v
+                                })
+                                .collect(),
                         },
                     )
                 }
@@ -601,9 +707,17 @@ impl Model {
                 | ElementFamily::Q1N { .. }
                 | ElementFamily::Q1C2
                 | ElementFamily::Q1CH => {
-                    // the bulk of an enriched body is Q1C1
+                    // the bulk of an enriched body is Q1C1, or Q1E4 when the case says so
                     let mut set = TlSet::new(bi, &b.name, &b.family.to_string(), b.material);
+                    let mut q1e4 = b
+                        .bulk_q1e4
+                        .then(|| Q1e4Set::new(bi, &b.name, b.material));
                     for c in mine {
+                        if let (Some(q), None) = (q1e4.as_mut(), b.enriched_cell(c)) {
+                            let (el, g) = q1e4_element(b, c).map_err(|m| elem_err(c, m))?;
+                            q.push(c, &g, el);
+                            continue;
+                        }
                         let el = match b.enriched_cell(c) {
                             Some(ec) => enriched_tl_element(b, ec),
                             None => {
@@ -625,17 +739,14 @@ impl Model {
                         set.push(c, &g, el);
                     }
                     sets.push(Box::new(set));
+                    if let Some(q) = q1e4 {
+                        sets.push(Box::new(q));
+                    }
                 }
                 ElementFamily::Q1E4 if dim == 2 => {
                     let mut set = Q1e4Set::new(bi, &b.name, b.material);
                     for c in mine {
-                        let nodes = b.mesh.cell(c);
-                        let mut X = [0.0; 8];
-                        for (a, &n) in nodes.iter().enumerate().take(4) {
-                            X[2 * a..2 * a + 2].copy_from_slice(b.mesh.node(n));
-                        }
-                        let el = Q1e4Element::new(&X).map_err(|e| elem_err(c, e.to_string()))?;
-                        let g: Vec<u32> = nodes.iter().map(|&n| n + b.node_offset).collect();
+                        let (el, g) = q1e4_element(b, c).map_err(|m| elem_err(c, m))?;
                         set.push(c, &g, el);
                     }
                     sets.push(Box::new(set));

@@ -8,7 +8,9 @@ use crate::contact::rigid::{RigidMotion, RigidShape};
 use crate::contact::search::Aabb;
 use crate::contact::surface::ContactSurface;
 use crate::contact::{Law, PairDef, Partner};
-use crate::scene::{Algorithm, Case, ContactSpec, LawKind, RigidShapeKind, RigidSpec};
+use crate::scene::{
+    Algorithm, BoxSpec, Case, ContactSpec, LawKind, PenaltyForm, RigidShapeKind, RigidSpec,
+};
 
 fn err(case: &Case, key: String, msg: impl Into<String>) -> ModelError {
     ModelError::Contact {
@@ -146,7 +148,7 @@ pub fn build_contact(
         let used: &[&str] = match spec.law {
             LawKind::Penalty => &["eps_n"],
             LawKind::VanDerWaals => &["a_h", "r0"],
-            LawKind::Cohesive => &["t0", "g0", "eps_n", "debonded"],
+            LawKind::Cohesive => &["t0", "g0", "eps_n", "debonded", "penetration_penalty"],
         };
         let given = [
             ("eps_n", spec.eps_n.is_some()),
@@ -155,6 +157,7 @@ pub fn build_contact(
             ("t0", spec.t0.is_some()),
             ("g0", spec.g0.is_some()),
             ("debonded", spec.debonded.is_some()),
+            ("penetration_penalty", spec.penetration_penalty.is_some()),
         ];
         for (k, g) in given {
             if g && !used.contains(&k) {
@@ -181,19 +184,24 @@ pub fn build_contact(
                 t0: positive(case, key("t0"), spec.t0, "the peak traction")?,
                 g0: positive(case, key("g0"), spec.g0, "the characteristic opening")?,
                 eps_n: positive(case, key("eps_n"), spec.eps_n, "the penalty parameter")?,
+                quadratic: spec.penetration_penalty == Some(PenaltyForm::Quadratic),
             },
         };
-        let debonded = match &spec.debonded {
-            None => None,
-            Some(b) => {
-                let lo = vec3(case, key("debonded.min"), &b.min, dim)?;
-                let hi = vec3(case, key("debonded.max"), &b.max, dim)?;
-                if (0..dim).any(|k| lo[k] > hi[k]) {
-                    return Err(err(case, key("debonded"), "`min` exceeds `max`"));
+        let reference_box = |name: &str, b: &Option<BoxSpec>| -> Result<Option<Aabb>, ModelError> {
+            match b {
+                None => Ok(None),
+                Some(b) => {
+                    let lo = vec3(case, key(&format!("{name}.min")), &b.min, dim)?;
+                    let hi = vec3(case, key(&format!("{name}.max")), &b.max, dim)?;
+                    if (0..dim).any(|k| lo[k] > hi[k]) {
+                        return Err(err(case, key(name), "`min` exceeds `max`"));
+                    }
+                    Ok(Some(Aabb { lo, hi }))
                 }
-                Some(Aabb { lo, hi })
             }
         };
+        let debonded = reference_box("debonded", &spec.debonded)?;
+        let region = reference_box("region", &spec.region)?;
         let h_max = idx.iter().map(|&s| surfaces[s].h).fold(0.0, f64::max);
         let search_distance = match spec.search_distance {
             None => 2.0 * h_max,
@@ -250,6 +258,7 @@ pub fn build_contact(
             search_distance,
             moment_point,
             debonded,
+            region,
             one_pass: spec.algorithm == Algorithm::OnePass && spec.rigid.is_none(),
         });
     }

@@ -55,10 +55,20 @@ pub struct ContactSpec {
     /// Characteristic opening `g0` (> 0) of `cohesive`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub g0: Option<f64>,
+    /// `cohesive`: the form of its penalty against penetration, `linear` (default, `t = -eps_n g_n
+    /// n` like `penalty`) or `quadratic` (`t = eps_n g_n^2 n`, continuous tangent at `g_n = 0`
+    /// where a bonded interface sits; `eps_n` then in force per length^3 in 2D, per length^4 in 3D).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub penetration_penalty: Option<PenaltyForm>,
     /// `cohesive`: the initially debonded part, a box in the reference configuration; quadrature
     /// points inside it carry no cohesive traction (only the penalty against penetration).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub debonded: Option<BoxSpec>,
+    /// Any law: the interacting part, a box in the reference configuration. Only the quadrature
+    /// points of the pair's surfaces inside it are integrated; the others carry no traction at
+    /// all (e.g. adhesion on the left 75 % of a strip, section 4.2). Default: everywhere.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub region: Option<BoxSpec>,
     /// Points farther than this from the partner are not paired (> 0). Default: twice the largest
     /// mean element length of the pair's surfaces.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -76,6 +86,14 @@ pub enum Algorithm {
     #[default]
     TwoHalfPass,
     OnePass,
+}
+
+/// Forms of the cohesive law's penalty against penetration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PenaltyForm {
+    Linear,
+    Quadratic,
 }
 
 /// Contact laws.

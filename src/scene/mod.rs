@@ -19,7 +19,9 @@ pub mod schema;
 pub mod size;
 pub mod validate;
 
-pub use contact_spec::{Algorithm, BoxSpec, ContactSpec, LawKind, RigidShapeKind, RigidSpec};
+pub use contact_spec::{
+    Algorithm, BoxSpec, ContactSpec, LawKind, PenaltyForm, RigidShapeKind, RigidSpec,
+};
 pub use element_family::{ElementFamily, ElementFamilyError};
 pub use error::{Issue, SceneError};
 pub use load::{load_case, parse_case};

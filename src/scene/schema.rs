@@ -220,7 +220,35 @@ pub struct BodySpec {
     /// case file runs every family through `--set bodies.<name>.element=...`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub enriched_surface: Option<String>,
+    /// The element of the cells below an enriched layer (enriched families only): `Q1C1`
+    /// (default) or `Q1E4` (2D: enhanced assumed strain against bending locking, as the peeling
+    /// case of section 4.2 needs; the enriched layer itself gets no enhancement).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bulk: Option<ElementFamily>,
     pub material: MaterialSpec,
+    /// Node sets selected from the mesh by position, by name (see [`NodeSelection`]), added to the
+    /// mesh's own sets. Default: none.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub node_sets: BTreeMap<String, NodeSelection>,
+}
+
+/// `[bodies.<name>.node_sets.<set>]`: the nodes of the reference mesh chosen by position, among
+/// the nodes of the set `within` (a node or face set of the mesh; default: all nodes):
+/// either those inside the box `min`..`max` (each `[dim]`, bounds included), or the one node
+/// nearest to `nearest` (`[dim]`). E.g. the base nodes on the plane x = 0:
+/// `base_x0 = { within = "zmin", min = [-1e-9, -9, -9], max = [1e-9, 9, 9] }`; the midpoint of
+/// a strip's end: `pin = { within = "right", nearest = [20.0, 0.5] }`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NodeSelection {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub within: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min: Option<Vec<f64>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max: Option<Vec<f64>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nearest: Option<Vec<f64>>,
 }
 
 /// `[bodies.<name>.material]`.
@@ -355,6 +383,11 @@ pub struct RotationBc {
     pub center: Vec<f64>,
     /// `[n_stages]`: total rotation angle in degrees reached at the end of each stage.
     pub angle_deg: Vec<f64>,
+    /// `[n_stages][dim]`: rigid translation reached at the end of each stage (linear in a stage),
+    /// applied with the rotation: `x = center + t + R (X - center)`, so the axis moves with the
+    /// set (a rim pressed down, then twisted). Default: none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub translation: Vec<Vec<f64>>,
 }
 
 /// `[[ties]]`: periodic tie of a slave node set to a master node set of one body.

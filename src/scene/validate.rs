@@ -2,6 +2,7 @@
 //! tables, counts that depend on the number of stages, dimension rules). All problems are collected and
 //! reported together, each with its key path.
 
+use crate::scene::element_family::ElementFamily;
 use crate::scene::error::Issue;
 use crate::scene::schema::{BcSpec, Case, Component, Generator, MeshSpec};
 use crate::scene::SceneError;
@@ -372,6 +373,48 @@ fn check_bodies(case: &Case, dim_ok: bool, v: &mut Issues) {
             }
             _ => {}
         }
+        match b.bulk {
+            None | Some(ElementFamily::Q1C1) => {}
+            Some(ElementFamily::Q1E4) if case.case.dim == 2 => {}
+            Some(ElementFamily::Q1E4) => v.push(
+                k("bulk"),
+                "Q1E4 is a 2D element; a 3D body's bulk is Q1C1".to_string(),
+            ),
+            Some(other) => v.push(
+                k("bulk"),
+                format!("the bulk below an enriched layer is Q1C1 or Q1E4, got {other}"),
+            ),
+        }
+        for (set, sel) in &b.node_sets {
+            let ks = |f: &str| format!("bodies.{name}.node_sets.{set}.{f}");
+            let dim = case.case.dim;
+            match (&sel.min, &sel.max, &sel.nearest) {
+                (Some(lo), Some(hi), None) => {
+                    for (f, x) in [("min", lo), ("max", hi)] {
+                        if dim_ok && x.len() != dim {
+                            v.push(ks(f), format!("needs {dim} coordinates, got {}", x.len()));
+                        }
+                        v.finite(ks(f), x);
+                    }
+                    if lo.iter().zip(hi).any(|(a, b)| a > b) {
+                        v.push(ks("min"), "exceeds `max`");
+                    }
+                }
+                (None, None, Some(p)) => {
+                    if dim_ok && p.len() != dim {
+                        v.push(
+                            ks("nearest"),
+                            format!("needs {dim} coordinates, got {}", p.len()),
+                        );
+                    }
+                    v.finite(ks("nearest"), p);
+                }
+                _ => v.push(
+                    format!("bodies.{name}.node_sets.{set}"),
+                    "needs either a box (`min` and `max`) or a point (`nearest`)",
+                ),
+            }
+        }
         let m = &b.material;
         let (e_min, e_max) = YOUNG_RANGE;
         if !(m.E.is_finite() && m.E > 0.0) {
@@ -512,6 +555,24 @@ fn check_bcs(case: &Case, dim_ok: bool, v: &mut Issues) {
                     );
                 }
                 v.finite(k("angle_deg"), &r.angle_deg);
+                if !r.translation.is_empty() && r.translation.len() != n_stages {
+                    v.push(
+                        k("translation"),
+                        format!(
+                            "needs one vector per stage ({n_stages} stages), got {}",
+                            r.translation.len()
+                        ),
+                    );
+                }
+                for (s, t) in r.translation.iter().enumerate() {
+                    if t.len() != dim {
+                        v.push(
+                            format!("bcs.{i}.translation.{s}"),
+                            format!("needs {dim} coordinates, got {}", t.len()),
+                        );
+                    }
+                    v.finite(format!("bcs.{i}.translation.{s}"), t);
+                }
             }
         }
     }
