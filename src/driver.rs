@@ -2,7 +2,7 @@
 //! stepping -> results. `main.rs` only parses the command line and calls [`run_main`] or [`check_main`].
 
 use crate::assembly::{
-    constrained_flags, prescribed_values, Assembler, DofMap, DofMapError, GlobalDof,
+    constrained_flags, prescribed_values, Assembler, DofMap, DofMapError, GlobalDof, NodeOffsets,
 };
 use crate::contact::ContactSystem;
 use crate::io::{self, FieldData, GridDef, HistoryRow, HistoryWriter, ResultsWriter, Summary};
@@ -404,6 +404,19 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
             .map_err(|msg| Error::Usage(format!("{}: contact: {msg}", case.file.display()))),
         )?;
         asm.set_contact(sys, &x, case.solver.contact_pattern_ring)?;
+    }
+    if !model.couplings.is_empty() {
+        let offsets = NodeOffsets::new(&model.couplings, &asm.dofs.rep, &model.coords, model.dim);
+        asm.set_couplings(offsets);
+        let overlap = match asm.coupled_contact_node() {
+            Some(n) => Err(Error::Usage(format!(
+                "{}: node {n} at {:?} moves with a free-translation rotation and carries contact points; the set's reaction moment would miss their force: keep the contact points off it (a contact `region`)",
+                case.file.display(),
+                &model.coords[n as usize * model.dim..(n as usize + 1) * model.dim]
+            ))),
+            None => Ok(()),
+        };
+        agree(comm, overlap)?;
     }
     // Options: code defaults (in Snes::new), then the case's petsc_options, then the command line;
     // inserted before any object reads them (the matrix reads -mat_* at creation).
@@ -913,7 +926,7 @@ impl<'p> Output<'p> {
                 let mut global = vec![0.0; 3 * self.n_cells];
                 root_proc.reduce_into_root(&cells[..], &mut global[..], SystemOperation::sum());
                 if local.is_ok() {
-                    local = self.write_results(rec.load, &global, contact.as_ref());
+                    local = self.write_results(rec.load, &global, contact.as_ref(), asm.offsets());
                 }
             } else {
                 root_proc.reduce_into(&cells[..], SystemOperation::sum());
@@ -928,8 +941,16 @@ impl<'p> Output<'p> {
         load: f64,
         cell_measures: &[f64],
         contact: Option<&(Vec<f64>, Vec<f64>)>,
+        offsets: &NodeOffsets,
     ) -> Result<(), Error> {
         let mut u = self.u_root.read()?.to_vec();
+        // rigidly coupled nodes: the representative's displacement plus the rotation's offset
+        for s in 0..offsets.len() {
+            let n = offsets.node(s) as usize;
+            for c in 0..self.dim {
+                u[n * self.dim + c] += offsets.value(s, c);
+            }
+        }
         for (n, _) in self.without_unknowns.iter().enumerate().filter(|(_, &w)| w) {
             u[n * self.dim..(n + 1) * self.dim].fill(0.0);
         }

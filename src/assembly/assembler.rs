@@ -6,6 +6,7 @@
 //! is the identity, so Newton drives them to the prescribed value even from a guess that misses it.
 //! Element contributions to those rows are dropped in the COO pattern (negative row index).
 
+use super::coupling::NodeOffsets;
 use super::dofmap::{DofMap, GlobalDof};
 use super::element_set::{ElementFailure, ElementSet};
 use super::sink::{CooSink, MatrixSink};
@@ -105,6 +106,27 @@ pub struct Assembler<'p> {
     u_e: Vec<f64>,
     r_e: Vec<f64>,
     k_e: Vec<f64>,
+    /// Offsets of rigidly coupled nodes (empty without couplings).
+    offsets: NodeOffsets,
+    /// Per element set, per element unknown: `slot * dim + c` of a coupled node, `u32::MAX`
+    /// otherwise (empty without couplings).
+    rslot: Vec<Vec<u32>>,
+    /// Element forces on each coupled node at the last evaluation, this rank's elements.
+    /// [n_slots][dim]
+    node_force: Vec<f64>,
+    /// Contact-surface displacements with the coupled nodes' offsets added.
+    u_table_off: Vec<f64>,
+}
+
+/// Adds the coupled nodes' offsets to an element's unknowns (`slots` from `Assembler::rslot`).
+fn add_offsets(offsets: &NodeOffsets, slots: &[u32], u_e: &mut [f64]) {
+    let dim_slots = slots.iter().zip(u_e.iter_mut());
+    for (&s, u) in dim_slots {
+        if s != u32::MAX {
+            let dim = offsets.dim();
+            *u += offsets.value(s as usize / dim, s as usize % dim);
+        }
+    }
 }
 
 fn fatal(e: PetscError) -> ProblemError {
@@ -175,7 +197,46 @@ impl<'p> Assembler<'p> {
             u_e: vec![0.0; max_n],
             r_e: vec![0.0; max_n],
             k_e: vec![0.0; max_n * max_n],
+            offsets: NodeOffsets::default(),
+            rslot: Vec::new(),
+            node_force: Vec::new(),
+            u_table_off: Vec::new(),
         })
+    }
+
+    /// Adds rigid couplings: the offsets of their nodes relative to the tie representatives.
+    pub fn set_couplings(&mut self, offsets: NodeOffsets) {
+        let dim = self.dofs.dim;
+        self.rslot = self
+            .sets
+            .iter()
+            .map(|set| {
+                (0..set.len())
+                    .flat_map(|e| set.nodes(e).to_vec())
+                    .flat_map(|n| {
+                        let s = offsets.slot(n);
+                        (0..dim).map(move |c| s.map_or(u32::MAX, |s| (s * dim + c) as u32))
+                    })
+                    .collect()
+            })
+            .collect();
+        self.node_force = vec![0.0; offsets.len() * dim];
+        self.offsets = offsets;
+    }
+
+    /// The rigid couplings' offsets at the current load.
+    pub fn offsets(&self) -> &NodeOffsets {
+        &self.offsets
+    }
+
+    /// A rigidly coupled node on which this rank's contact points may put a force, if any: the
+    /// coupling's reaction moment counts element forces only, so such overlaps are refused.
+    pub fn coupled_contact_node(&self) -> Option<u32> {
+        let c = self.contact.as_ref()?;
+        c.sys
+            .loaded_nodes()
+            .into_iter()
+            .find(|&n| self.offsets.slot(n).is_some())
     }
 
     /// Sets the values of the owned constrained unknowns for the next solve.
@@ -276,6 +337,7 @@ impl<'p> Assembler<'p> {
 
     /// Sets the load parameter (rigid contact partners move with it).
     pub fn set_load(&mut self, lambda: f64) {
+        self.offsets.set_load(lambda);
         if let Some(c) = &mut self.contact {
             c.sys.set_load(lambda);
         }
@@ -292,8 +354,22 @@ impl<'p> Assembler<'p> {
         let t0 = Instant::now();
         c.scatter.gather(x, &mut c.u_table).map_err(fatal)?;
         let u = c.u_table.read().map_err(fatal)?;
-        let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| c.sys.update(&u)));
-        drop(u);
+        let u: &[f64] = if self.offsets.is_empty() {
+            &u
+        } else {
+            let dim = self.dofs.dim;
+            self.u_table_off.clear();
+            self.u_table_off.extend_from_slice(&u);
+            for (t, &n) in c.sys.table().iter().enumerate() {
+                if let Some(s) = self.offsets.slot(n) {
+                    for k in 0..dim {
+                        self.u_table_off[t * dim + k] += self.offsets.value(s, k);
+                    }
+                }
+            }
+            &self.u_table_off
+        };
+        let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| c.sys.update(u)));
         self.timers.contact += t0.elapsed().as_secs_f64();
         match out {
             Ok(Ok(())) => Ok(()),
@@ -437,13 +513,18 @@ impl<'p> Assembler<'p> {
         let mut failure = None;
         let mut slot = 0;
         let mut sink = sink;
-        'sets: for (set, r) in self.sets.iter_mut().zip(&self.restrict) {
+        self.node_force.fill(0.0);
+        let coupled = !self.offsets.is_empty();
+        'sets: for (si, (set, r)) in self.sets.iter_mut().zip(&self.restrict).enumerate() {
             for e in 0..set.len() {
                 let (a, b) = (r.offsets[e], r.offsets[e + 1]);
                 let n = b - a;
                 let loc = &r.local[a..b];
                 for (k, &l) in loc.iter().enumerate() {
                     self.u_e[k] = xl[l as usize];
+                }
+                if coupled {
+                    add_offsets(&self.offsets, &self.rslot[si][a..b], &mut self.u_e[..n]);
                 }
                 let k_e = if sink.is_some() {
                     Some(&mut self.k_e[..n * n])
@@ -456,6 +537,13 @@ impl<'p> Assembler<'p> {
                 }
                 for (k, &l) in loc.iter().enumerate() {
                     fl[l as usize] += self.r_e[k];
+                }
+                if coupled {
+                    for (k, &s) in self.rslot[si][a..b].iter().enumerate() {
+                        if s != u32::MAX {
+                            self.node_force[s as usize] += self.r_e[k];
+                        }
+                    }
                 }
                 if let Some(s) = sink.as_deref_mut() {
                     s.add(slot, &r.global[a..b], &self.k_e[..n * n]);
@@ -619,6 +707,9 @@ impl<'p> Assembler<'p> {
         center: [f64; 3],
     ) -> Result<[f64; 3], PetscError> {
         let dim = self.dofs.dim;
+        if !nodes.is_empty() && nodes.iter().all(|&n| self.offsets.slot(n).is_some()) {
+            return Ok(self.coupled_moment(nodes, coords, center));
+        }
         let (lo, hi) = self.dofs.owned_range();
         let mut reps: Vec<u32> = nodes.iter().map(|&n| self.dofs.rep[n as usize]).collect();
         reps.sort_unstable();
@@ -650,6 +741,47 @@ impl<'p> Assembler<'p> {
         Ok(global)
     }
 
+    /// Moment about `center` of the forces on rigidly coupled `nodes`: each node's own element
+    /// force (which the tie sums into the representative's row) at its current position, from the
+    /// last evaluation (its ghosted displacement and this rank's element forces; the ranks' parts
+    /// add up).
+    ///
+    /// Collective.
+    fn coupled_moment(&self, nodes: &[u32], coords: &[f64], center: [f64; 3]) -> [f64; 3] {
+        let dim = self.dofs.dim;
+        let mut local = [0.0; 3];
+        if let Ok(xl) = self.x_local.read() {
+            for &n in nodes {
+                let Some(s) = self.offsets.slot(n) else {
+                    continue;
+                };
+                let f = &self.node_force[s * dim..(s + 1) * dim];
+                if f.iter().all(|&v| v == 0.0) {
+                    continue;
+                }
+                let rep = self.dofs.rep[n as usize];
+                let (mut r, mut d) = ([0.0; 3], [0.0; 3]);
+                for c in 0..dim {
+                    let u = self
+                        .dofs
+                        .global(rep, c)
+                        .and_then(|g| self.dofs.local(g))
+                        .map_or(0.0, |l| xl[l.0 as usize]);
+                    r[c] = f[c];
+                    d[c] = coords[n as usize * dim + c] + u + self.offsets.value(s, c) - center[c];
+                }
+                local[0] += d[1] * r[2] - d[2] * r[1];
+                local[1] += d[2] * r[0] - d[0] * r[2];
+                local[2] += d[0] * r[1] - d[1] * r[0];
+            }
+        }
+        let mut global = [0.0; 3];
+        self.petsc
+            .comm()
+            .all_reduce_into(&local[..], &mut global[..], SystemOperation::sum());
+        global
+    }
+
     /// Element stress measures of every owned element: (body, cell, tr sigma, von Mises). An element
     /// whose measures cannot be evaluated reports NaN rather than failing, so that the collective
     /// output that follows stays in step on every rank.
@@ -662,11 +794,14 @@ impl<'p> Assembler<'p> {
         self.scatter.gather(x, &mut self.x_local)?;
         let xl = self.x_local.read()?;
         let mut out = Vec::new();
-        for (set, r) in self.sets.iter().zip(&self.restrict) {
+        for (si, (set, r)) in self.sets.iter().zip(&self.restrict).enumerate() {
             for e in 0..set.len() {
                 let (a, b) = (r.offsets[e], r.offsets[e + 1]);
                 for (k, &l) in r.local[a..b].iter().enumerate() {
                     self.u_e[k] = xl[l as usize];
+                }
+                if !self.offsets.is_empty() {
+                    add_offsets(&self.offsets, &self.rslot[si][a..b], &mut self.u_e[..b - a]);
                 }
                 let (tr, vm) = set
                     .stress_measures(e, &self.u_e[..b - a])

@@ -2,12 +2,14 @@
 //! ([`element_set`]), matrix sinks ([`sink`]) and the nonlinear system SNES solves ([`assembler`]).
 
 pub mod assembler;
+pub mod coupling;
 pub mod dirichlet;
 pub mod dofmap;
 pub mod element_set;
 pub mod sink;
 
 pub use assembler::{Assembler, MatrixAssembly, Timers};
+pub use coupling::{NodeOffsets, RigidCoupling};
 pub use dirichlet::{
     constrained_flags, prescribed_values, ConflictError, DirichletBc, Prescription,
 };

@@ -1061,6 +1061,27 @@ impl ContactSystem {
         &self.r_table
     }
 
+    /// Global nodes on which this rank's contact points may put a force: the nodes of every own
+    /// element that carries points, and every node of a one-pass pair's master surface.
+    pub fn loaded_nodes(&self) -> Vec<u32> {
+        let mut out = Vec::new();
+        for pair in &self.pairs {
+            for pass in &pair.passes {
+                for oe in pass.elems.iter().filter(|oe| oe.n > 0) {
+                    out.extend_from_slice(&self.surfaces[pass.k].elements[oe.e as usize].nodes);
+                }
+                if let (true, Partner::Surface(l)) = (pair.def.one_pass, &pass.partner) {
+                    for el in &self.surfaces[*l].elements {
+                        out.extend_from_slice(&el.nodes);
+                    }
+                }
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
     /// True when some pair is one-pass (its master rows go back through the table).
     pub fn has_one_pass(&self) -> bool {
         self.pairs.iter().any(|p| p.def.one_pass)

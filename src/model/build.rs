@@ -1,7 +1,7 @@
 //! Building a [`Model`] from a validated [`Case`].
 
 use super::enrich::{build_enrichment, EnrichedCell, Enrichment};
-use crate::assembly::{DirichletBc, ElementSet, Prescription};
+use crate::assembly::{DirichletBc, ElementSet, Prescription, RigidCoupling};
 use crate::fem::kernel::TlElement;
 use crate::fem::q1e4::Q1e4Element;
 use crate::fem::quadrature::tensor_rule;
@@ -176,8 +176,11 @@ pub struct Model {
     pub cell_body: Vec<u32>,
     /// Dirichlet conditions over global nodes.
     pub bcs: Vec<DirichletBc>,
-    /// Periodic ties `(slave, master)` over global nodes.
+    /// Periodic ties `(slave, master)` over global nodes (including those of rigid couplings).
     pub ties: Vec<(u32, u32)>,
+    /// Node sets moving rigidly with a prescribed rotation and a free translation; their nodes
+    /// are tied (in `ties`) and move with the offsets of [`crate::assembly::NodeOffsets`].
+    pub couplings: Vec<RigidCoupling>,
     /// Reaction sets for the history: (column label `<body>_<set>`, global nodes).
     pub reactions: Vec<(String, Vec<u32>)>,
     /// Reaction sets whose moment the history reports: (label, global nodes, point [3]).
@@ -469,6 +472,7 @@ impl Model {
         }
 
         let mut bcs = Vec::new();
+        let mut couplings = Vec::new();
         for (i, bc) in case.bcs.iter().enumerate() {
             let body = find(bc.body()).ok_or_else(|| ModelError::Unsupported {
                 file: case.file.clone(),
@@ -486,6 +490,19 @@ impl Model {
                     d.components(dim).iter().map(|c| c.index()).collect(),
                     Prescription::Displacement(d.value.clone()),
                 ),
+                BcSpec::Rotation(r) if r.free_translation => {
+                    // a rigid coupling: no prescribed component, the rotation enters as offsets
+                    // of the tied nodes (the empty condition keeps `bcs` aligned with the case)
+                    let a = r.axis.unwrap_or([0.0, 0.0, 1.0]);
+                    let norm = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+                    couplings.push(RigidCoupling {
+                        label: label.clone(),
+                        nodes: nodes.clone(),
+                        axis: a.map(|x| x / norm),
+                        angles: r.angle_deg.iter().map(|d| d.to_radians()).collect(),
+                    });
+                    (Vec::new(), Prescription::Fixed)
+                }
                 BcSpec::Rotation(r) => {
                     let a = r.axis.unwrap_or([0.0, 0.0, 1.0]);
                     let norm = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
@@ -584,6 +601,49 @@ impl Model {
             }
         }
 
+        // A rigidly coupled node shares the unknowns of its coupling's first node; it may not be
+        // prescribed or tied otherwise (that would move the whole set, or break its rigidity).
+        for (ci, c) in couplings.iter().enumerate() {
+            let coupled: std::collections::HashSet<u32> = c.nodes.iter().copied().collect();
+            let other = bcs
+                .iter()
+                .filter(|b| !b.components.is_empty())
+                .find_map(|b| {
+                    b.nodes
+                        .iter()
+                        .find(|n| coupled.contains(n))
+                        .map(|&n| (n, &b.label))
+                })
+                .map(|(n, l)| (n, l.clone()))
+                .or_else(|| {
+                    ties.iter()
+                        .find_map(|&(a, b)| [a, b].into_iter().find(|n| coupled.contains(n)))
+                        .map(|n| (n, "a periodic tie".to_string()))
+                })
+                .or_else(|| {
+                    couplings[..ci].iter().find_map(|o| {
+                        o.nodes
+                            .iter()
+                            .find(|n| coupled.contains(n))
+                            .map(|&n| (n, o.label.clone()))
+                    })
+                });
+            if let Some((n, by)) = other {
+                return Err(ModelError::Unsupported {
+                    file: case.file.clone(),
+                    key: c.label.split(' ').next().unwrap_or("bcs").to_string(),
+                    msg: format!(
+                        "node {n} at {:?} moves with the free-translation rotation {} and is also constrained by {by}; a rigidly coupled set may not overlap other conditions or ties",
+                        &coords[n as usize * dim..(n as usize + 1) * dim],
+                        c.label
+                    ),
+                });
+            }
+            if let Some(&first) = c.nodes.first() {
+                ties.extend(c.nodes[1..].iter().map(|&n| (n, first)));
+            }
+        }
+
         let mut reactions = Vec::new();
         let mut reaction_moments = Vec::new();
         for (i, r) in case.output.reactions.iter().enumerate() {
@@ -614,6 +674,7 @@ impl Model {
             cell_body,
             bcs,
             ties,
+            couplings,
             reactions,
             reaction_moments,
             contact_surfaces: Vec::new(),

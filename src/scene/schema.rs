@@ -388,6 +388,12 @@ pub struct RotationBc {
     /// set (a rim pressed down, then twisted). Default: none.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub translation: Vec<Vec<f64>>,
+    /// The rotation is prescribed but the translation is free: the set moves rigidly, as a rigid
+    /// end loaded by a pure moment (the peeling strip's end, which must lift as the strip peels).
+    /// Its nodes share the unknowns of one node; the reaction force on the set is zero and its
+    /// reaction moment is the applied moment. Excludes `translation`. Default: false.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub free_translation: bool,
 }
 
 /// `[[ties]]`: periodic tie of a slave node set to a master node set of one body.

@@ -573,6 +573,12 @@ fn check_bcs(case: &Case, dim_ok: bool, v: &mut Issues) {
                     }
                     v.finite(format!("bcs.{i}.translation.{s}"), t);
                 }
+                if r.free_translation && !r.translation.is_empty() {
+                    v.push(
+                        k("free_translation"),
+                        "a free translation cannot also be prescribed: remove `translation`",
+                    );
+                }
             }
         }
     }
