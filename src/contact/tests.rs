@@ -448,6 +448,11 @@ fn van_der_waals_and_cohesive_tangents_match_central_differences_in_3d() {
 
 /// A surface against a rigid partner: one body, one surface.
 fn case_rigid(dim: usize, family: &str, rigid: &str) -> String {
+    case_rigid_law(dim, family, rigid, "law = \"penalty\"\neps_n = 100.0")
+}
+
+/// [`case_rigid`] with another contact law (its keys as TOML lines).
+fn case_rigid_law(dim: usize, family: &str, rigid: &str, law: &str) -> String {
     let (mesh, set) = if dim == 2 {
         (
             "generator = \"half_disk\"\ncenter = [0.0, 1.0]\nradius = 1.0\nn_arc = 8\nn_radial = 1",
@@ -477,8 +482,7 @@ nu = 0.3
 [[contact]]
 surfaces = ["b.{set}"]
 rigid = {rigid}
-law = "penalty"
-eps_n = 100.0
+{law}
 [[stages]]
 name = "s"
 steps = 1
@@ -774,4 +778,76 @@ fn a_projection_that_fails_on_every_candidate_is_an_error_for_the_step() {
     // and a finite state projects again
     let ut: Vec<f64> = h.table.iter().map(|&g| u[g as usize]).collect();
     h.sys.update(&ut).expect("finite state");
+}
+
+#[test]
+fn van_der_waals_tangent_against_rigid_partners_matches_central_differences() {
+    // the surface held a little above each rigid partner, within the adhesion range: every
+    // family in 2D, both 3D families
+    let law = "law = \"van_der_waals\"\na_h = 1.0\nr0 = 0.3\nsearch_distance = 1.0";
+    let rigid_2d = [
+        "{ shape = \"plane\", point = [0.0, 0.0], normal = [0.2, 1.0] }",
+        "{ shape = \"circle\", center = [0.3, -2.0], radius = 2.0 }",
+    ];
+    for fam in FAMILIES_2D {
+        for r in rigid_2d {
+            let mut h = Harness::new(&case_rigid_law(2, fam, r, law));
+            let u = h
+                .displacement(&|_, _| vec![0.05, 0.12])
+                .iter()
+                .enumerate()
+                .map(|(i, v)| v + 2e-3 * rnd(&mut (i as u64 + 3)))
+                .collect::<Vec<_>>();
+            let (err, kmax) = tangent_error(&mut h, &u);
+            assert!(kmax > 1e-3, "{fam} {r}: no adhesion stiffness ({kmax})");
+            assert!(err < 1e-6, "{fam} {r}: tangent error {err:e}");
+        }
+    }
+    let rigid_3d = [
+        "{ shape = \"plane\", point = [0.0, 0.0, 0.0], normal = [0.1, -0.2, 1.0] }",
+        "{ shape = \"sphere\", center = [0.2, 0.1, -3.0], radius = 3.0 }",
+    ];
+    for fam in ["Q1C1", "Q1N2"] {
+        for r in rigid_3d {
+            let mut h = Harness::new(&case_rigid_law(3, fam, r, law));
+            let u = h
+                .displacement(&|_, _| vec![0.02, 0.01, 0.15])
+                .iter()
+                .enumerate()
+                .map(|(i, v)| v + 2e-3 * rnd(&mut (i as u64 + 5)))
+                .collect::<Vec<_>>();
+            let (err, kmax) = tangent_error(&mut h, &u);
+            assert!(kmax > 1e-3, "{fam} {r}: no adhesion stiffness ({kmax})");
+            assert!(err < 1e-6, "{fam} {r}: tangent error {err:e}");
+        }
+    }
+}
+
+#[test]
+fn adhesive_and_cohesive_tangents_match_central_differences_for_every_2d_family_on_either_side() {
+    // each family once as the block and once as the disk, against a Q1N2 partner, with points
+    // projecting across element boundaries (the sideways shift)
+    let laws = [
+        (
+            "van_der_waals",
+            "law = \"van_der_waals\"\na_h = 1.0\nr0 = 0.3\nsearch_distance = 1.0",
+            -0.05,
+        ),
+        (
+            "cohesive",
+            "law = \"cohesive\"\nt0 = 0.2\ng0 = 0.05\neps_n = 50.0\nsearch_distance = 0.3",
+            -0.03,
+        ),
+    ];
+    for (name, law, depth) in laws {
+        for fam in FAMILIES_2D {
+            for (block, disk) in [(fam, "Q1N2"), ("Q1N2", fam)] {
+                let mut h = Harness::new(&case_2d(block, disk, law));
+                let u = pressed(&h, depth, 0.09, 2e-3, 13);
+                let (err, kmax) = tangent_error(&mut h, &u);
+                assert!(kmax > 1e-3, "{name} {block}/{disk}: no stiffness ({kmax})");
+                assert!(err < 1e-6, "{name} {block}/{disk}: tangent error {err:e}");
+            }
+        }
+    }
 }
