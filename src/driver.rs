@@ -448,6 +448,7 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
         max_cutbacks: case.steps.max_cutbacks as usize,
         growth: case.steps.growth,
         easy_iterations: case.steps.easy_iterations as usize,
+        pseudo_steps: case.steps.pseudo_steps as usize,
     };
 
     // Output on rank 0: the whole displacement is gathered there at each written step.
@@ -476,6 +477,7 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
             cutbacks: rec.cutbacks as u32,
             residual_history: rec.residual_history.clone(),
             failed_attempts: rec.failed_attempts.clone(),
+            pseudo_steps: rec.pseudo_steps,
         });
         let reactions: Vec<f64> = model
             .reactions
@@ -528,6 +530,9 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
                     "step {:4}  stage {}  load {:.6}  newton {:2}  |F| {:.3e}  cutbacks {}",
                     rec.step, rec.stage, rec.load, rec.iterations, rec.residual, rec.cutbacks
                 );
+                if rec.pseudo_steps > 0 {
+                    line += &format!("  (rescued by {} damped pseudo-steps)", rec.pseudo_steps);
+                }
                 if v >= Verbosity::Verbose {
                     let h: Vec<String> = rec
                         .residual_history

@@ -116,6 +116,36 @@ pub struct Assembler<'p> {
     node_force: Vec<f64>,
     /// Contact-surface displacements with the coupled nodes' offsets added.
     u_table_off: Vec<f64>,
+    /// Pseudo-transient damping `c D (u - u_prev)` on the free owned rows (c = 0: off).
+    stab_c: f64,
+    /// `D`: the assembled diagonal of the stiffness at the state it was computed. [n_owned]
+    stab_diag: Vec<f64>,
+    /// `u_prev` on the owned rows. [n_owned]
+    stab_prev: Vec<f64>,
+}
+
+/// Collects the diagonal entries of element and contact matrices by global row. [n_global]
+struct DiagSink {
+    diag: Vec<f64>,
+}
+
+impl MatrixSink for DiagSink {
+    fn add(&mut self, slot: usize, dofs: &[i32], k_e: &[f64]) {
+        self.add_block(slot, dofs, dofs, k_e);
+    }
+    fn add_block(&mut self, _slot: usize, rows: &[i32], cols: &[i32], k: &[f64]) {
+        let m = cols.len();
+        for (a, &i) in rows.iter().enumerate() {
+            if i < 0 {
+                continue;
+            }
+            for (b, &j) in cols.iter().enumerate() {
+                if i == j {
+                    self.diag[i as usize] += k[a * m + b];
+                }
+            }
+        }
+    }
 }
 
 /// Adds the coupled nodes' offsets to an element's unknowns (`slots` from `Assembler::rslot`).
@@ -201,7 +231,70 @@ impl<'p> Assembler<'p> {
             rslot: Vec::new(),
             node_force: Vec::new(),
             u_table_off: Vec::new(),
+            stab_c: 0.0,
+            stab_diag: Vec::new(),
+            stab_prev: Vec::new(),
         })
+    }
+
+    /// Computes `D`, the assembled diagonal of the stiffness at `x` (elements and contact), for
+    /// [`Assembler::set_damping`]. Entries are floored at `1e-12` of the largest so that `D > 0`.
+    ///
+    /// Collective.
+    pub fn compute_damping_diagonal(&mut self, x: &Vector) -> Result<(), ProblemError> {
+        let cu = self.prepare_contact(x, false);
+        self.agree(cu)?;
+        let mut sink = DiagSink {
+            diag: vec![0.0; self.dofs.n_global()],
+        };
+        let local = self.guarded_loop(x, Some(&mut sink));
+        self.agree(local)?;
+        let mut global: Vec<f64> = vec![0.0; sink.diag.len()];
+        self.petsc
+            .comm()
+            .all_reduce_into(&sink.diag[..], &mut global[..], SystemOperation::sum());
+        let (lo, hi) = self.dofs.owned_range();
+        let max = global.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        self.stab_diag = global[lo as usize..hi as usize]
+            .iter()
+            .map(|d| d.abs().max(1e-12 * max).max(f64::MIN_POSITIVE))
+            .collect();
+        Ok(())
+    }
+
+    /// Turns the pseudo-transient damping on (`c > 0`, about the state `u_prev`, with the diagonal
+    /// of the last [`Assembler::compute_damping_diagonal`]) or off (`c = 0`). The residual gains
+    /// `c D_i (u_i - u_prev_i)` and the Jacobian `c D_i` on every free owned row; reactions
+    /// (`raw_residual`) do not see it.
+    pub fn set_damping(&mut self, c: f64, u_prev: &Vector) -> Result<(), PetscError> {
+        self.stab_c = if self.stab_diag.is_empty() { 0.0 } else { c };
+        self.stab_prev.clear();
+        if self.stab_c > 0.0 {
+            self.stab_prev.extend_from_slice(&u_prev.read()?);
+        }
+        Ok(())
+    }
+
+    /// The damping force `|c D (u - u_prev)|` (2-norm over all ranks) at `x`, zero when off.
+    ///
+    /// Collective.
+    pub fn damping_force_norm(&self, x: &Vector) -> Result<f64, PetscError> {
+        let mut local = 0.0f64;
+        if self.stab_c > 0.0 {
+            let xa = x.read()?;
+            let (lo, _) = self.dofs.owned_range();
+            for i in 0..xa.len() {
+                if !self.constrained[lo as usize + i] {
+                    let f = self.stab_c * self.stab_diag[i] * (xa[i] - self.stab_prev[i]);
+                    local += f * f;
+                }
+            }
+        }
+        let mut global = 0.0f64;
+        self.petsc
+            .comm()
+            .all_reduce_into(&local, &mut global, SystemOperation::sum());
+        Ok(global.sqrt())
     }
 
     /// Adds rigid couplings: the offsets of their nodes relative to the tie representatives.
@@ -428,12 +521,11 @@ impl<'p> Assembler<'p> {
                         self.coo_offsets.push(rows.len());
                     }
                 }
-                // Identity rows of the owned constrained unknowns, in a final block.
+                // A final block with the diagonal of every owned row: identity rows of the
+                // constrained unknowns, the pseudo-transient damping (or zero) on the free ones.
                 for g in lo..hi {
-                    if self.constrained[g as usize] {
-                        rows.push(g);
-                        cols.push(g);
-                    }
+                    rows.push(g);
+                    cols.push(g);
                 }
                 self.coo_offsets.push(rows.len());
                 self.coo_values = vec![0.0; rows.len()];
@@ -867,6 +959,14 @@ impl NonlinearProblem for Assembler<'_> {
             let xa = x.read().map_err(fatal)?;
             let mut fa = f.write().map_err(fatal)?;
             self.raw_residual.copy_from_slice(&fa);
+            if self.stab_c > 0.0 {
+                let (lo, _) = self.dofs.owned_range();
+                for i in 0..fa.len() {
+                    if !self.constrained[lo as usize + i] {
+                        fa[i] += self.stab_c * self.stab_diag[i] * (xa[i] - self.stab_prev[i]);
+                    }
+                }
+            }
             for &(i, v) in &self.prescribed {
                 fa[i] = xa[i] - v;
             }
@@ -899,9 +999,18 @@ impl NonlinearProblem for Assembler<'_> {
                     };
                     self.guarded_loop(x, Some(&mut sink))
                 };
-                // Identity rows of the constrained unknowns.
+                // Identity rows of the constrained unknowns, damping on the free ones.
                 let tail = offsets[offsets.len() - 2];
-                values[tail..].fill(1.0);
+                let (lo, _) = self.dofs.owned_range();
+                for (i, v) in values[tail..].iter_mut().enumerate() {
+                    *v = if self.constrained[lo as usize + i] {
+                        1.0
+                    } else if self.stab_c > 0.0 {
+                        self.stab_c * self.stab_diag[i]
+                    } else {
+                        0.0
+                    };
+                }
                 self.coo_values = values;
                 self.coo_offsets = offsets;
                 res
@@ -936,8 +1045,12 @@ impl NonlinearProblem for Assembler<'_> {
             MatrixAssembly::Preallocated => {
                 let (lo, hi) = self.dofs.owned_range();
                 for g in lo..hi {
+                    let i = (g - lo) as usize;
                     if self.constrained[g as usize] {
                         j.add_values(&[g], &[g], &[1.0]).map_err(fatal)?;
+                    } else if self.stab_c > 0.0 {
+                        j.add_values(&[g], &[g], &[self.stab_c * self.stab_diag[i]])
+                            .map_err(fatal)?;
                     }
                 }
                 j.assemble().map_err(fatal)?;

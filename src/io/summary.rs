@@ -64,6 +64,13 @@ pub struct StepLog {
     /// Attempts cut back before the step converged: `[load tried, reason]`.
     #[serde(default)]
     pub failed_attempts: Vec<(f64, String)>,
+    /// Damped pseudo-steps that rescued the step (0: a plain Newton solve).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub pseudo_steps: usize,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 /// How the run ended: `"status": "converged"` or `"status": "failed", "reason": "..."`.
@@ -156,6 +163,7 @@ mod tests {
                 cutbacks: 1,
                 residual_history: vec![1.0, 1e-3, 1e-9],
                 failed_attempts: vec![(1.0, "DIVERGED_LINE_SEARCH".into())],
+                pseudo_steps: 0,
             }],
             status,
         }

@@ -436,6 +436,14 @@ pub struct StepControl {
     /// A step converging in at most this many Newton iterations is easy. Default: 4.
     #[serde(default = "default_easy_iterations")]
     pub easy_iterations: u32,
+    /// Pseudo-transient rescue of a step that fails at the smallest increment (a snap-through, e.g.
+    /// a peeling front jumping): at that load, up to this many damped solves (a viscous term
+    /// `c D (u - u_prev)`, `D` the diagonal of the element stiffness) let the state flow towards
+    /// the next equilibrium, each followed by an undamped Newton solve; the step is accepted only
+    /// when an undamped solve converges, so accepted states are equilibria. 0 disables it.
+    /// Default: 200.
+    #[serde(default = "default_pseudo_steps")]
+    pub pseudo_steps: u32,
 }
 
 fn default_max_cutbacks() -> u32 {
@@ -447,6 +455,9 @@ fn default_growth() -> f64 {
 fn default_easy_iterations() -> u32 {
     4
 }
+fn default_pseudo_steps() -> u32 {
+    200
+}
 
 impl Default for StepControl {
     fn default() -> Self {
@@ -454,6 +465,7 @@ impl Default for StepControl {
             max_cutbacks: default_max_cutbacks(),
             growth: default_growth(),
             easy_iterations: default_easy_iterations(),
+            pseudo_steps: default_pseudo_steps(),
         }
     }
 }

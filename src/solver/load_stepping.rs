@@ -8,7 +8,7 @@
 //! increment grows back by `growth`, never beyond the nominal one.
 
 use crate::assembly::{prescribed_values, Assembler, ConflictError, DirichletBc};
-use crate::petsc::{Matrix, PetscError, Snes, Vector};
+use crate::petsc::{Matrix, PetscError, Snes, SolveOutcome, Vector};
 use std::time::Instant;
 
 /// Newton solves of one attempt that may stop for a new contact sparsity pattern and resume.
@@ -26,6 +26,9 @@ pub struct StepControl {
     pub growth: f64,
     /// A step converging in at most this many Newton iterations is easy.
     pub easy_iterations: usize,
+    /// Damped (pseudo-transient) solves allowed to rescue a step that fails at the minimum
+    /// increment; 0: none (see [`rescue`]).
+    pub pseudo_steps: usize,
 }
 
 /// One converged load step.
@@ -49,6 +52,8 @@ pub struct StepRecord {
     pub failed_attempts: Vec<(f64, String)>,
     /// Wall time of this step, all attempts (s).
     pub wall_time: f64,
+    /// Damped pseudo-steps that carried this step to its equilibrium (0: a plain Newton solve).
+    pub pseudo_steps: usize,
 }
 
 /// Why the load stepping stopped.
@@ -107,6 +112,7 @@ pub fn run_load_steps<'p>(
         let mut pattern_retries = 0;
         // iterations of solves that stopped for a new contact pattern and were resumed
         let mut resumed_iterations = 0;
+        let mut pseudo = 0;
         let (out, target) = loop {
             let target = sizer.target();
             let values = prescribed_values(bcs, &asm.dofs, coords, target)?;
@@ -138,6 +144,14 @@ pub fn run_load_steps<'p>(
                 .unwrap_or_else(|| out.reason.clone());
             failed_attempts.push((target, why));
             if let Err(min) = sizer.cut_back() {
+                if control.pseudo_steps > 0 {
+                    if let Some((out, k)) =
+                        rescue(asm, snes, x, &x_conv, jac, control.pseudo_steps)?
+                    {
+                        pseudo = k;
+                        break (out, target);
+                    }
+                }
                 return Err(SolverError::StepFailed {
                     step: step + 1,
                     stage,
@@ -166,11 +180,122 @@ pub fn run_load_steps<'p>(
             residual_history: out.residual_history,
             failed_attempts,
             wall_time: t_step.elapsed().as_secs_f64(),
+            pseudo_steps: pseudo,
         };
         observer(&rec, x, asm).map_err(SolverError::Observer)?;
         records.push(rec);
     }
     Ok(records)
+}
+
+/// One Newton solve from `x` that may stop for a new contact sparsity pattern and resume.
+fn solve_resuming<'p>(
+    asm: &mut Assembler<'p>,
+    snes: &mut Snes<'p>,
+    x: &mut Vector<'p>,
+    jac: &mut Matrix<'p>,
+) -> Result<SolveOutcome, SolverError> {
+    let mut iterations = 0;
+    for _ in 0..=MAX_PATTERN_RETRIES {
+        asm.refresh_pattern(x, jac)?;
+        let mut out = snes.solve(asm, x, jac)?;
+        iterations += out.iterations;
+        if out.converged || !asm.pattern_outdated() {
+            out.iterations = iterations;
+            return Ok(out);
+        }
+    }
+    let mut out = snes.solve(asm, x, jac)?;
+    out.iterations += iterations;
+    Ok(out)
+}
+
+/// Pseudo-transient rescue of a step that failed at the smallest increment, at the load already
+/// set (its prescribed values and load parameter): a snap-through has no equilibrium near the last
+/// one, so Newton from it diverges however small the step. Damped solves of
+/// `F(u) + c D (u - u_prev) = 0` (`D` the stiffness diagonal at the converged state, `c` adapted:
+/// divided by 2 after a damped solve converges, multiplied by 8 after one fails) let the state
+/// flow towards the next equilibrium, one `u_prev` after another; after each, an undamped Newton
+/// solve is tried from there, and the first that converges ends the rescue with a true
+/// equilibrium. Returns that solve and the number of damped solves, or `None` when `max_steps`
+/// damped solves did not reach one (`x` is then back at the converged state; the run stops).
+///
+/// Collective.
+fn rescue<'p>(
+    asm: &mut Assembler<'p>,
+    snes: &mut Snes<'p>,
+    x: &mut Vector<'p>,
+    x_conv: &Vector<'p>,
+    jac: &mut Matrix<'p>,
+    max_steps: usize,
+) -> Result<Option<(SolveOutcome, usize)>, SolverError> {
+    x_conv.copy_to(x)?;
+    if asm.compute_damping_diagonal(x).is_err() {
+        return Ok(None);
+    }
+    let mut u_prev = x_conv.duplicate()?;
+    x_conv.copy_to(&mut u_prev)?;
+    let mut c = 1.0;
+    let mut total_iterations = 0;
+    let mut outcome = None;
+    let mut last_force = f64::INFINITY;
+    let debug = std::env::var_os("NURBS_CONTACT_DEBUG_RESCUE").is_some();
+    for k in 1..=max_steps {
+        asm.set_damping(c, &u_prev)?;
+        u_prev.copy_to(x)?;
+        let damped = solve_resuming(asm, snes, x, jac)?;
+        total_iterations += damped.iterations;
+        if !damped.converged {
+            asm.rollback();
+            c *= 8.0;
+            if c > 1e8 {
+                break;
+            }
+            continue;
+        }
+        // the damped state is the next pseudo-time point: history follows it
+        let force = asm.damping_force_norm(x)?;
+        asm.commit();
+        x.copy_to(&mut u_prev)?;
+        if damped.iterations <= 4 {
+            c = (c * 0.5).max(1e-10);
+        }
+        if debug {
+            eprintln!(
+                "rescue {k}: c {c:.2e}, damped solve {} iterations, damping force {force:.3e}",
+                damped.iterations
+            );
+        }
+        // While the flow speeds up (the state leaves the vanished equilibrium, the damping force
+        // grows) no equilibrium is near: only try an undamped solve while it slows down.
+        let slowing = force < last_force || k == max_steps;
+        last_force = force;
+        if !slowing {
+            continue;
+        }
+        asm.set_damping(0.0, &u_prev)?;
+        let mut plain = solve_resuming(asm, snes, x, jac)?;
+        total_iterations += plain.iterations;
+        if debug {
+            eprintln!(
+                "  undamped solve: {} after {} iterations",
+                plain.reason, plain.iterations
+            );
+        }
+        if plain.converged {
+            plain.iterations = total_iterations;
+            outcome = Some((plain, k));
+            break;
+        }
+        asm.rollback();
+        u_prev.copy_to(x)?;
+    }
+    asm.set_damping(0.0, &u_prev)?;
+    if outcome.is_none() {
+        asm.rollback();
+        x_conv.copy_to(x)?;
+    }
+    Ok(outcome)
 }
 
 /// The step-size logic of the load stepping, apart from any solver so it can be tested alone.
@@ -272,6 +397,7 @@ mod tests {
             max_cutbacks,
             growth: 2.0,
             easy_iterations: 4,
+            pseudo_steps: 0,
         }
     }
 
