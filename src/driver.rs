@@ -8,7 +8,10 @@ use crate::contact::ContactSystem;
 use crate::io::{self, FieldData, GridDef, HistoryRow, HistoryWriter, ResultsWriter, Summary};
 use crate::model::{Model, ModelError};
 use crate::parallel::partition_cells;
-use crate::petsc::{Matrix, Petsc, PetscError, PetscInt, Scatter, Snes, Vector};
+use crate::petsc::{
+    options_missing_values, quiet_errors, tolerance_problems, Matrix, Petsc, PetscError, PetscInt,
+    Scatter, Snes, Vector,
+};
 use crate::scene::{load_case, validate, Case, OutputField, SceneError};
 use crate::solver::{run_load_steps, SolverError, StepControl, StepRecord};
 use mpi::collective::SystemOperation;
@@ -114,6 +117,14 @@ pub enum Error {
     /// Different ranks failed differently: their messages, one per line.
     #[error("{0}")]
     Ranks(String),
+    /// Solver options PETSc rejects, or values out of range.
+    #[error("{}: solver options: {message}", .file.display())]
+    SolverOptions {
+        /// The case file.
+        file: PathBuf,
+        /// What is wrong and where the option comes from.
+        message: String,
+    },
     /// A Dirichlet condition whose set holds no node with unknowns (e.g. only display nodes).
     #[error("{}: `{label}`: set `{set}` of body `{body}` holds no node with unknowns", .file.display())]
     EmptyCondition {
@@ -129,11 +140,7 @@ pub enum Error {
 }
 
 /// `nurbs-contact check`: everything but the solve, on one process.
-pub fn check_main(
-    case_path: &Path,
-    sets: &[String],
-    _petsc_args: Vec<String>,
-) -> Result<(), Error> {
+pub fn check_main(case_path: &Path, sets: &[String], petsc_args: Vec<String>) -> Result<(), Error> {
     let (case, model) = load_and_build(case_path, sets)?;
     for w in &model.warnings {
         eprintln!("warning: {w}");
@@ -141,6 +148,11 @@ pub fn check_main(
     let part = vec![0u32; model.n_cells()];
     let dofs = number_and_check(&case, &model, &part, 1, 0)?;
     let sets = model.element_sets(&case.file, &part, 0)?;
+    {
+        let universe = mpi::initialize().ok_or(Error::Mpi)?;
+        let petsc = Petsc::init(&universe.world(), &petsc_args)?;
+        check_solver_options(&petsc, &case, &model, &petsc_args)?;
+    }
     println!(
         "{}: ok ({} bodies, {} elements in {} sets, {} nodes, {} unknowns, {} stages)",
         case_path.display(),
@@ -216,6 +228,10 @@ pub fn run_main(opts: RunOptions) -> Result<(), Error> {
     let rank = world.rank();
     let petsc = Petsc::init(&world, &opts.petsc_args)?;
     let result = run(&petsc, &opts);
+    // Options are only all read once the solver has run; an earlier failure has its own message.
+    if matches!(result, Ok(()) | Err(Error::Solver { .. })) {
+        warn_unused_options(&petsc);
+    }
     drop(petsc);
     // Every rank reaches this point (failures are agreed collectively), so the messages can be
     // gathered: rank 0 reports each distinct one once, the other ranks stay silent.
@@ -490,14 +506,9 @@ fn set_up_solver<'p>(
     }
     // Options: code defaults (in Snes::new), then the case's petsc_options, then the command line;
     // inserted before any object reads them (the matrix reads -mat_* at creation).
-    petsc.insert_options(
-        &case_petsc_options(case, model),
-        &command_line_options(opts),
-    )?;
+    insert_solver_options(petsc, case, model, &opts.petsc_args)?;
     let jac = Matrix::new_aij(petsc, n_owned)?;
-    let mut snes = Snes::new(petsc)?;
-    snes.set_tolerances(1e-11, 1e-10, 1e-14, 30)?;
-    snes.set_from_options()?;
+    let snes = snes_from_options(petsc, case, model, &opts.petsc_args)?;
 
     let control = StepControl {
         stage_steps: case.stages.iter().map(|s| s.steps).collect(),
@@ -515,13 +526,142 @@ fn set_up_solver<'p>(
 }
 
 /// The PETSc options of the command line (after the program name), as one string.
-fn command_line_options(opts: &RunOptions) -> String {
-    opts.petsc_args
+fn command_line_options(petsc_args: &[String]) -> String {
+    petsc_args
         .iter()
         .skip(1)
         .cloned()
         .collect::<Vec<_>>()
         .join(" ")
+}
+
+/// Inserts the case's PETSc options, then the command line's (which take precedence), after
+/// checking that every option that needs a value has one (PETSc would ignore it silently).
+fn insert_solver_options(
+    petsc: &Petsc,
+    case: &Case,
+    model: &Model,
+    petsc_args: &[String],
+) -> Result<(), Error> {
+    let cmdline = command_line_options(petsc_args);
+    let mut problems = Vec::new();
+    for (text, source) in [
+        (&case.solver.petsc_options, "`solver.petsc_options`"),
+        (&cmdline, "the command line"),
+    ] {
+        for o in options_missing_values(text) {
+            problems.push(format!("`{o}` (in {source}) needs a value"));
+        }
+    }
+    if !problems.is_empty() {
+        return Err(Error::SolverOptions {
+            file: case.file.clone(),
+            message: problems.join("; "),
+        });
+    }
+    petsc.insert_options(&case_petsc_options(case, model), &cmdline)?;
+    Ok(())
+}
+
+/// The Newton solver with the code's defaults, then the options database applied: PETSc's own
+/// message for an option it rejects (no traceback), and tolerances read back and checked (PETSc
+/// 3.18 takes `-snes_rtol -5` without a word).
+///
+/// Collective.
+fn snes_from_options<'p>(
+    petsc: &'p Petsc,
+    case: &Case,
+    model: &Model,
+    petsc_args: &[String],
+) -> Result<Snes<'p>, Error> {
+    let cmdline = command_line_options(petsc_args);
+    let in_case = case_petsc_options(case, model);
+    let source = |option: &str| {
+        let names = |s: &str| s.split_whitespace().any(|t| t == option);
+        if names(&cmdline) {
+            "set on the command line"
+        } else if names(&in_case) {
+            "set in `solver.petsc_options`"
+        } else {
+            "as the options left it"
+        }
+    };
+    let rejected = |e: PetscError| Error::SolverOptions {
+        file: case.file.clone(),
+        message: format!("PETSc rejects them ({}): {}", e.function, e.message),
+    };
+    let mut snes = Snes::new(petsc)?;
+    snes.set_tolerances(1e-11, 1e-10, 1e-14, 30)?;
+    quiet_errors(|| snes.set_from_options()).map_err(rejected)?;
+    let ksp = snes.ksp()?.tolerances()?;
+    let problems: Vec<String> = tolerance_problems(&snes.tolerances()?, &ksp)
+        .into_iter()
+        .map(|p| {
+            let option = p.split('`').nth(1).unwrap_or("").to_string();
+            format!("{p} ({})", source(&option))
+        })
+        .collect();
+    if !problems.is_empty() {
+        return Err(Error::SolverOptions {
+            file: case.file.clone(),
+            message: problems.join("; "),
+        });
+    }
+    Ok(snes)
+}
+
+/// `check`'s part of the solver: the options inserted and applied as `run` does, and the linear
+/// solver set up on a system of one unknown (which makes the factor package read its options).
+fn check_solver_options(
+    petsc: &Petsc,
+    case: &Case,
+    model: &Model,
+    petsc_args: &[String],
+) -> Result<(), Error> {
+    insert_solver_options(petsc, case, model, petsc_args)?;
+    let mut a = Matrix::new_aij(petsc, 1)?;
+    a.preallocate_aij(&[1], &[0])?;
+    a.add_values(&[0], &[0], &[1.0])?;
+    a.assemble()?;
+    let mut snes = snes_from_options(petsc, case, model, petsc_args)?;
+    let mut ksp = snes.ksp()?;
+    ksp.set_operators(&a)?;
+    quiet_errors(|| ksp.set_up()).map_err(|e| Error::SolverOptions {
+        file: case.file.clone(),
+        message: format!(
+            "PETSc rejects them setting up the linear solver ({}): {}",
+            e.function, e.message
+        ),
+    })?;
+    Ok(())
+}
+
+/// Rank 0: a warning naming the options PETSc never read (a misspelt or misplaced option does
+/// nothing otherwise).
+fn warn_unused_options(petsc: &Petsc) {
+    let left = match petsc.options_left() {
+        Ok(l) => l,
+        Err(e) => {
+            eprintln!("warning: could not list the unused PETSc options: {e}");
+            return;
+        }
+    };
+    if left.is_empty() || petsc.comm().rank() != 0 {
+        return;
+    }
+    let names: Vec<String> = left
+        .iter()
+        .map(|(n, v)| match v {
+            Some(v) => format!("{n} {v}"),
+            None => n.clone(),
+        })
+        .collect();
+    eprintln!(
+        "warning: PETSc never used {} option{}: {}",
+        names.len(),
+        if names.len() == 1 { "" } else { "s" },
+        names.join(", ")
+    );
 }
 
 /// The case's `solver.petsc_options`, after the defaults that depend on the case.
