@@ -8,7 +8,10 @@ use crate::contact::ContactSystem;
 use crate::io::{self, FieldData, GridDef, HistoryRow, HistoryWriter, ResultsWriter, Summary};
 use crate::model::{Model, ModelError};
 use crate::parallel::partition_cells;
-use crate::petsc::{Matrix, Petsc, PetscError, PetscInt, Scatter, Snes, Vector};
+use crate::petsc::{
+    options_missing_values, quiet_errors, tolerance_problems, Matrix, Petsc, PetscError, PetscInt,
+    Scatter, Snes, Vector,
+};
 use crate::scene::{load_case, validate, Case, OutputField, SceneError};
 use crate::solver::{run_load_steps, SolverError, StepControl, StepRecord};
 use mpi::collective::SystemOperation;
@@ -114,6 +117,14 @@ pub enum Error {
     /// Different ranks failed differently: their messages, one per line.
     #[error("{0}")]
     Ranks(String),
+    /// Solver options PETSc rejects, or values out of range.
+    #[error("{}: solver options: {message}", .file.display())]
+    SolverOptions {
+        /// The case file.
+        file: PathBuf,
+        /// What is wrong and where the option comes from.
+        message: String,
+    },
     /// A Dirichlet condition whose set holds no node with unknowns (e.g. only display nodes).
     #[error("{}: `{label}`: set `{set}` of body `{body}` holds no node with unknowns", .file.display())]
     EmptyCondition {
@@ -129,11 +140,7 @@ pub enum Error {
 }
 
 /// `nurbs-contact check`: everything but the solve, on one process.
-pub fn check_main(
-    case_path: &Path,
-    sets: &[String],
-    _petsc_args: Vec<String>,
-) -> Result<(), Error> {
+pub fn check_main(case_path: &Path, sets: &[String], petsc_args: Vec<String>) -> Result<(), Error> {
     let (case, model) = load_and_build(case_path, sets)?;
     for w in &model.warnings {
         eprintln!("warning: {w}");
@@ -141,6 +148,11 @@ pub fn check_main(
     let part = vec![0u32; model.n_cells()];
     let dofs = number_and_check(&case, &model, &part, 1, 0)?;
     let sets = model.element_sets(&case.file, &part, 0)?;
+    {
+        let universe = mpi::initialize().ok_or(Error::Mpi)?;
+        let petsc = Petsc::init(&universe.world(), &petsc_args)?;
+        check_solver_options(&petsc, &case, &model, &petsc_args)?;
+    }
     println!(
         "{}: ok ({} bodies, {} elements in {} sets, {} nodes, {} unknowns, {} stages)",
         case_path.display(),
@@ -216,6 +228,10 @@ pub fn run_main(opts: RunOptions) -> Result<(), Error> {
     let rank = world.rank();
     let petsc = Petsc::init(&world, &opts.petsc_args)?;
     let result = run(&petsc, &opts);
+    // Options are only all read once the solver has run; an earlier failure has its own message.
+    if matches!(result, Ok(()) | Err(Error::Solver { .. })) {
+        warn_unused_options(&petsc);
+    }
     drop(petsc);
     // Every rank reaches this point (failures are agreed collectively), so the messages can be
     // gathered: rank 0 reports each distinct one once, the other ranks stay silent.
@@ -314,18 +330,61 @@ fn log(rank: i32, v: Verbosity, at: Verbosity, msg: impl FnOnce() -> String) {
 }
 
 /// Solves a case. Collective.
+///
+/// The run in phases: build the model and claim the output directory; partition and number; set
+/// up the solver; step the load with an observer that records every converged step; finish the
+/// output and report.
 pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
     let t_start = Instant::now();
-    let comm = petsc.comm();
-    let (rank, size) = (comm.rank(), comm.size() as usize);
-    let v = opts.verbosity;
+    let (case, model, out_dir) = build_model(petsc, opts)?;
+    let numbered = number_and_partition(petsc, &case, &model)?;
+    let mut solver = set_up_solver(petsc, opts, &case, &model, numbered)?;
+    let output = Output::new(
+        petsc,
+        &model,
+        &case,
+        &solver.asm.dofs,
+        &out_dir,
+        rank0(petsc),
+    )?;
+    let mut observer = StepObserver::new(petsc, opts.verbosity, &case, output, t_start);
+    let t_solve = Instant::now();
+    let result = solver.load_loop(&model, &mut observer);
+    let solve_wall = t_solve.elapsed().as_secs_f64();
+    finish_and_report(petsc, &case, &model, &solver, observer, &result, solve_wall)?;
+    // Only a converged run announces its results: a failed one's error must be the last word.
+    if result.is_ok() {
+        log(comm_rank(petsc), opts.verbosity, Verbosity::Normal, || {
+            format!("results in {}", out_dir.display())
+        });
+    }
+    result.map(|_| ()).map_err(|source| Error::Solver {
+        file: case.file.clone(),
+        source,
+    })
+}
 
-    // Every rank reads and builds the same model. A failure is normally the same on all ranks, but a
-    // rank that cannot read a file (a node without the shared file system) must not leave the others
-    // waiting: agree on the outcome.
+fn comm_rank(petsc: &Petsc) -> i32 {
+    petsc.comm().rank()
+}
+
+fn rank0(petsc: &Petsc) -> bool {
+    comm_rank(petsc) == 0
+}
+
+/// Phase 1: every rank reads and builds the same model; rank 0 claims the output directory.
+///
+/// Collective.
+fn build_model(petsc: &Petsc, opts: &RunOptions) -> Result<(Case, Model, PathBuf), Error> {
+    let comm = petsc.comm();
+    let rank = comm.rank();
+    // A failure is normally the same on all ranks, but a rank that cannot read a file (a node
+    // without the shared file system) must not leave the others waiting: agree on the outcome.
     let (case, model) = agree(comm, load_and_build(&opts.case, &opts.sets))?;
     for w in &model.warnings {
-        log(rank, v, Verbosity::Normal, || format!("warning: {w}"));
+        log(rank, opts.verbosity, Verbosity::Normal, || {
+            format!("warning: {w}")
+        });
     }
     // The case name is a plain name (validated), so the default stays inside out/. Rank 0 claims
     // the directory before any work: created, or an earlier run's, or refused (unless --overwrite).
@@ -341,8 +400,24 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
             Ok(())
         },
     )?;
+    Ok((case, model, out_dir))
+}
 
-    // Partition on rank 0 and broadcast, so all ranks agree even if METIS were not deterministic.
+/// What [`number_and_partition`] produces: the cell partition, this rank's numbering and element
+/// sets.
+struct Numbered {
+    part: Vec<u32>,
+    dofs: DofMap,
+    sets: Vec<Box<dyn crate::assembly::ElementSet>>,
+}
+
+/// Phase 2: partitions the cells (METIS on rank 0, broadcast, so all ranks agree even if METIS
+/// were not deterministic), numbers the unknowns and builds this rank's element sets.
+///
+/// Collective.
+fn number_and_partition(petsc: &Petsc, case: &Case, model: &Model) -> Result<Numbered, Error> {
+    let comm = petsc.comm();
+    let (rank, size) = (comm.rank(), comm.size() as usize);
     let mut part = vec![0u32; model.n_cells()];
     if size > 1 {
         let r0 = if rank == 0 {
@@ -357,16 +432,40 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
         comm.process_at_rank(0).broadcast_into(&mut part[..]);
     }
     // Deterministic on every rank (same model, same partition): no agreement needed.
-    let dofs = number_and_check(&case, &model, &part, size, rank as usize)?;
+    let dofs = number_and_check(case, model, &part, size, rank as usize)?;
     let sets = agree(
         comm,
         model
             .element_sets(&case.file, &part, rank as usize)
             .map_err(Error::from),
     )?;
-    let n_global = dofs.n_global();
-    let n_owned = dofs.n_owned();
-    log(rank, v, Verbosity::Normal, || {
+    Ok(Numbered { part, dofs, sets })
+}
+
+/// The solver's state: unknowns, assembler (with contact), Jacobian, SNES and step control.
+struct Solver<'p> {
+    x: Vector<'p>,
+    asm: Assembler<'p>,
+    jac: Matrix<'p>,
+    snes: Snes<'p>,
+    control: StepControl,
+}
+
+/// Phase 3: the assembler (and contact system), the PETSc options, the Jacobian and SNES.
+///
+/// Collective.
+fn set_up_solver<'p>(
+    petsc: &'p Petsc,
+    opts: &RunOptions,
+    case: &Case,
+    model: &Model,
+    numbered: Numbered,
+) -> Result<Solver<'p>, Error> {
+    let comm = petsc.comm();
+    let (rank, size) = (comm.rank(), comm.size() as usize);
+    let Numbered { part, dofs, sets } = numbered;
+    let (n_global, n_owned) = (dofs.n_global(), dofs.n_owned());
+    log(rank, opts.verbosity, Verbosity::Normal, || {
         format!(
             "{}: {} elements, {} unknowns on {} rank{}",
             case.case.name,
@@ -420,28 +519,9 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
     }
     // Options: code defaults (in Snes::new), then the case's petsc_options, then the command line;
     // inserted before any object reads them (the matrix reads -mat_* at creation).
-    let cmdline = opts
-        .petsc_args
-        .iter()
-        .skip(1)
-        .cloned()
-        .collect::<Vec<_>>()
-        .join(" ");
-    // With contact, PETSc's backtracking line search creeps where the penalty switches points between
-    // active and inactive, and full steps invert elements that a cutback must then repair; the l2
-    // line search (a secant minimisation of |F|^2 along the step) does best (BENCHMARKS.md: ironing_2d
-    // 454 Newton iterations and no cutbacks vs 506 with bt and 663 + 35 cutbacks with full steps;
-    // hertz_2d 10 vs 36 with bt). The case or the command line can override it.
-    let case_options = if model.contact_pairs.is_empty() {
-        case.solver.petsc_options.clone()
-    } else {
-        format!("-snes_linesearch_type l2 {}", case.solver.petsc_options)
-    };
-    petsc.insert_options(&case_options, &cmdline)?;
-    let mut jac = Matrix::new_aij(petsc, n_owned)?;
-    let mut snes = Snes::new(petsc)?;
-    snes.set_tolerances(1e-11, 1e-10, 1e-14, 30)?;
-    snes.set_from_options()?;
+    insert_solver_options(petsc, case, model, &opts.petsc_args)?;
+    let jac = Matrix::new_aij(petsc, n_owned)?;
+    let snes = snes_from_options(petsc, case, model, &opts.petsc_args)?;
 
     let control = StepControl {
         stage_steps: case.stages.iter().map(|s| s.steps).collect(),
@@ -450,27 +530,258 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
         easy_iterations: case.steps.easy_iterations as usize,
         pseudo_steps: case.steps.pseudo_steps as usize,
     };
+    Ok(Solver {
+        x,
+        asm,
+        jac,
+        snes,
+        control,
+    })
+}
 
-    // Output on rank 0: the whole displacement is gathered there at each written step.
-    let mut output = Output::new(petsc, &model, &case, &asm.dofs, &out_dir, rank == 0)?;
-    let n_stages = case.stages.len() as f64;
-    let total_steps: usize = control.stage_steps.iter().sum();
-    let bar = (rank == 0 && v == Verbosity::Normal && std::io::stderr().is_terminal()).then(|| {
-        let b = indicatif::ProgressBar::new(total_steps as u64);
-        b.set_style(
-            indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:30}] load {msg}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+/// The PETSc options of the command line (after the program name), as one string.
+fn command_line_options(petsc_args: &[String]) -> String {
+    petsc_args
+        .iter()
+        .skip(1)
+        .cloned()
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// Inserts the case's PETSc options, then the command line's (which take precedence), after
+/// checking that every option that needs a value has one (PETSc would ignore it silently).
+fn insert_solver_options(
+    petsc: &Petsc,
+    case: &Case,
+    model: &Model,
+    petsc_args: &[String],
+) -> Result<(), Error> {
+    let cmdline = command_line_options(petsc_args);
+    let mut problems = Vec::new();
+    for (text, source) in [
+        (&case.solver.petsc_options, "`solver.petsc_options`"),
+        (&cmdline, "the command line"),
+    ] {
+        for o in options_missing_values(text) {
+            problems.push(format!("`{o}` (in {source}) needs a value"));
+        }
+    }
+    if !problems.is_empty() {
+        return Err(Error::SolverOptions {
+            file: case.file.clone(),
+            message: problems.join("; "),
+        });
+    }
+    petsc.insert_options(&case_petsc_options(case, model), &cmdline)?;
+    Ok(())
+}
+
+/// The Newton solver with the code's defaults, then the options database applied: PETSc's own
+/// message for an option it rejects (no traceback), and tolerances read back and checked (PETSc
+/// 3.18 takes `-snes_rtol -5` without a word).
+///
+/// Collective.
+fn snes_from_options<'p>(
+    petsc: &'p Petsc,
+    case: &Case,
+    model: &Model,
+    petsc_args: &[String],
+) -> Result<Snes<'p>, Error> {
+    let cmdline = command_line_options(petsc_args);
+    let in_case = case_petsc_options(case, model);
+    let source = |option: &str| {
+        let names = |s: &str| s.split_whitespace().any(|t| t == option);
+        if names(&cmdline) {
+            "set on the command line"
+        } else if names(&in_case) {
+            "set in `solver.petsc_options`"
+        } else {
+            "as the options left it"
+        }
+    };
+    let rejected = |e: PetscError| Error::SolverOptions {
+        file: case.file.clone(),
+        message: format!("PETSc rejects them ({}): {}", e.function, e.message),
+    };
+    let mut snes = Snes::new(petsc)?;
+    snes.set_tolerances(1e-11, 1e-10, 1e-14, 30)?;
+    quiet_errors(|| snes.set_from_options()).map_err(rejected)?;
+    let ksp = snes.ksp()?.tolerances()?;
+    let problems: Vec<String> = tolerance_problems(&snes.tolerances()?, &ksp)
+        .into_iter()
+        .map(|p| {
+            let option = p.split('`').nth(1).unwrap_or("").to_string();
+            format!("{p} ({})", source(&option))
+        })
+        .collect();
+    if !problems.is_empty() {
+        return Err(Error::SolverOptions {
+            file: case.file.clone(),
+            message: problems.join("; "),
+        });
+    }
+    Ok(snes)
+}
+
+/// `check`'s part of the solver: the options inserted and applied as `run` does, and the linear
+/// solver set up on a system of one unknown (which makes the factor package read its options).
+fn check_solver_options(
+    petsc: &Petsc,
+    case: &Case,
+    model: &Model,
+    petsc_args: &[String],
+) -> Result<(), Error> {
+    insert_solver_options(petsc, case, model, petsc_args)?;
+    let mut a = Matrix::new_aij(petsc, 1)?;
+    a.preallocate_aij(&[1], &[0])?;
+    a.add_values(&[0], &[0], &[1.0])?;
+    a.assemble()?;
+    let mut snes = snes_from_options(petsc, case, model, petsc_args)?;
+    let mut ksp = snes.ksp()?;
+    ksp.set_operators(&a)?;
+    quiet_errors(|| ksp.set_up()).map_err(|e| Error::SolverOptions {
+        file: case.file.clone(),
+        message: format!(
+            "PETSc rejects them setting up the linear solver ({}): {}",
+            e.function, e.message
+        ),
+    })?;
+    Ok(())
+}
+
+/// Rank 0: a warning naming the options PETSc never read (a misspelt or misplaced option does
+/// nothing otherwise).
+fn warn_unused_options(petsc: &Petsc) {
+    let left = match petsc.options_left() {
+        Ok(l) => l,
+        Err(e) => {
+            eprintln!("warning: could not list the unused PETSc options: {e}");
+            return;
+        }
+    };
+    if left.is_empty() || petsc.comm().rank() != 0 {
+        return;
+    }
+    let names: Vec<String> = left
+        .iter()
+        .map(|(n, v)| match v {
+            Some(v) => format!("{n} {v}"),
+            None => n.clone(),
+        })
+        .collect();
+    eprintln!(
+        "warning: PETSc never used {} option{}: {}",
+        names.len(),
+        if names.len() == 1 { "" } else { "s" },
+        names.join(", ")
+    );
+}
+
+/// The case's `solver.petsc_options`, after the defaults that depend on the case.
+fn case_petsc_options(case: &Case, model: &Model) -> String {
+    // With contact, PETSc's backtracking line search creeps where the penalty switches points between
+    // active and inactive, and full steps invert elements that a cutback must then repair; the l2
+    // line search (a secant minimisation of |F|^2 along the step) does best (BENCHMARKS.md: ironing_2d
+    // 454 Newton iterations and no cutbacks vs 506 with bt and 663 + 35 cutbacks with full steps;
+    // hertz_2d 10 vs 36 with bt). The case or the command line can override it.
+    if model.contact_pairs.is_empty() {
+        case.solver.petsc_options.clone()
+    } else {
+        format!("-snes_linesearch_type l2 {}", case.solver.petsc_options)
+    }
+}
+
+impl<'p> Solver<'p> {
+    /// Phase 4: steps the load through all stages, handing every converged step to `observer`.
+    ///
+    /// Collective.
+    fn load_loop(
+        &mut self,
+        model: &Model,
+        observer: &mut StepObserver<'_, 'p>,
+    ) -> Result<Vec<StepRecord>, SolverError> {
+        let result = run_load_steps(
+            &mut self.asm,
+            &mut self.snes,
+            &mut self.x,
+            &mut self.jac,
+            &model.bcs,
+            &model.coords,
+            &self.control,
+            &mut |rec, x, asm| observer.observe(model, rec, x, asm),
         );
-        b
-    });
-    let mut newton = io::NewtonStats::default();
-    let mut step_log: Vec<io::StepLog> = Vec::new();
-    let mut t_output = 0.0;
-    let case_ref = &case;
-    let mut observer = |rec: &StepRecord, x: &Vector, asm: &mut Assembler| -> Result<(), String> {
+        if let Some(b) = &observer.bar {
+            b.finish_and_clear();
+        }
+        result
+    }
+}
+
+/// Watches the load loop: Newton statistics, the step log, history rows and results of every
+/// converged step, progress.
+struct StepObserver<'c, 'p> {
+    rank: i32,
+    v: Verbosity,
+    case: &'c Case,
+    output: Output<'p>,
+    bar: Option<indicatif::ProgressBar>,
+    t_start: Instant,
+    n_stages: f64,
+    total_steps: usize,
+    newton: io::NewtonStats,
+    step_log: Vec<io::StepLog>,
+    /// Wall time spent recording steps (s).
+    t_output: f64,
+}
+
+impl<'c, 'p> StepObserver<'c, 'p> {
+    fn new(
+        petsc: &Petsc,
+        v: Verbosity,
+        case: &'c Case,
+        output: Output<'p>,
+        t_start: Instant,
+    ) -> Self {
+        let rank = comm_rank(petsc);
+        let total_steps: usize = case.stages.iter().map(|s| s.steps).sum();
+        let bar =
+            (rank == 0 && v == Verbosity::Normal && std::io::stderr().is_terminal()).then(|| {
+                let b = indicatif::ProgressBar::new(total_steps as u64);
+                b.set_style(
+                    indicatif::ProgressStyle::with_template(
+                        "{elapsed_precise} [{bar:30}] load {msg}",
+                    )
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+                );
+                b
+            });
+        StepObserver {
+            rank,
+            v,
+            case,
+            output,
+            bar,
+            t_start,
+            n_stages: case.stages.len() as f64,
+            total_steps,
+            newton: io::NewtonStats::default(),
+            step_log: Vec::new(),
+            t_output: 0.0,
+        }
+    }
+
+    /// Records one converged step. Collective.
+    fn observe(
+        &mut self,
+        model: &Model,
+        rec: &StepRecord,
+        x: &Vector,
+        asm: &mut Assembler,
+    ) -> Result<(), String> {
         let t0 = Instant::now();
-        newton.record(rec.iterations as u32);
-        step_log.push(io::StepLog {
+        self.newton.record(rec.iterations as u32);
+        self.step_log.push(io::StepLog {
             step: rec.step,
             load: rec.load,
             iterations: rec.iterations as u32,
@@ -496,35 +807,41 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
             }
         }
         extra_columns.extend(contact_history(asm, model.dim));
-        let last = (rec.load - n_stages).abs() < 1e-12;
-        let write = last || rec.step.is_multiple_of(case_ref.output.every);
-        output
+        let last = (rec.load - self.n_stages).abs() < 1e-12;
+        let write = last || rec.step.is_multiple_of(self.case.output.every);
+        self.output
             .step(
                 rec,
                 &reactions,
                 &extra_columns,
-                t_start.elapsed().as_secs_f64(),
+                self.t_start.elapsed().as_secs_f64(),
                 write,
                 x,
                 asm,
             )
             .map_err(|e| e.to_string())?;
-        t_output += t0.elapsed().as_secs_f64();
-        if let Some(b) = &bar {
-            b.set_position(((rec.load / n_stages) * total_steps as f64).round() as u64);
+        self.t_output += t0.elapsed().as_secs_f64();
+        self.progress(rec);
+        Ok(())
+    }
+
+    /// The progress bar, or without one (not a terminal, or -v) one plain line per step; with -v
+    /// the line also carries the Newton residual history of the step, after a line per cutback.
+    fn progress(&self, rec: &StepRecord) {
+        let (rank, v) = (self.rank, self.v);
+        if let Some(b) = &self.bar {
+            b.set_position(((rec.load / self.n_stages) * self.total_steps as f64).round() as u64);
             b.set_message(format!(
                 "{:.4} | step {} | {} it | |F| {:.2e}",
                 rec.load, rec.step, rec.iterations, rec.residual
             ));
         }
-        // Without a progress bar (not a terminal, or -v), one plain line per step; with -v the line
-        // also carries the Newton residual history of the step, after a line per cutback.
         for (load, why) in &rec.failed_attempts {
             log(rank, v, Verbosity::Verbose, || {
                 format!("  cutback: load {load:.6} failed: {why}")
             });
         }
-        if bar.is_none() {
+        if self.bar.is_none() {
             log(rank, v, Verbosity::Normal, || {
                 let mut line = format!(
                     "step {:4}  stage {}  load {:.6}  newton {:2}  |F| {:.3e}  cutbacks {}",
@@ -544,26 +861,28 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
                 line
             });
         }
-        Ok(())
-    };
-    let t_solve = Instant::now();
-    let result = run_load_steps(
-        &mut asm,
-        &mut snes,
-        &mut x,
-        &mut jac,
-        &model.bcs,
-        &model.coords,
-        &control,
-        &mut observer,
-    );
-    let solve_wall = t_solve.elapsed().as_secs_f64();
-    if let Some(b) = &bar {
-        b.finish_and_clear();
     }
+}
 
+/// Phase 5: the summary (slowest rank's times, peak memory, Newton statistics, status) and the
+/// results moved into place.
+///
+/// Collective.
+#[allow(clippy::too_many_arguments)]
+fn finish_and_report(
+    petsc: &Petsc,
+    case: &Case,
+    model: &Model,
+    solver: &Solver,
+    observer: StepObserver,
+    result: &Result<Vec<StepRecord>, SolverError>,
+    solve_wall: f64,
+) -> Result<(), Error> {
+    let comm = petsc.comm();
+    let asm = &solver.asm;
+    let t_output = observer.t_output;
     let assembly = asm.timers.residual + asm.timers.jacobian + asm.timers.pattern;
-    let status = match &result {
+    let status = match result {
         Ok(_) => io::RunStatus::Converged,
         Err(e) => io::RunStatus::Failed {
             reason: e.to_string(),
@@ -593,10 +912,10 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
         git_revision: option_env!("NURBS_CONTACT_GIT_REV")
             .unwrap_or("unknown")
             .to_string(),
-        ranks: size,
-        unknowns: n_global as u64,
+        ranks: comm.size() as usize,
+        unknowns: asm.dofs.n_global() as u64,
         elements: model.n_cells() as u64,
-        newton,
+        newton: observer.newton,
         wall_time: io::PhaseTimes {
             assembly: times[0],
             residual: times[3],
@@ -605,7 +924,7 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
             contact: times[6],
             solve: times[1],
             output: times[2],
-            total: t_start.elapsed().as_secs_f64(),
+            total: observer.t_start.elapsed().as_secs_f64(),
         },
         peak_memory_mb,
         contact_pattern: asm.contact_pattern_stats().map(|(ring, missing)| {
@@ -617,20 +936,10 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
                 ring,
             }
         }),
-        steps: step_log,
+        steps: observer.step_log,
         status,
     };
-    output.finish(&summary)?;
-    // Only a converged run announces its results: a failed one's error must be the last word.
-    if result.is_ok() {
-        log(rank, v, Verbosity::Normal, || {
-            format!("results in {}", out_dir.display())
-        });
-    }
-    result.map(|_| ()).map_err(|source| Error::Solver {
-        file: case.file.clone(),
-        source,
-    })
+    observer.output.finish(&summary)
 }
 
 /// `history.csv` columns after the reaction forces: reaction moments `M_<body>_<set>[_<x|y|z>]`

@@ -307,6 +307,7 @@ fn corpus_directives_parse() {
     assert!(count("name_") + count("out_") >= 10);
     assert!(count("msh_") >= 30);
     assert!(count("huge_") >= 6);
+    assert!(count("petsc_") >= 6);
     assert!(entries.iter().filter(|e| e.run).count() >= 8);
     assert!(entries.iter().any(|e| e.ranks.contains(&2)));
 }

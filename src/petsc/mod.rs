@@ -13,6 +13,7 @@ mod error;
 mod init;
 mod ksp;
 mod mat;
+mod options;
 mod scatter;
 mod snes;
 pub mod sys;
@@ -22,6 +23,9 @@ pub use error::{check, PetscError};
 pub use init::Petsc;
 pub use ksp::{Ksp, KspOutcome, Pc};
 pub use mat::Matrix;
+pub use options::{
+    options_missing_values, quiet_errors, tolerance_problems, KspTolerances, SnesTolerances,
+};
 pub use scatter::{IndexSet, Scatter};
 pub use snes::{NonlinearProblem, ProblemError, Snes, SolveOutcome};
 pub use vec::{VecRead, VecWrite, Vector};
