@@ -316,9 +316,9 @@ fn a_snapping_peel_front_is_carried_through_by_the_pseudo_transient_rescue() {
     let base = [
         "bodies.strip.element=Q1C1",
         "meshes.strip.divisions=[40,2]",
-        "bcs.1.angle_deg=[120.0]",
-        "stages.0.steps=120",
-        "output.every=120",
+        "bcs.1.angle_deg=[104.0]",
+        "stages.0.steps=104",
+        "output.every=104",
     ];
     let d = scratch("rescue-off");
     let c = case("peeling_2d.toml");
