@@ -13,7 +13,7 @@ use crate::petsc::{
     Scatter, Snes, Vector,
 };
 use crate::scene::{load_case, validate, Case, OutputField, SceneError};
-use crate::solver::{run_load_steps, SolverError, StepControl, StepRecord};
+use crate::solver::{run_load_steps, AfterStep, SolverError, StepControl, StepRecord};
 use mpi::collective::SystemOperation;
 use mpi::datatype::PartitionMut;
 use mpi::topology::SimpleCommunicator;
@@ -117,6 +117,19 @@ pub enum Error {
     /// Different ranks failed differently: their messages, one per line.
     #[error("{0}")]
     Ranks(String),
+    /// A signal stopped the run after its converged steps were written; the process should exit
+    /// with [`crate::interrupt::exit_code`] of `signal`.
+    #[error("{}: interrupted by {} after {steps} converged load steps; their results are in {}", .file.display(), crate::interrupt::signal_name(*.signal), .out_dir.display())]
+    Interrupted {
+        /// The case file.
+        file: PathBuf,
+        /// The signal.
+        signal: i32,
+        /// Converged steps recorded.
+        steps: usize,
+        /// Where.
+        out_dir: PathBuf,
+    },
     /// Solver options PETSc rejects, or values out of range.
     #[error("{}: solver options: {message}", .file.display())]
     SolverOptions {
@@ -227,6 +240,9 @@ pub fn run_main(opts: RunOptions) -> Result<(), Error> {
     let world = universe.world();
     let rank = world.rank();
     let petsc = Petsc::init(&world, &opts.petsc_args)?;
+    // PETSc's own handler would abort on SIGTERM: ours stop the run cleanly instead.
+    petsc.pop_signal_handler()?;
+    crate::interrupt::install().map_err(|e| Error::Usage(format!("signal handlers: {e}")))?;
     let result = run(&petsc, &opts);
     // Options are only all read once the solver has run; an earlier failure has its own message.
     if matches!(result, Ok(()) | Err(Error::Solver { .. })) {
@@ -238,6 +254,8 @@ pub fn run_main(opts: RunOptions) -> Result<(), Error> {
     let messages = gather_errors(&world, &result);
     let outcome = match result {
         Ok(()) => Ok(()),
+        // Every rank agreed on the interrupt: each exits with the signal's code.
+        Err(e @ Error::Interrupted { .. }) => Err(e),
         Err(_) if rank != 0 => Err(Error::OtherRank),
         Err(e) if messages.len() <= 1 && !matches!(e, Error::OtherRank) => Err(e),
         Err(_) => Err(Error::Ranks(messages.join("\n"))),
@@ -252,7 +270,15 @@ pub fn run_main(opts: RunOptions) -> Result<(), Error> {
         }
     }
     world.barrier();
-    outcome.map_err(|_| Error::Reported)
+    outcome.map_err(|e| match e {
+        Error::Interrupted { signal, .. } => Error::Interrupted {
+            file: PathBuf::new(),
+            signal,
+            steps: 0,
+            out_dir: PathBuf::new(),
+        },
+        _ => Error::Reported,
+    })
 }
 
 /// The distinct error messages of all ranks, on rank 0 (empty elsewhere), each prefixed with the
@@ -351,6 +377,7 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
     let t_solve = Instant::now();
     let result = solver.load_loop(&model, &mut observer);
     let solve_wall = t_solve.elapsed().as_secs_f64();
+    let observer_signal = observer.interrupted;
     finish_and_report(petsc, &case, &model, &solver, observer, &result, solve_wall)?;
     // Only a converged run announces its results: a failed one's error must be the last word.
     if result.is_ok() {
@@ -358,9 +385,17 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
             format!("results in {}", out_dir.display())
         });
     }
-    result.map(|_| ()).map_err(|source| Error::Solver {
-        file: case.file.clone(),
-        source,
+    result.map(|_| ()).map_err(|source| match source {
+        SolverError::Interrupted { steps, .. } => Error::Interrupted {
+            file: case.file.clone(),
+            signal: observer_signal.unwrap_or(0),
+            steps,
+            out_dir,
+        },
+        source => Error::Solver {
+            file: case.file.clone(),
+            source,
+        },
     })
 }
 
@@ -719,6 +754,8 @@ struct StepObserver<'c, 'p> {
     step_log: Vec<io::StepLog>,
     /// Wall time spent recording steps (s).
     t_output: f64,
+    /// The signal that stopped the run, agreed by all ranks.
+    interrupted: Option<i32>,
 }
 
 impl<'c, 'p> StepObserver<'c, 'p> {
@@ -754,6 +791,7 @@ impl<'c, 'p> StepObserver<'c, 'p> {
             newton: io::NewtonStats::default(),
             step_log: Vec::new(),
             t_output: 0.0,
+            interrupted: None,
         }
     }
 
@@ -764,8 +802,11 @@ impl<'c, 'p> StepObserver<'c, 'p> {
         rec: &StepRecord,
         x: &Vector,
         asm: &mut Assembler,
-    ) -> Result<(), String> {
+    ) -> Result<AfterStep, String> {
         let t0 = Instant::now();
+        // A signal on any rank stops every rank after this step, which is then written whatever
+        // the output schedule says.
+        self.interrupted = crate::interrupt::agreed(asm.comm());
         self.newton.record(rec.iterations as u32);
         self.step_log.push(io::StepLog {
             step: rec.step,
@@ -793,7 +834,8 @@ impl<'c, 'p> StepObserver<'c, 'p> {
         }
         extra_columns.extend(contact_history(asm, model.dim));
         let last = (rec.load - self.n_stages).abs() < 1e-12;
-        let write = last || rec.step.is_multiple_of(self.case.output.every);
+        let write =
+            last || rec.step.is_multiple_of(self.case.output.every) || self.interrupted.is_some();
         self.output
             .step(
                 rec,
@@ -807,7 +849,10 @@ impl<'c, 'p> StepObserver<'c, 'p> {
             .map_err(|e| e.to_string())?;
         self.t_output += t0.elapsed().as_secs_f64();
         self.progress(rec);
-        Ok(())
+        Ok(match self.interrupted {
+            Some(_) => AfterStep::Stop,
+            None => AfterStep::Continue,
+        })
     }
 
     /// The progress bar, or without one (not a terminal, or -v) one plain line per step; with -v
@@ -866,6 +911,10 @@ fn finish_and_report(
     let assembly = asm.timers.residual + asm.timers.jacobian + asm.timers.pattern;
     let status = match result {
         Ok(_) => io::RunStatus::Converged,
+        Err(SolverError::Interrupted { steps, .. }) => io::RunStatus::Interrupted {
+            signal: crate::interrupt::signal_name(observer.interrupted.unwrap_or(0)).to_string(),
+            converged_steps: *steps,
+        },
         Err(e) => io::RunStatus::Failed {
             reason: e.to_string(),
         },

@@ -6,6 +6,14 @@ use super::{sys, Ksp, Petsc, PetscInt, Snes};
 use std::ffi::{c_char, c_int, c_void, CStr};
 
 impl Petsc {
+    /// Removes PETSc's signal handler (which turns SIGTERM into an abort), so the program's own
+    /// handlers decide.
+    pub fn pop_signal_handler(&self) -> Result<(), PetscError> {
+        // SAFETY: pops the handler PetscInitialize pushed; with the stack empty PETSc restores the
+        // default dispositions.
+        unsafe { call!(PetscPopSignalHandler()) }
+    }
+
     /// Options in the database that no PETSc object has read so far: `(-name, value)`.
     pub fn options_left(&self) -> Result<Vec<(String, Option<String>)>, PetscError> {
         let mut n: PetscInt = 0;

@@ -51,6 +51,15 @@ pub struct StepRecord {
     pub wall_time: f64,
 }
 
+/// What the load stepping does after the observer has seen a converged step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AfterStep {
+    /// Go on with the next step.
+    Continue,
+    /// Stop here (an interrupt): the run ends with [`SolverError::Interrupted`].
+    Stop,
+}
+
 /// Why the load stepping stopped.
 #[derive(Debug, thiserror::Error)]
 pub enum SolverError {
@@ -74,13 +83,21 @@ pub enum SolverError {
     /// Boundary conditions contradict each other.
     #[error(transparent)]
     Conflict(#[from] ConflictError),
+    /// The observer asked to stop after a converged step (an interrupt).
+    #[error("interrupted after {steps} converged load steps (load {load:.6})")]
+    Interrupted {
+        /// Converged steps, all recorded.
+        steps: usize,
+        /// Load parameter reached.
+        load: f64,
+    },
     /// The observer (output writer) failed.
     #[error("while writing results: {0}")]
     Observer(String),
 }
 
 /// Runs all stages. `x` holds the initial displacement and ends with the last converged one.
-/// `observer` is called after every converged step (output, history).
+/// `observer` is called after every converged step (output, history) and may stop the run there.
 ///
 /// Collective.
 #[allow(clippy::too_many_arguments)]
@@ -92,7 +109,11 @@ pub fn run_load_steps<'p>(
     bcs: &[DirichletBc],
     coords: &[f64],
     control: &StepControl,
-    observer: &mut dyn FnMut(&StepRecord, &Vector<'p>, &mut Assembler<'p>) -> Result<(), String>,
+    observer: &mut dyn FnMut(
+        &StepRecord,
+        &Vector<'p>,
+        &mut Assembler<'p>,
+    ) -> Result<AfterStep, String>,
 ) -> Result<Vec<StepRecord>, SolverError> {
     let mut x_conv = x.duplicate()?;
     x.copy_to(&mut x_conv)?;
@@ -167,8 +188,12 @@ pub fn run_load_steps<'p>(
             failed_attempts,
             wall_time: t_step.elapsed().as_secs_f64(),
         };
-        observer(&rec, x, asm).map_err(SolverError::Observer)?;
+        let after = observer(&rec, x, asm).map_err(SolverError::Observer)?;
+        let load = rec.load;
         records.push(rec);
+        if after == AfterStep::Stop {
+            return Err(SolverError::Interrupted { steps: step, load });
+        }
     }
     Ok(records)
 }
