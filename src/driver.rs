@@ -130,6 +130,14 @@ pub enum Error {
         /// Where.
         out_dir: PathBuf,
     },
+    /// Parts of the model that nothing holds (singular tangent).
+    #[error("{}: ill-posed: {message}", .file.display())]
+    IllPosed {
+        /// The case file.
+        file: PathBuf,
+        /// Which bodies or parts, one per line.
+        message: String,
+    },
     /// Solver options PETSc rejects, or values out of range.
     #[error("{}: solver options: {message}", .file.display())]
     SolverOptions {
@@ -160,6 +168,9 @@ pub fn check_main(case_path: &Path, sets: &[String], petsc_args: Vec<String>) ->
     }
     let part = vec![0u32; model.n_cells()];
     let dofs = number_and_check(&case, &model, &part, 1, 0)?;
+    for w in check_holds(&case, &model, &dofs)?.warnings {
+        eprintln!("warning: {w}");
+    }
     let sets = model.element_sets(&case.file, &part, 0)?;
     {
         let universe = mpi::initialize().ok_or(Error::Mpi)?;
@@ -217,6 +228,23 @@ fn number_and_check(
     }
     check_conditions_have_unknowns(case, model, &dofs)?;
     Ok(dofs)
+}
+
+/// Parts of the model that no Dirichlet condition, tie or contact pair holds are an error (the
+/// tangent would be singular); the report's warnings are for the caller to print.
+fn check_holds(
+    case: &Case,
+    model: &Model,
+    dofs: &DofMap,
+) -> Result<crate::model::HoldReport, Error> {
+    let report = crate::model::holds(model, |n| dofs.global(n, 0).is_some());
+    if !report.errors.is_empty() {
+        return Err(Error::IllPosed {
+            file: case.file.clone(),
+            message: report.errors.join("; "),
+        });
+    }
+    Ok(report)
 }
 
 /// A Dirichlet condition on a set none of whose nodes carries unknowns would silently do nothing.
@@ -392,6 +420,20 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
             steps,
             out_dir,
         },
+        SolverError::Singular { step, load, pivots } if !solver.suspects.is_empty() => {
+            Error::IllPosed {
+                file: case.file.clone(),
+                message: format!(
+                    "load step {step} (load {load:.6}): the tangent stiffness is singular (MUMPS found {pivots} null pivots); likely free: body {}",
+                    solver
+                        .suspects
+                        .iter()
+                        .map(|b| format!("`{b}`"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            }
+        }
         source => Error::Solver {
             file: case.file.clone(),
             source,
@@ -444,6 +486,8 @@ struct Numbered {
     part: Vec<u32>,
     dofs: DofMap,
     sets: Vec<Box<dyn crate::assembly::ElementSet>>,
+    /// Bodies that the conditions may leave free (named if the tangent turns out singular).
+    suspects: Vec<String>,
 }
 
 /// Phase 2: partitions the cells (METIS on rank 0, broadcast, so all ranks agree even if METIS
@@ -468,17 +512,31 @@ fn number_and_partition(petsc: &Petsc, case: &Case, model: &Model) -> Result<Num
     }
     // Deterministic on every rank (same model, same partition): no agreement needed.
     let dofs = number_and_check(case, model, &part, size, rank as usize)?;
+    // The same on every rank (same model).
+    let holds = check_holds(case, model, &dofs)?;
+    for w in &holds.warnings {
+        if rank == 0 {
+            eprintln!("warning: {w}");
+        }
+    }
     let sets = agree(
         comm,
         model
             .element_sets(&case.file, &part, rank as usize)
             .map_err(Error::from),
     )?;
-    Ok(Numbered { part, dofs, sets })
+    Ok(Numbered {
+        part,
+        dofs,
+        sets,
+        suspects: holds.suspects,
+    })
 }
 
 /// The solver's state: unknowns, assembler (with contact), Jacobian, SNES and step control.
 struct Solver<'p> {
+    /// Bodies that the conditions may leave free.
+    suspects: Vec<String>,
     x: Vector<'p>,
     asm: Assembler<'p>,
     jac: Matrix<'p>,
@@ -498,7 +556,12 @@ fn set_up_solver<'p>(
 ) -> Result<Solver<'p>, Error> {
     let comm = petsc.comm();
     let (rank, size) = (comm.rank(), comm.size() as usize);
-    let Numbered { part, dofs, sets } = numbered;
+    let Numbered {
+        part,
+        dofs,
+        sets,
+        suspects,
+    } = numbered;
     let (n_global, n_owned) = (dofs.n_global(), dofs.n_owned());
     log(rank, opts.verbosity, Verbosity::Normal, || {
         format!(
@@ -552,6 +615,7 @@ fn set_up_solver<'p>(
         easy_iterations: case.steps.easy_iterations as usize,
     };
     Ok(Solver {
+        suspects,
         x,
         asm,
         jac,
@@ -681,6 +745,11 @@ fn warn_unused_options(petsc: &Petsc) {
             return;
         }
     };
+    // the code's own defaults (case_petsc_options) are not the user's
+    let left: Vec<_> = left
+        .into_iter()
+        .filter(|(n, _)| !CODE_DEFAULT_OPTIONS.contains(&n.as_str()))
+        .collect();
     if left.is_empty() || petsc.comm().rank() != 0 {
         return;
     }
@@ -699,6 +768,10 @@ fn warn_unused_options(petsc: &Petsc) {
     );
 }
 
+/// Options [`case_petsc_options`] adds; not reported as unused (they need not apply to every
+/// linear solver).
+const CODE_DEFAULT_OPTIONS: [&str; 2] = ["-mat_mumps_icntl_24", "-snes_linesearch_type"];
+
 /// The case's `solver.petsc_options`, after the defaults that depend on the case.
 fn case_petsc_options(case: &Case, model: &Model) -> String {
     // With contact, PETSc's backtracking line search creeps where the penalty switches points between
@@ -706,10 +779,16 @@ fn case_petsc_options(case: &Case, model: &Model) -> String {
     // line search (a secant minimisation of |F|^2 along the step) does best (BENCHMARKS.md: ironing_2d
     // 454 Newton iterations and no cutbacks vs 506 with bt and 663 + 35 cutbacks with full steps;
     // hertz_2d 10 vs 36 with bt). The case or the command line can override it.
+    // MUMPS counts null pivots (INFOG(28)) instead of failing or pivoting around them, so a
+    // singular tangent is reported with the free body's name (load stepping checks the count).
+    let null_pivots = "-mat_mumps_icntl_24 1";
     if model.contact_pairs.is_empty() {
-        case.solver.petsc_options.clone()
+        format!("{null_pivots} {}", case.solver.petsc_options)
     } else {
-        format!("-snes_linesearch_type l2 {}", case.solver.petsc_options)
+        format!(
+            "{null_pivots} -snes_linesearch_type l2 {}",
+            case.solver.petsc_options
+        )
     }
 }
 

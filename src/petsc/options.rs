@@ -139,6 +139,51 @@ impl Snes<'_> {
     }
 }
 
+impl Snes<'_> {
+    /// Null pivots MUMPS found in the last factorisation (`INFOG(28)`, with `-mat_mumps_icntl_24 1`);
+    /// `None` when the linear solver is not an LU or Cholesky factorisation by MUMPS, or nothing
+    /// was factored yet.
+    pub fn null_pivots(&mut self) -> Result<Option<i32>, PetscError> {
+        let mut ksp = std::ptr::null_mut();
+        let mut pc = std::ptr::null_mut();
+        let mut pc_type: *const c_char = std::ptr::null();
+        // SAFETY: valid handles borrowed from the SNES; PETSc returns pointers to its own strings.
+        unsafe {
+            call!(SNESGetKSP(self.as_raw(), &mut ksp))?;
+            call!(KSPGetPC(ksp, &mut pc))?;
+            call!(PCGetType(pc, &mut pc_type))?;
+            if pc_type.is_null() {
+                return Ok(None);
+            }
+            let t = CStr::from_ptr(pc_type).to_string_lossy();
+            if t != "lu" && t != "cholesky" {
+                return Ok(None);
+            }
+            let mut solver: *const c_char = std::ptr::null();
+            call!(PCFactorGetMatSolverType(pc, &mut solver))?;
+            if solver.is_null() || CStr::from_ptr(solver).to_bytes() != b"mumps" {
+                return Ok(None);
+            }
+        }
+        let factor = quiet_errors(|| {
+            let mut f = std::ptr::null_mut();
+            // SAFETY: valid PC; fails (quietly) when nothing was factored yet.
+            unsafe { call!(PCFactorGetMatrix(pc, &mut f))? };
+            Ok(f)
+        });
+        let Ok(f) = factor else {
+            return Ok(None);
+        };
+        if f.is_null() {
+            return Ok(None);
+        }
+        let mut v: PetscInt = 0;
+        // SAFETY: `f` is the MUMPS factor of the PC; writes one integer.
+        unsafe { call!(MatMumpsGetInfog(f, 28, &mut v))? };
+        Ok(Some(v as i32))
+    }
+}
+
 impl Ksp<'_> {
     /// Sets the solver up for its operators (for a direct solver: the factorisation, which reads the
     /// factor package's options).

@@ -77,6 +77,16 @@ pub enum SolverError {
         /// SNES's reason or the domain error of the last attempt.
         reason: String,
     },
+    /// The tangent is singular: some motion is held by nothing.
+    #[error("load step {step} (load {load:.6}): the tangent stiffness is singular (MUMPS found {pivots} null pivots): a body or part can move freely")]
+    Singular {
+        /// The step (1-based).
+        step: usize,
+        /// The load it was trying to reach.
+        load: f64,
+        /// Null pivots.
+        pivots: usize,
+    },
     /// PETSc failed.
     #[error(transparent)]
     Petsc(#[from] PetscError),
@@ -142,6 +152,15 @@ pub fn run_load_steps<'p>(
             }
             asm.refresh_pattern(x, jac)?;
             let out = snes.solve(asm, x, jac)?;
+            // A singular tangent (a body nothing holds) would give an arbitrary answer: MUMPS's
+            // null-pivot count (-mat_mumps_icntl_24 1) stops the run instead.
+            if let Some(pivots) = snes.null_pivots()?.filter(|&p| p > 0) {
+                return Err(SolverError::Singular {
+                    step: step + 1,
+                    load: target,
+                    pivots: pivots as usize,
+                });
+            }
             if out.converged {
                 break (out, target);
             }
