@@ -13,7 +13,7 @@ use crate::petsc::{
     Scatter, Snes, Vector,
 };
 use crate::scene::{load_case, validate, Case, OutputField, SceneError};
-use crate::solver::{run_load_steps, SolverError, StepControl, StepRecord};
+use crate::solver::{run_load_steps, AfterStep, SolverError, StepControl, StepRecord};
 use mpi::collective::SystemOperation;
 use mpi::datatype::PartitionMut;
 use mpi::topology::SimpleCommunicator;
@@ -117,6 +117,27 @@ pub enum Error {
     /// Different ranks failed differently: their messages, one per line.
     #[error("{0}")]
     Ranks(String),
+    /// A signal stopped the run after its converged steps were written; the process should exit
+    /// with [`crate::interrupt::exit_code`] of `signal`.
+    #[error("{}: interrupted by {} after {steps} converged load steps; their results are in {}", .file.display(), crate::interrupt::signal_name(*.signal), .out_dir.display())]
+    Interrupted {
+        /// The case file.
+        file: PathBuf,
+        /// The signal.
+        signal: i32,
+        /// Converged steps recorded.
+        steps: usize,
+        /// Where.
+        out_dir: PathBuf,
+    },
+    /// Parts of the model that nothing holds (singular tangent).
+    #[error("{}: ill-posed: {message}", .file.display())]
+    IllPosed {
+        /// The case file.
+        file: PathBuf,
+        /// Which bodies or parts, one per line.
+        message: String,
+    },
     /// Solver options PETSc rejects, or values out of range.
     #[error("{}: solver options: {message}", .file.display())]
     SolverOptions {
@@ -147,6 +168,9 @@ pub fn check_main(case_path: &Path, sets: &[String], petsc_args: Vec<String>) ->
     }
     let part = vec![0u32; model.n_cells()];
     let dofs = number_and_check(&case, &model, &part, 1, 0)?;
+    for w in check_holds(&case, &model, &dofs)?.warnings {
+        eprintln!("warning: {w}");
+    }
     let sets = model.element_sets(&case.file, &part, 0)?;
     {
         let universe = mpi::initialize().ok_or(Error::Mpi)?;
@@ -206,6 +230,23 @@ fn number_and_check(
     Ok(dofs)
 }
 
+/// Parts of the model that no Dirichlet condition, tie or contact pair holds are an error (the
+/// tangent would be singular); the report's warnings are for the caller to print.
+fn check_holds(
+    case: &Case,
+    model: &Model,
+    dofs: &DofMap,
+) -> Result<crate::model::HoldReport, Error> {
+    let report = crate::model::holds(model, |n| dofs.global(n, 0).is_some());
+    if !report.errors.is_empty() {
+        return Err(Error::IllPosed {
+            file: case.file.clone(),
+            message: report.errors.join("; "),
+        });
+    }
+    Ok(report)
+}
+
 /// A Dirichlet condition on a set none of whose nodes carries unknowns would silently do nothing.
 fn check_conditions_have_unknowns(case: &Case, model: &Model, dofs: &DofMap) -> Result<(), Error> {
     for (bc, spec) in model.bcs.iter().zip(&case.bcs) {
@@ -227,6 +268,9 @@ pub fn run_main(opts: RunOptions) -> Result<(), Error> {
     let world = universe.world();
     let rank = world.rank();
     let petsc = Petsc::init(&world, &opts.petsc_args)?;
+    // PETSc's own handler would abort on SIGTERM: ours stop the run cleanly instead.
+    petsc.pop_signal_handler()?;
+    crate::interrupt::install().map_err(|e| Error::Usage(format!("signal handlers: {e}")))?;
     let result = run(&petsc, &opts);
     // Options are only all read once the solver has run; an earlier failure has its own message.
     if matches!(result, Ok(()) | Err(Error::Solver { .. })) {
@@ -238,6 +282,8 @@ pub fn run_main(opts: RunOptions) -> Result<(), Error> {
     let messages = gather_errors(&world, &result);
     let outcome = match result {
         Ok(()) => Ok(()),
+        // Every rank agreed on the interrupt: each exits with the signal's code.
+        Err(e @ Error::Interrupted { .. }) => Err(e),
         Err(_) if rank != 0 => Err(Error::OtherRank),
         Err(e) if messages.len() <= 1 && !matches!(e, Error::OtherRank) => Err(e),
         Err(_) => Err(Error::Ranks(messages.join("\n"))),
@@ -252,7 +298,15 @@ pub fn run_main(opts: RunOptions) -> Result<(), Error> {
         }
     }
     world.barrier();
-    outcome.map_err(|_| Error::Reported)
+    outcome.map_err(|e| match e {
+        Error::Interrupted { signal, .. } => Error::Interrupted {
+            file: PathBuf::new(),
+            signal,
+            steps: 0,
+            out_dir: PathBuf::new(),
+        },
+        _ => Error::Reported,
+    })
 }
 
 /// The distinct error messages of all ranks, on rank 0 (empty elsewhere), each prefixed with the
@@ -351,6 +405,7 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
     let t_solve = Instant::now();
     let result = solver.load_loop(&model, &mut observer);
     let solve_wall = t_solve.elapsed().as_secs_f64();
+    let observer_signal = observer.interrupted;
     finish_and_report(petsc, &case, &model, &solver, observer, &result, solve_wall)?;
     // Only a converged run announces its results: a failed one's error must be the last word.
     if result.is_ok() {
@@ -358,9 +413,31 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
             format!("results in {}", out_dir.display())
         });
     }
-    result.map(|_| ()).map_err(|source| Error::Solver {
-        file: case.file.clone(),
-        source,
+    result.map(|_| ()).map_err(|source| match source {
+        SolverError::Interrupted { steps, .. } => Error::Interrupted {
+            file: case.file.clone(),
+            signal: observer_signal.unwrap_or(0),
+            steps,
+            out_dir,
+        },
+        SolverError::Singular { step, load, pivots } if !solver.suspects.is_empty() => {
+            Error::IllPosed {
+                file: case.file.clone(),
+                message: format!(
+                    "load step {step} (load {load:.6}): the tangent stiffness is singular (MUMPS found {pivots} null pivots); likely free: body {}",
+                    solver
+                        .suspects
+                        .iter()
+                        .map(|b| format!("`{b}`"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            }
+        }
+        source => Error::Solver {
+            file: case.file.clone(),
+            source,
+        },
     })
 }
 
@@ -409,6 +486,8 @@ struct Numbered {
     part: Vec<u32>,
     dofs: DofMap,
     sets: Vec<Box<dyn crate::assembly::ElementSet>>,
+    /// Bodies that the conditions may leave free (named if the tangent turns out singular).
+    suspects: Vec<String>,
 }
 
 /// Phase 2: partitions the cells (METIS on rank 0, broadcast, so all ranks agree even if METIS
@@ -433,17 +512,31 @@ fn number_and_partition(petsc: &Petsc, case: &Case, model: &Model) -> Result<Num
     }
     // Deterministic on every rank (same model, same partition): no agreement needed.
     let dofs = number_and_check(case, model, &part, size, rank as usize)?;
+    // The same on every rank (same model).
+    let holds = check_holds(case, model, &dofs)?;
+    for w in &holds.warnings {
+        if rank == 0 {
+            eprintln!("warning: {w}");
+        }
+    }
     let sets = agree(
         comm,
         model
             .element_sets(&case.file, &part, rank as usize)
             .map_err(Error::from),
     )?;
-    Ok(Numbered { part, dofs, sets })
+    Ok(Numbered {
+        part,
+        dofs,
+        sets,
+        suspects: holds.suspects,
+    })
 }
 
 /// The solver's state: unknowns, assembler (with contact), Jacobian, SNES and step control.
 struct Solver<'p> {
+    /// Bodies that the conditions may leave free.
+    suspects: Vec<String>,
     x: Vector<'p>,
     asm: Assembler<'p>,
     jac: Matrix<'p>,
@@ -463,7 +556,12 @@ fn set_up_solver<'p>(
 ) -> Result<Solver<'p>, Error> {
     let comm = petsc.comm();
     let (rank, size) = (comm.rank(), comm.size() as usize);
-    let Numbered { part, dofs, sets } = numbered;
+    let Numbered {
+        part,
+        dofs,
+        sets,
+        suspects,
+    } = numbered;
     let (n_global, n_owned) = (dofs.n_global(), dofs.n_owned());
     log(rank, opts.verbosity, Verbosity::Normal, || {
         format!(
@@ -531,6 +629,7 @@ fn set_up_solver<'p>(
         pseudo_steps: case.steps.pseudo_steps as usize,
     };
     Ok(Solver {
+        suspects,
         x,
         asm,
         jac,
@@ -660,6 +759,11 @@ fn warn_unused_options(petsc: &Petsc) {
             return;
         }
     };
+    // the code's own defaults (case_petsc_options) are not the user's
+    let left: Vec<_> = left
+        .into_iter()
+        .filter(|(n, _)| !CODE_DEFAULT_OPTIONS.contains(&n.as_str()))
+        .collect();
     if left.is_empty() || petsc.comm().rank() != 0 {
         return;
     }
@@ -678,6 +782,10 @@ fn warn_unused_options(petsc: &Petsc) {
     );
 }
 
+/// Options [`case_petsc_options`] adds; not reported as unused (they need not apply to every
+/// linear solver).
+const CODE_DEFAULT_OPTIONS: [&str; 2] = ["-mat_mumps_icntl_24", "-snes_linesearch_type"];
+
 /// The case's `solver.petsc_options`, after the defaults that depend on the case.
 fn case_petsc_options(case: &Case, model: &Model) -> String {
     // With contact, PETSc's backtracking line search creeps where the penalty switches points between
@@ -685,10 +793,16 @@ fn case_petsc_options(case: &Case, model: &Model) -> String {
     // line search (a secant minimisation of |F|^2 along the step) does best (BENCHMARKS.md: ironing_2d
     // 454 Newton iterations and no cutbacks vs 506 with bt and 663 + 35 cutbacks with full steps;
     // hertz_2d 10 vs 36 with bt). The case or the command line can override it.
+    // MUMPS counts null pivots (INFOG(28)) instead of failing or pivoting around them, so a
+    // singular tangent is reported with the free body's name (load stepping checks the count).
+    let null_pivots = "-mat_mumps_icntl_24 1";
     if model.contact_pairs.is_empty() {
-        case.solver.petsc_options.clone()
+        format!("{null_pivots} {}", case.solver.petsc_options)
     } else {
-        format!("-snes_linesearch_type l2 {}", case.solver.petsc_options)
+        format!(
+            "{null_pivots} -snes_linesearch_type l2 {}",
+            case.solver.petsc_options
+        )
     }
 }
 
@@ -733,6 +847,8 @@ struct StepObserver<'c, 'p> {
     step_log: Vec<io::StepLog>,
     /// Wall time spent recording steps (s).
     t_output: f64,
+    /// The signal that stopped the run, agreed by all ranks.
+    interrupted: Option<i32>,
 }
 
 impl<'c, 'p> StepObserver<'c, 'p> {
@@ -768,6 +884,7 @@ impl<'c, 'p> StepObserver<'c, 'p> {
             newton: io::NewtonStats::default(),
             step_log: Vec::new(),
             t_output: 0.0,
+            interrupted: None,
         }
     }
 
@@ -778,8 +895,11 @@ impl<'c, 'p> StepObserver<'c, 'p> {
         rec: &StepRecord,
         x: &Vector,
         asm: &mut Assembler,
-    ) -> Result<(), String> {
+    ) -> Result<AfterStep, String> {
         let t0 = Instant::now();
+        // A signal on any rank stops every rank after this step, which is then written whatever
+        // the output schedule says.
+        self.interrupted = crate::interrupt::agreed(asm.comm());
         self.newton.record(rec.iterations as u32);
         self.step_log.push(io::StepLog {
             step: rec.step,
@@ -808,7 +928,8 @@ impl<'c, 'p> StepObserver<'c, 'p> {
         }
         extra_columns.extend(contact_history(asm, model.dim));
         let last = (rec.load - self.n_stages).abs() < 1e-12;
-        let write = last || rec.step.is_multiple_of(self.case.output.every);
+        let write =
+            last || rec.step.is_multiple_of(self.case.output.every) || self.interrupted.is_some();
         self.output
             .step(
                 rec,
@@ -822,7 +943,10 @@ impl<'c, 'p> StepObserver<'c, 'p> {
             .map_err(|e| e.to_string())?;
         self.t_output += t0.elapsed().as_secs_f64();
         self.progress(rec);
-        Ok(())
+        Ok(match self.interrupted {
+            Some(_) => AfterStep::Stop,
+            None => AfterStep::Continue,
+        })
     }
 
     /// The progress bar, or without one (not a terminal, or -v) one plain line per step; with -v
@@ -884,6 +1008,10 @@ fn finish_and_report(
     let assembly = asm.timers.residual + asm.timers.jacobian + asm.timers.pattern;
     let status = match result {
         Ok(_) => io::RunStatus::Converged,
+        Err(SolverError::Interrupted { steps, .. }) => io::RunStatus::Interrupted {
+            signal: crate::interrupt::signal_name(observer.interrupted.unwrap_or(0)).to_string(),
+            converged_steps: *steps,
+        },
         Err(e) => io::RunStatus::Failed {
             reason: e.to_string(),
         },

@@ -30,6 +30,7 @@ pub mod contact;
 pub mod driver;
 pub mod fem;
 pub mod geometry;
+pub mod interrupt;
 pub mod io;
 pub mod material;
 pub mod mesh;

@@ -121,6 +121,10 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         // `run` has already printed the error on rank 0 while all ranks were still alive.
         Err(driver::Error::OtherRank | driver::Error::Reported) => ExitCode::FAILURE,
+        // Printed too; the conventional code of the signal (130 for SIGINT, 143 for SIGTERM).
+        Err(driver::Error::Interrupted { signal, .. }) => {
+            ExitCode::from(nurbs_contact::interrupt::exit_code(signal))
+        }
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::FAILURE

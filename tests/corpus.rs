@@ -308,6 +308,7 @@ fn corpus_directives_parse() {
     assert!(count("msh_") >= 30);
     assert!(count("huge_") >= 6);
     assert!(count("petsc_") >= 6);
+    assert!(count("illposed_") >= 5);
     assert!(entries.iter().filter(|e| e.run).count() >= 8);
     assert!(entries.iter().any(|e| e.ranks.contains(&2)));
 }

@@ -73,12 +73,20 @@ fn is_zero(n: &usize) -> bool {
     *n == 0
 }
 
-/// How the run ended: `"status": "converged"` or `"status": "failed", "reason": "..."`.
+/// How the run ended: `"status": "converged"`, `"status": "failed", "reason": "..."` or
+/// `"status": "interrupted", "signal": "SIGINT", "converged_steps": N`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "status", rename_all = "lowercase")]
 pub enum RunStatus {
     Converged,
-    Failed { reason: String },
+    Failed {
+        reason: String,
+    },
+    /// Stopped by a signal after `converged_steps` steps, all of them recorded.
+    Interrupted {
+        signal: String,
+        converged_steps: usize,
+    },
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -187,6 +195,10 @@ mod tests {
             RunStatus::Failed {
                 reason: "step 3: 8 cutbacks exhausted".to_string(),
             },
+            RunStatus::Interrupted {
+                signal: "SIGTERM".to_string(),
+                converged_steps: 2,
+            },
         ] {
             let s = sample(status);
             let path = write_summary(&dir, &s).unwrap();
@@ -204,6 +216,14 @@ mod tests {
                 RunStatus::Failed { reason } => {
                     assert_eq!(v["status"], "failed");
                     assert_eq!(v["reason"], reason.as_str());
+                }
+                RunStatus::Interrupted {
+                    signal,
+                    converged_steps,
+                } => {
+                    assert_eq!(v["status"], "interrupted");
+                    assert_eq!(v["signal"], signal.as_str());
+                    assert_eq!(v["converged_steps"], *converged_steps);
                 }
             }
             let back: Summary = serde_json::from_str(&text).unwrap();

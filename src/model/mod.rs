@@ -12,8 +12,10 @@ pub mod contact;
 pub mod enrich;
 #[cfg(test)]
 mod enrich_tests;
+mod holds;
 mod sampling;
 
 pub use build::{enriched_tl_element, Body, Model, ModelError};
 pub use enrich::{EnrichError, EnrichedBasis, EnrichedCell, Enrichment, ExactSurface};
+pub use holds::{holds, HoldReport};
 pub use sampling::{apply_display, SampledGrid};

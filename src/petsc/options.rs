@@ -6,6 +6,14 @@ use super::{sys, Ksp, Petsc, PetscInt, Snes};
 use std::ffi::{c_char, c_int, c_void, CStr};
 
 impl Petsc {
+    /// Removes PETSc's signal handler (which turns SIGTERM into an abort), so the program's own
+    /// handlers decide.
+    pub fn pop_signal_handler(&self) -> Result<(), PetscError> {
+        // SAFETY: pops the handler PetscInitialize pushed; with the stack empty PETSc restores the
+        // default dispositions.
+        unsafe { call!(PetscPopSignalHandler()) }
+    }
+
     /// Options in the database that no PETSc object has read so far: `(-name, value)`.
     pub fn options_left(&self) -> Result<Vec<(String, Option<String>)>, PetscError> {
         let mut n: PetscInt = 0;
@@ -128,6 +136,51 @@ impl Snes<'_> {
             ))?
         };
         Ok(t)
+    }
+}
+
+impl Snes<'_> {
+    /// Null pivots MUMPS found in the last factorisation (`INFOG(28)`, with `-mat_mumps_icntl_24 1`);
+    /// `None` when the linear solver is not an LU or Cholesky factorisation by MUMPS, or nothing
+    /// was factored yet.
+    pub fn null_pivots(&mut self) -> Result<Option<i32>, PetscError> {
+        let mut ksp = std::ptr::null_mut();
+        let mut pc = std::ptr::null_mut();
+        let mut pc_type: *const c_char = std::ptr::null();
+        // SAFETY: valid handles borrowed from the SNES; PETSc returns pointers to its own strings.
+        unsafe {
+            call!(SNESGetKSP(self.as_raw(), &mut ksp))?;
+            call!(KSPGetPC(ksp, &mut pc))?;
+            call!(PCGetType(pc, &mut pc_type))?;
+            if pc_type.is_null() {
+                return Ok(None);
+            }
+            let t = CStr::from_ptr(pc_type).to_string_lossy();
+            if t != "lu" && t != "cholesky" {
+                return Ok(None);
+            }
+            let mut solver: *const c_char = std::ptr::null();
+            call!(PCFactorGetMatSolverType(pc, &mut solver))?;
+            if solver.is_null() || CStr::from_ptr(solver).to_bytes() != b"mumps" {
+                return Ok(None);
+            }
+        }
+        let factor = quiet_errors(|| {
+            let mut f = std::ptr::null_mut();
+            // SAFETY: valid PC; fails (quietly) when nothing was factored yet.
+            unsafe { call!(PCFactorGetMatrix(pc, &mut f))? };
+            Ok(f)
+        });
+        let Ok(f) = factor else {
+            return Ok(None);
+        };
+        if f.is_null() {
+            return Ok(None);
+        }
+        let mut v: PetscInt = 0;
+        // SAFETY: `f` is the MUMPS factor of the PC; writes one integer.
+        unsafe { call!(MatMumpsGetInfog(f, 28, &mut v))? };
+        Ok(Some(v as i32))
     }
 }
 

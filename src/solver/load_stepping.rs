@@ -56,6 +56,15 @@ pub struct StepRecord {
     pub pseudo_steps: usize,
 }
 
+/// What the load stepping does after the observer has seen a converged step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AfterStep {
+    /// Go on with the next step.
+    Continue,
+    /// Stop here (an interrupt): the run ends with [`SolverError::Interrupted`].
+    Stop,
+}
+
 /// Why the load stepping stopped.
 #[derive(Debug, thiserror::Error)]
 pub enum SolverError {
@@ -73,19 +82,37 @@ pub enum SolverError {
         /// SNES's reason or the domain error of the last attempt.
         reason: String,
     },
+    /// The tangent is singular: some motion is held by nothing.
+    #[error("load step {step} (load {load:.6}): the tangent stiffness is singular (MUMPS found {pivots} null pivots): a body or part can move freely")]
+    Singular {
+        /// The step (1-based).
+        step: usize,
+        /// The load it was trying to reach.
+        load: f64,
+        /// Null pivots.
+        pivots: usize,
+    },
     /// PETSc failed.
     #[error(transparent)]
     Petsc(#[from] PetscError),
     /// Boundary conditions contradict each other.
     #[error(transparent)]
     Conflict(#[from] ConflictError),
+    /// The observer asked to stop after a converged step (an interrupt).
+    #[error("interrupted after {steps} converged load steps (load {load:.6})")]
+    Interrupted {
+        /// Converged steps, all recorded.
+        steps: usize,
+        /// Load parameter reached.
+        load: f64,
+    },
     /// The observer (output writer) failed.
     #[error("while writing results: {0}")]
     Observer(String),
 }
 
 /// Runs all stages. `x` holds the initial displacement and ends with the last converged one.
-/// `observer` is called after every converged step (output, history).
+/// `observer` is called after every converged step (output, history) and may stop the run there.
 ///
 /// Collective.
 #[allow(clippy::too_many_arguments)]
@@ -97,7 +124,11 @@ pub fn run_load_steps<'p>(
     bcs: &[DirichletBc],
     coords: &[f64],
     control: &StepControl,
-    observer: &mut dyn FnMut(&StepRecord, &Vector<'p>, &mut Assembler<'p>) -> Result<(), String>,
+    observer: &mut dyn FnMut(
+        &StepRecord,
+        &Vector<'p>,
+        &mut Assembler<'p>,
+    ) -> Result<AfterStep, String>,
 ) -> Result<Vec<StepRecord>, SolverError> {
     let mut x_conv = x.duplicate()?;
     x.copy_to(&mut x_conv)?;
@@ -127,6 +158,15 @@ pub fn run_load_steps<'p>(
             }
             asm.refresh_pattern(x, jac)?;
             let out = snes.solve(asm, x, jac)?;
+            // A singular tangent (a body nothing holds) would give an arbitrary answer: MUMPS's
+            // null-pivot count (-mat_mumps_icntl_24 1) stops the run instead.
+            if let Some(pivots) = snes.null_pivots()?.filter(|&p| p > 0) {
+                return Err(SolverError::Singular {
+                    step: step + 1,
+                    load: target,
+                    pivots: pivots as usize,
+                });
+            }
             if out.converged {
                 break (out, target);
             }
@@ -182,8 +222,12 @@ pub fn run_load_steps<'p>(
             wall_time: t_step.elapsed().as_secs_f64(),
             pseudo_steps: pseudo,
         };
-        observer(&rec, x, asm).map_err(SolverError::Observer)?;
+        let after = observer(&rec, x, asm).map_err(SolverError::Observer)?;
+        let load = rec.load;
         records.push(rec);
+        if after == AfterStep::Stop {
+            return Err(SolverError::Interrupted { steps: step, load });
+        }
     }
     Ok(records)
 }

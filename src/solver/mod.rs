@@ -3,4 +3,6 @@
 
 pub mod load_stepping;
 
-pub use load_stepping::{run_load_steps, SolverError, StepControl, StepRecord, StepSizer};
+pub use load_stepping::{
+    run_load_steps, AfterStep, SolverError, StepControl, StepRecord, StepSizer,
+};

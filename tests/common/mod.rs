@@ -28,7 +28,8 @@ pub fn scratch(name: &str) -> PathBuf {
     d
 }
 
-fn mpi_env(cmd: &mut Command) {
+/// The environment Open MPI needs here (root, yield, shared-memory transport).
+pub fn mpi_env(cmd: &mut Command) {
     cmd.env("OMPI_ALLOW_RUN_AS_ROOT", "1")
         .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
         .env("OMPI_MCA_mpi_yield_when_idle", "1")
