@@ -76,32 +76,19 @@ pub struct Launch<'a> {
     pub quiet: bool,
 }
 
-/// Runs (or skips) every run of the study, `jobs` at a time; outcomes in run order.
-pub fn execute(study: &Study, out: &Path, launch: &Launch<'_>) -> Vec<Outcome> {
-    let n = study.runs.len();
+/// `f(i)` for `i` in `0..n`, `jobs` at a time; results in order.
+pub fn parallel<T: Send>(n: usize, jobs: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
     let next = AtomicUsize::new(0);
-    let done = AtomicUsize::new(0);
-    let results: Mutex<Vec<Option<Outcome>>> = Mutex::new(vec![None; n]);
-    let jobs = study.spec.jobs.min(n).max(1);
+    let results: Mutex<Vec<Option<T>>> = Mutex::new((0..n).map(|_| None).collect());
     std::thread::scope(|scope| {
-        for _ in 0..jobs {
+        for _ in 0..jobs.min(n).max(1) {
             scope.spawn(|| loop {
                 let i = next.fetch_add(1, Ordering::SeqCst);
                 if i >= n {
                     break;
                 }
-                let run = &study.runs[i];
-                let t0 = Instant::now();
-                let outcome = execute_one(study, run, out, launch);
-                let k = done.fetch_add(1, Ordering::SeqCst) + 1;
-                if !launch.quiet {
-                    eprintln!(
-                        "[{k}/{n}] {}: {}",
-                        run.name,
-                        describe(&outcome, t0.elapsed())
-                    );
-                }
-                results.lock().expect("no worker panics")[i] = Some(outcome);
+                let r = f(i);
+                results.lock().expect("no worker panics")[i] = Some(r);
             });
         }
     });
@@ -109,8 +96,66 @@ pub fn execute(study: &Study, out: &Path, launch: &Launch<'_>) -> Vec<Outcome> {
         .into_inner()
         .expect("no worker panics")
         .into_iter()
-        .map(|o| o.expect("every run executed"))
+        .map(|o| o.expect("every index done"))
         .collect()
+}
+
+/// Runs (or skips) every run of the study, `jobs` at a time; outcomes in run order.
+pub fn execute(study: &Study, out: &Path, launch: &Launch<'_>) -> Vec<Outcome> {
+    let n = study.runs.len();
+    let done = AtomicUsize::new(0);
+    parallel(n, study.spec.jobs, |i| {
+        let run = &study.runs[i];
+        let t0 = Instant::now();
+        let outcome = execute_one(study, run, out, launch);
+        let k = done.fetch_add(1, Ordering::SeqCst) + 1;
+        if !launch.quiet {
+            eprintln!(
+                "[{k}/{n}] {}: {}",
+                run.name,
+                describe(&outcome, t0.elapsed())
+            );
+        }
+        outcome
+    })
+}
+
+/// `nurbs-contact check` on every run's case (each in its own process: `check` initialises MPI and
+/// PETSc), `jobs` at a time: `Err(message)` for the runs that do not pass.
+pub fn check_all(study: &Study, launch: &Launch<'_>) -> Vec<Result<(), String>> {
+    parallel(study.runs.len(), study.spec.jobs, |i| {
+        let run = &study.runs[i];
+        let mut cmd = Command::new(&launch.exe);
+        cmd.arg("check").arg(&study.case);
+        for s in &run.sets {
+            cmd.arg("--set").arg(s);
+        }
+        cmd.args(launch.petsc_args);
+        mpi_env(&mut cmd);
+        let out = cmd
+            .stdin(Stdio::null())
+            .output()
+            .map_err(|e| format!("cannot start {:?}: {e}", cmd.get_program()))?;
+        if out.status.success() {
+            Ok(())
+        } else {
+            let err = String::from_utf8_lossy(&out.stderr);
+            let msg: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+            Err(msg.join(" | "))
+        }
+    })
+}
+
+/// The environment the test suite and ci/env.sh give mpirun: runs that share cores yield instead of
+/// busy-polling; as root, Open MPI must be told that this is intended.
+fn mpi_env(cmd: &mut Command) {
+    if std::env::var_os("OMPI_MCA_mpi_yield_when_idle").is_none() {
+        cmd.env("OMPI_MCA_mpi_yield_when_idle", "1");
+    }
+    if running_as_root() && std::env::var_os("OMPI_ALLOW_RUN_AS_ROOT").is_none() {
+        cmd.env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+            .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1");
+    }
 }
 
 fn describe(o: &Outcome, elapsed: Duration) -> String {
@@ -206,15 +251,7 @@ fn launch_run(
         cmd.arg("--set").arg(s);
     }
     cmd.args(launch.petsc_args);
-    // As the test suite and ci/env.sh launch mpirun: runs that share cores yield instead of
-    // busy-polling; as root, Open MPI must be told that this is intended.
-    if std::env::var_os("OMPI_MCA_mpi_yield_when_idle").is_none() {
-        cmd.env("OMPI_MCA_mpi_yield_when_idle", "1");
-    }
-    if running_as_root() && std::env::var_os("OMPI_ALLOW_RUN_AS_ROOT").is_none() {
-        cmd.env("OMPI_ALLOW_RUN_AS_ROOT", "1")
-            .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1");
-    }
+    mpi_env(&mut cmd);
     cmd.stdin(Stdio::null())
         .stdout(Stdio::from(out_file))
         .stderr(Stdio::from(err_file));

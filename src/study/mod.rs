@@ -166,8 +166,20 @@ pub fn study_main(opts: &StudyOptions) -> Result<(), StudyError> {
         }
         study.spec.jobs = j;
     }
+    let exe = std::env::current_exe().map_err(|source| StudyError::Io {
+        path: PathBuf::from("nurbs-contact"),
+        op: "find this program's own path",
+        source,
+    })?;
+    // PETSc options are passed on without the program name that leads the list.
+    let petsc: Vec<String> = opts.petsc_args.iter().skip(1).cloned().collect();
+    let launch = exec::Launch {
+        exe,
+        petsc_args: &petsc,
+        quiet: opts.quiet,
+    };
     if opts.check {
-        return check(&study);
+        return check(&study, &launch);
     }
     let out = opts
         .out
@@ -189,22 +201,7 @@ pub fn study_main(opts: &StudyOptions) -> Result<(), StudyError> {
             out.display()
         );
     }
-    let exe = std::env::current_exe().map_err(|source| StudyError::Io {
-        path: PathBuf::from("nurbs-contact"),
-        op: "find this program's own path",
-        source,
-    })?;
-    // PETSc options are passed on without the program name that leads the list.
-    let petsc: Vec<String> = opts.petsc_args.iter().skip(1).cloned().collect();
-    let outcomes = exec::execute(
-        &study,
-        &out,
-        &exec::Launch {
-            exe,
-            petsc_args: &petsc,
-            quiet: opts.quiet,
-        },
-    );
+    let outcomes = exec::execute(&study, &out, &launch);
     let rows = report::rows(&study, &outcomes);
     write_atomic(
         &out.join("study.csv"),
@@ -237,19 +234,18 @@ pub fn study_main(opts: &StudyOptions) -> Result<(), StudyError> {
     Ok(())
 }
 
-/// `--check`: every run's case resolves and passes `check`.
-fn check(study: &Study) -> Result<(), StudyError> {
-    let mut bad = Vec::new();
-    for run in &study.runs {
-        eprint!("{}: ", run.name);
-        if let Err(e) = crate::driver::check_main(&study.case, &run.sets, Vec::new()) {
-            eprintln!("error");
-            bad.push(format!("  {}: {e}", run.name));
-        }
-    }
+/// `--check`: every run's case resolves and passes `nurbs-contact check`.
+fn check(study: &Study, launch: &exec::Launch<'_>) -> Result<(), StudyError> {
+    let results = exec::check_all(study, launch);
+    let bad: Vec<String> = study
+        .runs
+        .iter()
+        .zip(&results)
+        .filter_map(|(run, r)| r.as_ref().err().map(|e| format!("  {}: {e}", run.name)))
+        .collect();
     if bad.is_empty() {
         println!(
-            "{}: ok ({} runs, {} metrics)",
+            "{}: ok ({} runs pass check, {} metrics)",
             study.file.display(),
             study.runs.len(),
             study.spec.metrics.len()

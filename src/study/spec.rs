@@ -180,7 +180,7 @@ impl Study {
             return Err(invalid("ranks", "must be at least 1".into()));
         }
         if let Some(t) = spec.timeout {
-            if !(t > 0.0) {
+            if t.is_nan() || t <= 0.0 {
                 return Err(invalid("timeout", format!("must be positive, got {t}")));
             }
         }
@@ -500,11 +500,10 @@ levels = [ { name = "coarse", value = 16, set = ["meshes.disk.n_arc=16"] },
             let e = parse(&format!("{extra}{BASE}")).unwrap_err().to_string();
             assert!(e.contains(want) && e.contains("test.toml"), "{extra}: {e}");
         }
-        let e = parse(
-            "case = \"nope.toml\"\n[[axes]]\nname = \"a\"\nkeys = [\"x\"]\nvalues = [1]\n",
-        )
-        .unwrap_err()
-        .to_string();
+        let e =
+            parse("case = \"nope.toml\"\n[[axes]]\nname = \"a\"\nkeys = [\"x\"]\nvalues = [1]\n")
+                .unwrap_err()
+                .to_string();
         assert!(e.contains("`case`") && e.contains("does not exist"), "{e}");
         let e = parse("case = \"hertz_2d.toml\"\n[[axes]]\nname = \"a\"\nvalues = [1]\n")
             .unwrap_err()
