@@ -335,3 +335,33 @@ fn every_shipped_study_passes_check() {
         }
     }
 }
+
+#[test]
+fn runs_go_through_mpirun_and_a_timeout_stops_a_run() {
+    let d = scratch("study-ranks");
+    let file = write_study(
+        &d,
+        "ranks = 2\nset = [\"stages.0.steps=2\"]\n\
+         [[axes]]\nname = \"family\"\nkeys = [\"bodies.disk.element\"]\nvalues = [\"Q1N2\"]\n\
+         [[axes]]\nname = \"mesh\"\nlevels = [ { name = \"m16\", set = [\"meshes.disk.n_arc=16\", \"meshes.disk.n_radial=4\"] } ]\n",
+    );
+    let out = d.join("out");
+    let o = study(&[file.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r = &study_rows(&out)["Q1N2_m16"];
+    assert_eq!(r["status"], "converged", "{r:?}");
+    assert_eq!(summary(&out.join("Q1N2_m16"))["ranks"], 2);
+
+    // the same run with a timeout far below its run time is stopped and recorded
+    let text = std::fs::read_to_string(&file).unwrap();
+    std::fs::write(
+        &file,
+        format!("timeout = 0.01\n{text}").replace("steps=2", "steps=3"),
+    )
+    .unwrap();
+    let o = study(&[file.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r = &study_rows(&out)["Q1N2_m16"];
+    assert_eq!(r["status"], "failed", "{r:?}");
+    assert!(r["reason"].contains("timeout of 0.01 s"), "{r:?}");
+}

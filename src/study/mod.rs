@@ -68,10 +68,11 @@
 //! whose directory already holds a `summary.json` with status `converged` and a `case.toml` equal to
 //! the run's resolved case (the case after its overrides, as `run` writes it) is not run again, so
 //! an interrupted study resumes where it stopped, and a changed study or case reruns exactly what
-//! changed. A run that fails — its case does not resolve, the solver stops, the timeout is
-//! reached — is recorded with its reason (the summary's reason and the tail of its stderr) and the
-//! study goes on; `study` itself fails only when the study file is bad or its outputs cannot be
-//! written.
+//! changed (`ranks` and PETSc options are not part of the comparison). A run that fails (its case
+//! does not resolve, the solver stops, the timeout is reached) is recorded with its reason (the
+//! summary's reason and the tail of its stderr) and the study goes on; `study` itself fails only when
+//! the study file is bad or its outputs cannot be written. A run stopped by the timeout gets SIGTERM
+//! (mpirun passes it to its ranks), then SIGKILL 10 s later.
 //!
 //! # Outputs (in OUT, default `out/study/<name>`)
 //! - `study.csv`: one row per run: `run`, the axis labels, `status`, `skipped` (1: finished by an
