@@ -24,6 +24,8 @@
 //!   residual/tangent of each half-pass, plugged into the assembler beside the element sets.
 //! - [`scene`], [`model`]: case files and what is built from them (including the enriched layer of a
 //!   body's contact surface, `model::enrich`); [`solver`], [`driver`], [`io`].
+//! - [`study`]: `nurbs-contact study`, refinement studies over many runs of one case, with metrics,
+//!   tables and plots.
 
 pub mod assembly;
 pub mod contact;
@@ -39,3 +41,4 @@ pub mod parallel;
 pub mod petsc;
 pub mod scene;
 pub mod solver;
+pub mod study;

@@ -1,4 +1,4 @@
-//! `nurbs-contact`: run or check a case file. CLI only: parse, initialise MPI and PETSc, hand over to
+//! `nurbs-contact`: run or check a case file, or run a study. CLI only: parse, initialise MPI and PETSc, hand over to
 //! [`nurbs_contact::driver`], report.
 
 use clap::{Parser, Subcommand};
@@ -54,6 +54,24 @@ enum Command {
         /// Overrides, as for `run`.
         #[arg(long = "set", value_name = "KEY=VALUE")]
         sets: Vec<String>,
+    },
+    /// Run a refinement study: a case over every combination of a study file's axes, with metrics,
+    /// `study.csv`, `study.md` and SVG plots (file format: see cases/studies/README.md).
+    Study {
+        /// The study file (TOML).
+        study: PathBuf,
+        /// Output folder (default: out/study/<study name>/).
+        #[arg(long, short = 'o')]
+        out: Option<PathBuf>,
+        /// Only validate the study file and `check` every run's case, without running.
+        #[arg(long)]
+        check: bool,
+        /// Runs executed at once (overrides the file's `jobs`).
+        #[arg(long, short = 'j')]
+        jobs: Option<usize>,
+        /// Only errors and failed runs.
+        #[arg(short, long)]
+        quiet: bool,
     },
 }
 
@@ -116,6 +134,29 @@ fn main() -> ExitCode {
             overwrite,
         }),
         Command::Check { case, sets } => driver::check_main(&case, &sets, petsc_args),
+        Command::Study {
+            study,
+            out,
+            check,
+            jobs,
+            quiet,
+        } => {
+            let opts = nurbs_contact::study::StudyOptions {
+                file: study,
+                out,
+                check,
+                jobs,
+                quiet,
+                petsc_args,
+            };
+            return match nurbs_contact::study::study_main(&opts) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+            };
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,326 @@
+//! Executing the runs of a study: resolving each run's case, skipping runs finished earlier with the
+//! same resolved case, launching the others (`jobs` at a time, each on `ranks` MPI ranks), and
+//! collecting what each left behind.
+
+use crate::io::{RunStatus, Summary};
+use crate::study::metrics::Table;
+use crate::study::spec::{RunSpec, Study};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+/// How a run of the study ended.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Status {
+    Converged,
+    /// The run stopped (or its case could not be resolved): the reason.
+    Failed(String),
+}
+
+/// What one run of the study left: its status and results.
+#[derive(Debug, Clone)]
+pub struct Outcome {
+    pub status: Status,
+    /// Not run by this invocation: an earlier one finished it with the same resolved case.
+    pub skipped: bool,
+    pub summary: Option<Summary>,
+    pub history: Option<Table>,
+    /// The run's output directory.
+    pub dir: PathBuf,
+}
+
+/// Where the logs of a run go (beside, not inside, its output directory, which the run claims).
+pub fn log_paths(out: &Path, run: &RunSpec) -> (PathBuf, PathBuf) {
+    let logs = out.join("logs");
+    (
+        logs.join(format!("{}.out", run.name)),
+        logs.join(format!("{}.err", run.name)),
+    )
+}
+
+/// The case of a run after its overrides, as `run` writes it to `case.toml`.
+pub fn resolved_case(study: &Study, run: &RunSpec) -> Result<String, String> {
+    let case = crate::scene::load_case(&study.case, &run.sets).map_err(|e| e.to_string())?;
+    case.to_toml_string().map_err(|e| e.to_string())
+}
+
+/// Whether `dir` holds a converged run of exactly `case_toml`.
+pub fn finished_earlier(dir: &Path, case_toml: &str) -> Option<Summary> {
+    let written = std::fs::read_to_string(dir.join("case.toml")).ok()?;
+    if written != case_toml {
+        return None;
+    }
+    let summary = read_summary(dir)?;
+    matches!(summary.status, RunStatus::Converged).then_some(summary)
+}
+
+fn read_summary(dir: &Path) -> Option<Summary> {
+    let text = std::fs::read_to_string(dir.join("summary.json")).ok()?;
+    serde_json::from_str(&text).ok()
+}
+
+fn read_history(dir: &Path) -> Option<Table> {
+    let p = dir.join("history.csv");
+    let text = std::fs::read_to_string(&p).ok()?;
+    Table::parse(&text, &p.display().to_string()).ok()
+}
+
+/// Settings of the launch shared by all runs.
+pub struct Launch<'a> {
+    /// The solver binary (this program).
+    pub exe: PathBuf,
+    /// PETSc options of the study's command line, passed on to every run.
+    pub petsc_args: &'a [String],
+    pub quiet: bool,
+}
+
+/// `f(i)` for `i` in `0..n`, `jobs` at a time; results in order.
+pub fn parallel<T: Send>(n: usize, jobs: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
+    let next = AtomicUsize::new(0);
+    let results: Mutex<Vec<Option<T>>> = Mutex::new((0..n).map(|_| None).collect());
+    std::thread::scope(|scope| {
+        for _ in 0..jobs.min(n).max(1) {
+            scope.spawn(|| loop {
+                let i = next.fetch_add(1, Ordering::SeqCst);
+                if i >= n {
+                    break;
+                }
+                let r = f(i);
+                results.lock().expect("no worker panics")[i] = Some(r);
+            });
+        }
+    });
+    results
+        .into_inner()
+        .expect("no worker panics")
+        .into_iter()
+        .map(|o| o.expect("every index done"))
+        .collect()
+}
+
+/// Runs (or skips) every run of the study, `jobs` at a time; outcomes in run order.
+pub fn execute(study: &Study, out: &Path, launch: &Launch<'_>) -> Vec<Outcome> {
+    let n = study.runs.len();
+    let done = AtomicUsize::new(0);
+    parallel(n, study.spec.jobs, |i| {
+        let run = &study.runs[i];
+        let t0 = Instant::now();
+        let outcome = execute_one(study, run, out, launch);
+        let k = done.fetch_add(1, Ordering::SeqCst) + 1;
+        if !launch.quiet {
+            eprintln!(
+                "[{k}/{n}] {}: {}",
+                run.name,
+                describe(&outcome, t0.elapsed())
+            );
+        }
+        outcome
+    })
+}
+
+/// `nurbs-contact check` on every run's case (each in its own process: `check` initialises MPI and
+/// PETSc), `jobs` at a time: `Err(message)` for the runs that do not pass.
+pub fn check_all(study: &Study, launch: &Launch<'_>) -> Vec<Result<(), String>> {
+    parallel(study.runs.len(), study.spec.jobs, |i| {
+        let run = &study.runs[i];
+        let mut cmd = Command::new(&launch.exe);
+        cmd.arg("check").arg(&study.case);
+        for s in &run.sets {
+            cmd.arg("--set").arg(s);
+        }
+        cmd.args(launch.petsc_args);
+        mpi_env(&mut cmd);
+        let out = cmd
+            .stdin(Stdio::null())
+            .output()
+            .map_err(|e| format!("cannot start {:?}: {e}", cmd.get_program()))?;
+        if out.status.success() {
+            Ok(())
+        } else {
+            let err = String::from_utf8_lossy(&out.stderr);
+            let msg: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+            Err(msg.join(" | "))
+        }
+    })
+}
+
+/// The environment the test suite and ci/env.sh give mpirun: runs that share cores yield instead of
+/// busy-polling; as root, Open MPI must be told that this is intended.
+fn mpi_env(cmd: &mut Command) {
+    if std::env::var_os("OMPI_MCA_mpi_yield_when_idle").is_none() {
+        cmd.env("OMPI_MCA_mpi_yield_when_idle", "1");
+    }
+    if running_as_root() && std::env::var_os("OMPI_ALLOW_RUN_AS_ROOT").is_none() {
+        cmd.env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+            .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1");
+    }
+}
+
+fn describe(o: &Outcome, elapsed: Duration) -> String {
+    match (&o.status, o.skipped) {
+        (Status::Converged, true) => "finished earlier with the same case, not run again".into(),
+        (Status::Converged, false) => {
+            let s = o.summary.as_ref();
+            format!(
+                "converged in {:.1} s ({} unknowns, {} Newton iterations)",
+                elapsed.as_secs_f64(),
+                s.map_or(0, |s| s.unknowns),
+                s.map_or(0, |s| s.newton.total_iterations)
+            )
+        }
+        (Status::Failed(r), _) => format!("FAILED: {}", r.lines().next().unwrap_or("")),
+    }
+}
+
+fn execute_one(study: &Study, run: &RunSpec, out: &Path, launch: &Launch<'_>) -> Outcome {
+    let dir = out.join(&run.name);
+    let failed = |reason: String, dir: &Path| Outcome {
+        status: Status::Failed(reason),
+        skipped: false,
+        summary: read_summary(dir),
+        history: read_history(dir),
+        dir: dir.to_path_buf(),
+    };
+    let case_toml = match resolved_case(study, run) {
+        Ok(t) => t,
+        Err(e) => return failed(format!("case: {e}"), &dir),
+    };
+    if let Some(summary) = finished_earlier(&dir, &case_toml) {
+        return Outcome {
+            status: Status::Converged,
+            skipped: true,
+            summary: Some(summary),
+            history: read_history(&dir),
+            dir,
+        };
+    }
+    match launch_run(study, run, &dir, out, launch) {
+        Err(reason) => failed(reason, &dir),
+        Ok(()) => match read_summary(&dir) {
+            Some(s) if matches!(s.status, RunStatus::Converged) => Outcome {
+                status: Status::Converged,
+                skipped: false,
+                summary: Some(s),
+                history: read_history(&dir),
+                dir,
+            },
+            _ => failed(
+                "the run exited successfully but left no converged summary.json".into(),
+                &dir,
+            ),
+        },
+    }
+}
+
+/// Whether this process runs as root (Open MPI then needs to be told that this is intended).
+fn running_as_root() -> bool {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::metadata("/proc/self").is_ok_and(|m| m.uid() == 0)
+}
+
+/// Starts `nurbs-contact run` for one run and waits for it; `Err(reason)` when it fails.
+fn launch_run(
+    study: &Study,
+    run: &RunSpec,
+    dir: &Path,
+    out: &Path,
+    launch: &Launch<'_>,
+) -> Result<(), String> {
+    let (out_log, err_log) = log_paths(out, run);
+    let open = |p: &Path| {
+        std::fs::File::create(p).map_err(|e| format!("cannot create the log {}: {e}", p.display()))
+    };
+    let (out_file, err_file) = (open(&out_log)?, open(&err_log)?);
+    let ranks = study.spec.ranks;
+    let mut cmd = if ranks == 1 {
+        Command::new(&launch.exe)
+    } else {
+        let mut c = Command::new("mpirun");
+        c.args(["--oversubscribe", "-np", &ranks.to_string()])
+            .arg(&launch.exe);
+        c
+    };
+    cmd.arg("run")
+        .arg(&study.case)
+        .arg("--out")
+        .arg(dir)
+        .arg("-q");
+    for s in &run.sets {
+        cmd.arg("--set").arg(s);
+    }
+    cmd.args(launch.petsc_args);
+    mpi_env(&mut cmd);
+    cmd.stdin(Stdio::null())
+        .stdout(Stdio::from(out_file))
+        .stderr(Stdio::from(err_file));
+    let mut child = cmd
+        .spawn()
+        .map_err(|e| format!("cannot start {:?}: {e}", cmd.get_program()))?;
+    let t0 = Instant::now();
+    let limit = study.spec.timeout.map(Duration::from_secs_f64);
+    let status = loop {
+        match child.try_wait() {
+            Ok(Some(st)) => break st,
+            Ok(None) => {}
+            Err(e) => return Err(format!("waiting for the run failed: {e}")),
+        }
+        if limit.is_some_and(|l| t0.elapsed() > l) {
+            // SIGTERM first, so that mpirun can take its ranks down with it.
+            let _ = Command::new("kill")
+                .args(["-TERM", &child.id().to_string()])
+                .status();
+            let t1 = Instant::now();
+            while t1.elapsed() < Duration::from_secs(10) {
+                if let Ok(Some(_)) = child.try_wait() {
+                    break;
+                }
+                std::thread::sleep(Duration::from_millis(100));
+            }
+            let _ = child.kill();
+            let _ = child.wait();
+            return Err(format!(
+                "stopped after the study's timeout of {} s{}",
+                study.spec.timeout.unwrap_or(0.0),
+                tail_suffix(&err_log)
+            ));
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    if status.success() {
+        return Ok(());
+    }
+    let summary_reason = read_summary(dir).and_then(|s| match s.status {
+        RunStatus::Failed { reason } => Some(reason),
+        RunStatus::Interrupted {
+            signal,
+            converged_steps,
+        } => Some(format!(
+            "interrupted by {signal} after {converged_steps} converged steps"
+        )),
+        RunStatus::Converged => None,
+    });
+    Err(format!(
+        "{}{}",
+        summary_reason.unwrap_or_else(|| format!("exited with {status}")),
+        tail_suffix(&err_log)
+    ))
+}
+
+/// `"; stderr: <last lines>"` of a log, or nothing when it is empty.
+fn tail_suffix(log: &Path) -> String {
+    let text = std::fs::read_to_string(log).unwrap_or_default();
+    let lines: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
+    if lines.is_empty() {
+        return String::new();
+    }
+    let tail = lines[lines.len().saturating_sub(4)..].join(" | ");
+    let tail = if tail.chars().count() > 600 {
+        let skip = tail.chars().count() - 600;
+        format!("...{}", tail.chars().skip(skip).collect::<String>())
+    } else {
+        tail
+    };
+    format!("; stderr: {tail}")
+}

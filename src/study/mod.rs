@@ -1,0 +1,424 @@
+//! `nurbs-contact study STUDY.toml`: a refinement study — one base case run over every combination
+//! of a few axes (element family, mesh level, any `--set` key), metrics computed from each run's
+//! `history.csv`, and tables and plots of every metric against the mesh level and the wall time.
+//!
+//! # The study file
+//! ```toml
+//! name = "ironing_table2"            # default: the file name without .toml
+//! description = "Table 2 of the paper"
+//! case = "../ironing_2d.toml"        # the base case, relative to this file
+//! jobs = 2                           # runs executed at once (default 1)
+//! ranks = 1                          # MPI ranks per run: `mpirun --oversubscribe -np ranks`; 1 runs directly
+//! timeout = 3600                     # seconds; a run past it is stopped and recorded as failed (default none)
+//! set = ["stages.1.steps=160"]       # overrides of every run, applied before the axes'
+//! series = "family"                  # axis of the plot series and table columns (default: the first)
+//! level = "mesh"                     # axis on the abscissa of metric-against-level plots
+//!                                    # (default: the other axis when there are exactly two)
+//! reference = "Q1N2"                 # series value that study.md gives every metric relative to
+//!
+//! [[axes]]                           # a value axis: each value is set to every key
+//! name = "family"
+//! keys = ["bodies.block.element", "bodies.cylinder.element"]
+//! values = ["Q1N2", "Q1N3"]
+//!
+//! [[axes]]                           # a level axis: named bundles of overrides
+//! name = "mesh"
+//! levels = [
+//!   { name = "mesh4", value = 4, set = ["meshes.block.divisions=[40,8]"] },
+//!   { name = "mesh8", value = 8, set = ["meshes.block.divisions=[80,16]"] },
+//! ]
+//!
+//! [[metrics]]
+//! name = "dPx_ece"
+//! kind = "range_ece"
+//! columns = ["P_ironing_cylinder_arc_x", "-P_ironing_block_top_x"]
+//! window = { column = "load_factor", min = 1.25 }
+//!
+//! [plot]
+//! curves = ["P_ironing_cylinder_arc_x", "-P_ironing_block_top_x"]   # drawn for each run
+//! x = "load_factor"                                                  # their abscissa (default)
+//! ```
+//! Every combination of the axes' values is one run (the first axis varies slowest), named by its
+//! values joined with `_` (`Q1N2_mesh4`); a value's label is the string itself, a level's `name`, or
+//! the TOML text of any other value. Unknown keys are errors, as are axes, series, levels or
+//! metrics that refer to something not declared; messages name the file and the key.
+//!
+//! # Metrics
+//! A metric reads one `column` or several `columns` of `history.csv` (a leading `-` negates a
+//! column: the two half-passes' forces act on different bodies and have opposite signs), keeps the
+//! rows whose `window.column` lies in `[window.min, window.max]` (both optional and inclusive, with
+//! a tolerance of 1e-9 relative; default all rows) and computes, with c the columns and i the rows:
+//! - `range`: max over c, i minus min over c, i: eq. (22) of the paper, DeltaP = max(P1, P2) - min(P1, P2).
+//! - `range_ece`: max over c of (max over i minus min over i): eq. (23), DeltaP_ece = max(DeltaP1, DeltaP2).
+//! - `mean`, `sum`, `last`: of the row-wise mean of the columns (mean over rows, sum over rows, last row).
+//! - `max`, `min`, `max_abs`: over c and i.
+//! - `min_slope`: the steepest slope min over c, i of (v[i+1] - v[i]) / (x[i+1] - x[i]) between
+//!   consecutive window rows (negative for the steepest descent), x the column `x` (default: the
+//!   window's column, else `load_factor`); rows with equal x are skipped.
+//! - `oscillation`: the oscillation amplitude, peak to peak: for each column, the least-squares
+//!   polynomial of degree `detrend` (default 1) in x over the window is subtracted, and the amplitude
+//!   is max minus min of what is left; the largest over the columns. `detrend = 0` gives `range_ece`.
+//!
+//! `scale` multiplies the value (e.g. 1 / (E L0^2)); `relative_to = "other"` divides it by the
+//! metric `other` of the same run (which must not itself be relative).
+//!
+//! # Running, resuming, failures
+//! Each run is `nurbs-contact run CASE --out OUT/<run> -q --set ...` (plus the study command's own
+//! PETSc options), on `ranks` ranks; its stdout and stderr go to `OUT/logs/<run>.out|.err`. A run
+//! whose directory already holds a `summary.json` with status `converged` and a `case.toml` equal to
+//! the run's resolved case (the case after its overrides, as `run` writes it) is not run again, so
+//! an interrupted study resumes where it stopped, and a changed study or case reruns exactly what
+//! changed (`ranks` and PETSc options are not part of the comparison). A run that fails (its case
+//! does not resolve, the solver stops, the timeout is reached) is recorded with its reason (the
+//! summary's reason and the tail of its stderr) and the study goes on; `study` itself fails only when
+//! the study file is bad or its outputs cannot be written. A run stopped by the timeout gets SIGTERM
+//! (mpirun passes it to its ranks), then SIGKILL 10 s later.
+//!
+//! # Outputs (in OUT, default `out/study/<name>`)
+//! - `study.csv`: one row per run: `run`, the axis labels, `status`, `skipped` (1: finished by an
+//!   earlier invocation, not run again), `unknowns`, `steps`, `last_load`, `newton_total`,
+//!   `newton_max_per_step`, `cutbacks`, `wall_time` (s, summary.json's total), every metric, `reason`.
+//! - `study.md`: the runs table, then one table per metric with the series values as columns and
+//!   the other axes as rows, each value also in percent of the reference's.
+//! - `plots/*.svg`: `run_<run>.svg` (the `[plot]` curves of each run), `curve_<column>.svg` (one
+//!   curve of all runs), `<metric>_vs_level.svg` (each metric against the level axis' values, one
+//!   series per combination of the other axes) and `<metric>_vs_wall_time.svg` (the same series
+//!   against wall time: speed against error). Logarithmic axes when all values are positive and
+//!   span more than a factor 20.
+//!
+//! `nurbs-contact study --check STUDY.toml` validates the file, resolves every run's case and runs
+//! `check` on it (model, sets, numbering), without solving.
+//!
+//! - [`spec`]: the file's schema and the runs it resolves to; [`metrics`]: metric kinds;
+//!   [`exec`]: launching, resuming; [`report`]: `study.csv`, `study.md`; [`svg`]: the plots.
+
+pub mod exec;
+pub mod metrics;
+pub mod report;
+pub mod spec;
+pub mod svg;
+
+use crate::io::write_atomic;
+use exec::Outcome;
+use report::Row;
+use spec::Study;
+use std::path::{Path, PathBuf};
+use svg::{suits_log, Plot, Series};
+
+/// Errors of the `study` command (a failed run is not one: it is recorded in the study's outputs).
+#[derive(Debug, thiserror::Error)]
+pub enum StudyError {
+    #[error("{}{}: {message}", .file.display(), .line.map_or(String::new(), |l| format!(":{l}")))]
+    Syntax {
+        file: PathBuf,
+        line: Option<usize>,
+        message: String,
+    },
+    #[error("{}: `{key}`: {message}", .file.display())]
+    Invalid {
+        file: PathBuf,
+        key: String,
+        message: String,
+    },
+    #[error("{}: cannot {op}: {source}", .path.display())]
+    Io {
+        path: PathBuf,
+        op: &'static str,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error(transparent)]
+    Output(#[from] crate::io::IoError),
+    /// `--check` found runs whose case does not pass: one line per run.
+    #[error("{}: {count} of {total} runs do not pass check:\n{lines}", .file.display())]
+    Check {
+        file: PathBuf,
+        count: usize,
+        total: usize,
+        lines: String,
+    },
+}
+
+/// What `nurbs-contact study` was asked to do.
+#[derive(Debug, Clone)]
+pub struct StudyOptions {
+    pub file: PathBuf,
+    /// Output folder (default `out/study/<name>`).
+    pub out: Option<PathBuf>,
+    /// Validate and resolve only.
+    pub check: bool,
+    /// Overrides the file's `jobs`.
+    pub jobs: Option<usize>,
+    pub quiet: bool,
+    /// PETSc options of the command line, passed to every run.
+    pub petsc_args: Vec<String>,
+}
+
+/// `nurbs-contact study`.
+pub fn study_main(opts: &StudyOptions) -> Result<(), StudyError> {
+    let mut study = Study::load(&opts.file)?;
+    if let Some(j) = opts.jobs {
+        if j == 0 {
+            return Err(StudyError::Invalid {
+                file: opts.file.clone(),
+                key: "jobs".into(),
+                message: "--jobs must be at least 1".into(),
+            });
+        }
+        study.spec.jobs = j;
+    }
+    let exe = std::env::current_exe().map_err(|source| StudyError::Io {
+        path: PathBuf::from("nurbs-contact"),
+        op: "find this program's own path",
+        source,
+    })?;
+    // PETSc options are passed on without the program name that leads the list.
+    let petsc: Vec<String> = opts.petsc_args.iter().skip(1).cloned().collect();
+    let launch = exec::Launch {
+        exe,
+        petsc_args: &petsc,
+        quiet: opts.quiet,
+    };
+    if opts.check {
+        return check(&study, &launch);
+    }
+    let out = opts
+        .out
+        .clone()
+        .unwrap_or_else(|| Path::new("out/study").join(&study.name));
+    let logs = out.join("logs");
+    std::fs::create_dir_all(&logs).map_err(|source| StudyError::Io {
+        path: logs.clone(),
+        op: "create the study's output folder",
+        source,
+    })?;
+    if !opts.quiet {
+        eprintln!(
+            "study {}: {} runs, {} at once on {} rank(s) each, results in {}",
+            study.name,
+            study.runs.len(),
+            study.spec.jobs,
+            study.spec.ranks,
+            out.display()
+        );
+    }
+    let outcomes = exec::execute(&study, &out, &launch);
+    let rows = report::rows(&study, &outcomes);
+    write_atomic(
+        &out.join("study.csv"),
+        report::csv(&study, &rows).as_bytes(),
+    )?;
+    let command = format!("nurbs-contact study {}", opts.file.display());
+    write_atomic(
+        &out.join("study.md"),
+        report::markdown(&study, &rows, &command).as_bytes(),
+    )?;
+    write_plots(&study, &rows, &outcomes, &out.join("plots"))?;
+    let failed: Vec<&Row> = rows.iter().filter(|r| !r.converged).collect();
+    let skipped = rows.iter().filter(|r| r.skipped).count();
+    for r in rows.iter().filter(|r| r.converged && !r.reason.is_empty()) {
+        eprintln!("warning: {}: {}", r.run, r.reason);
+    }
+    for r in &failed {
+        eprintln!("failed: {}: {}", r.run, r.reason);
+    }
+    if !opts.quiet {
+        eprintln!(
+            "study {}: {} converged ({} not run again), {} failed; study.csv, study.md and plots/ in {}",
+            study.name,
+            rows.len() - failed.len(),
+            skipped,
+            failed.len(),
+            out.display()
+        );
+    }
+    Ok(())
+}
+
+/// `--check`: every run's case resolves and passes `nurbs-contact check`.
+fn check(study: &Study, launch: &exec::Launch<'_>) -> Result<(), StudyError> {
+    let results = exec::check_all(study, launch);
+    let bad: Vec<String> = study
+        .runs
+        .iter()
+        .zip(&results)
+        .filter_map(|(run, r)| r.as_ref().err().map(|e| format!("  {}: {e}", run.name)))
+        .collect();
+    if bad.is_empty() {
+        println!(
+            "{}: ok ({} runs pass check, {} metrics)",
+            study.file.display(),
+            study.runs.len(),
+            study.spec.metrics.len()
+        );
+        Ok(())
+    } else {
+        Err(StudyError::Check {
+            file: study.file.clone(),
+            count: bad.len(),
+            total: study.runs.len(),
+            lines: bad.join("\n"),
+        })
+    }
+}
+
+fn file_safe(s: &str) -> String {
+    s.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.') {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+fn write_svg(dir: &Path, name: &str, plot: &Plot) -> Result<(), StudyError> {
+    write_atomic(
+        &dir.join(format!("{}.svg", file_safe(name))),
+        plot.to_svg().as_bytes(),
+    )?;
+    Ok(())
+}
+
+/// The study's plots (see the module doc).
+fn write_plots(
+    study: &Study,
+    rows: &[Row],
+    outcomes: &[Outcome],
+    dir: &Path,
+) -> Result<(), StudyError> {
+    std::fs::create_dir_all(dir).map_err(|source| StudyError::Io {
+        path: dir.to_path_buf(),
+        op: "create the plots folder",
+        source,
+    })?;
+    let x_col = study.spec.plot.x.as_deref().unwrap_or("load_factor");
+    let curves = &study.spec.plot.curves;
+    let curve_of = |o: &Outcome, c: &str| -> Option<Vec<(f64, f64)>> {
+        let t = o.history.as_ref()?;
+        let (x, y) = (t.column(x_col).ok()?, t.column(c).ok()?);
+        Some(x.into_iter().zip(y).collect())
+    };
+    if !curves.is_empty() {
+        for (run, o) in study.runs.iter().zip(outcomes) {
+            let series: Vec<Series> = curves
+                .iter()
+                .filter_map(|c| {
+                    curve_of(o, c).map(|points| Series {
+                        name: c.clone(),
+                        points,
+                    })
+                })
+                .collect();
+            if series.is_empty() {
+                continue;
+            }
+            let plot = Plot {
+                title: format!("{}: {}", study.name, run.name),
+                x_label: x_col.to_string(),
+                y_label: "history.csv columns".into(),
+                series,
+                log_x: false,
+                log_y: false,
+                markers: false,
+            };
+            write_svg(dir, &format!("run_{}", run.name), &plot)?;
+        }
+        for c in curves {
+            let series: Vec<Series> = study
+                .runs
+                .iter()
+                .zip(outcomes)
+                .filter_map(|(run, o)| {
+                    curve_of(o, c).map(|points| Series {
+                        name: run.name.clone(),
+                        points,
+                    })
+                })
+                .collect();
+            if series.is_empty() {
+                continue;
+            }
+            let plot = Plot {
+                title: format!("{}: {c}", study.name),
+                x_label: x_col.to_string(),
+                y_label: c.clone(),
+                series,
+                log_x: false,
+                log_y: false,
+                markers: false,
+            };
+            write_svg(dir, &format!("curve_{c}"), &plot)?;
+        }
+    }
+
+    // metric plots: one series per combination of the axes other than the level axis
+    let level = study.level;
+    let mut groups: Vec<(String, Vec<usize>)> = Vec::new();
+    for (i, run) in study.runs.iter().enumerate() {
+        let name: Vec<&str> = (0..run.labels.len())
+            .filter(|&a| Some(a) != level)
+            .map(|a| run.labels[a].as_str())
+            .collect();
+        let name = name.join("_");
+        match groups.iter_mut().find(|(n, _)| *n == name) {
+            Some((_, v)) => v.push(i),
+            None => groups.push((name, vec![i])),
+        }
+    }
+    for (mi, m) in study.spec.metrics.iter().enumerate() {
+        let series_of = |x: &dyn Fn(usize) -> Option<f64>| -> Vec<Series> {
+            groups
+                .iter()
+                .map(|(name, runs)| {
+                    let mut points: Vec<(f64, f64, f64)> = runs
+                        .iter()
+                        .filter_map(|&i| {
+                            let v = rows[i].metrics[mi]?;
+                            Some((study.runs[i].level_value.unwrap_or(i as f64), x(i)?, v))
+                        })
+                        .collect();
+                    points.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    Series {
+                        name: name.clone(),
+                        points: points.into_iter().map(|(_, x, y)| (x, y)).collect(),
+                    }
+                })
+                .filter(|s| !s.points.is_empty())
+                .collect()
+        };
+        let ys = || rows.iter().filter_map(|r| r.metrics[mi]);
+        if let Some(l) = level {
+            let series = series_of(&|i| study.runs[i].level_value);
+            if !series.is_empty() {
+                let xs = study.runs.iter().filter_map(|r| r.level_value);
+                let plot = Plot {
+                    title: format!("{}: {} against {}", study.name, m.name, study.axis_names[l]),
+                    x_label: study.axis_names[l].clone(),
+                    y_label: m.name.clone(),
+                    log_x: suits_log(xs),
+                    log_y: suits_log(ys()),
+                    series,
+                    markers: true,
+                };
+                write_svg(dir, &format!("{}_vs_level", m.name), &plot)?;
+            }
+        }
+        let series = series_of(&|i| rows[i].wall_time);
+        if !series.is_empty() {
+            let plot = Plot {
+                title: format!("{}: {} against wall time", study.name, m.name),
+                x_label: "wall time (s)".into(),
+                y_label: m.name.clone(),
+                log_x: suits_log(rows.iter().filter_map(|r| r.wall_time)),
+                log_y: suits_log(ys()),
+                series,
+                markers: true,
+            };
+            write_svg(dir, &format!("{}_vs_wall_time", m.name), &plot)?;
+        }
+    }
+    Ok(())
+}
