@@ -138,6 +138,9 @@ pub fn check_main(
     for w in &model.warnings {
         eprintln!("warning: {w}");
     }
+    for n in &model.notes {
+        println!("{n}");
+    }
     let part = vec![0u32; model.n_cells()];
     let dofs = number_and_check(&case, &model, &part, 1, 0)?;
     let sets = model.element_sets(&case.file, &part, 0)?;
@@ -326,6 +329,9 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
     let (case, model) = agree(comm, load_and_build(&opts.case, &opts.sets))?;
     for w in &model.warnings {
         log(rank, v, Verbosity::Normal, || format!("warning: {w}"));
+    }
+    for n in &model.notes {
+        log(rank, v, Verbosity::Normal, || n.clone());
     }
     // The case name is a plain name (validated), so the default stays inside out/. Rank 0 claims
     // the directory before any work: created, or an earlier run's, or refused (unless --overwrite).

@@ -36,12 +36,15 @@
 #![allow(clippy::needless_range_loop)] // index loops mirror the equations
 use crate::fem::enriched::{q1c2_2d, q1ch_2d, q1np_2d, q1np_3d, EnrichedElementData};
 use crate::geometry::conics::{circular_arc_segments, line_segment, plane_patch};
+use crate::geometry::fit::{
+    distance_to_curve, distance_to_surface, fit_curve, fit_surface, ArcLength,
+};
 use crate::geometry::knots::KnotVector;
 use crate::geometry::nurbs::{NurbsCurve, NurbsSurface};
 use crate::geometry::refine::Direction;
 use crate::geometry::GeometryError;
 use crate::mesh::{CellKind, ExactPatch, Mesh};
-use crate::scene::ElementFamily;
+use crate::scene::{ElementFamily, EnrichedGeometry};
 use std::collections::{BTreeMap, BTreeSet};
 use std::f64::consts::PI;
 
@@ -146,7 +149,8 @@ impl EnrichedCell {
     }
 }
 
-/// The exact surface the enriched layer was built on (refined to the family for Q1Np).
+/// The surface the enriched layer was built on: the exact one (refined to the family for Q1Np), or
+/// for `enriched_geometry = "smooth"` its smooth fit (elevated to the family).
 #[derive(Debug, Clone, PartialEq)]
 pub enum ExactSurface {
     /// 2D: the curve in traversal order of the face set; for Q1Np refined so that knot spans
@@ -176,8 +180,12 @@ pub struct Enrichment {
     pub pseudo_nodes: Vec<u32>,
     /// Each display node with its interpolation `(element node, weight)` from one enriched cell.
     pub display: Vec<(u32, Vec<(u32, f64)>)>,
-    /// The exact (refined) surface.
+    /// The (refined) surface of the layer: exact, or its smooth fit.
     pub exact: ExactSurface,
+    /// For a smooth fit (`enriched_geometry = "smooth"` on a surface with C^0 joints, Q1Np only):
+    /// the largest distance between the fit and the exact surface, sampled at 17 points per
+    /// element and direction; `None` when the layer interpolates the exact surface.
+    pub smooth_deviation: Option<f64>,
 }
 
 impl Enrichment {
@@ -266,6 +274,19 @@ pub fn build_enrichment(
     set: &str,
     family: ElementFamily,
 ) -> Result<Enrichment, EnrichError> {
+    build_enrichment_with(mesh, set, family, EnrichedGeometry::Exact)
+}
+
+/// [`build_enrichment`] with the choice of geometry: for Q1Np(.t), `Smooth` replaces an exact
+/// surface that has C^0 joints by its C^{p-1} fit (see [`crate::geometry::fit`]), with one span per
+/// face; other families and surfaces without joints keep the exact geometry.
+pub fn build_enrichment_with(
+    mesh: &mut Mesh,
+    set: &str,
+    family: ElementFamily,
+    geometry: EnrichedGeometry,
+) -> Result<Enrichment, EnrichError> {
+    let smooth = geometry == EnrichedGeometry::Smooth;
     let faces = mesh
         .face_sets
         .get(set)
@@ -289,8 +310,8 @@ pub fn build_enrichment(
         ));
     }
     let layer = match mesh.dim {
-        2 => build_2d(mesh, set, &cells, family)?,
-        _ => build_3d(mesh, set, &cells, family)?,
+        2 => build_2d(mesh, set, &cells, family, smooth)?,
+        _ => build_3d(mesh, set, &cells, family, smooth)?,
     };
     check_replaced_not_shared(mesh, set, &layer)?;
     Ok(layer)
@@ -499,6 +520,7 @@ fn build_2d(
     set: &str,
     cells: &[usize],
     family: ElementFamily,
+    smooth: bool,
 ) -> Result<Enrichment, EnrichError> {
     let geo = |source| EnrichError::Geometry {
         set: set.to_string(),
@@ -556,6 +578,7 @@ fn build_2d(
     let mut out_cells = Vec::with_capacity(n_el);
     let (mut replaced, mut pseudo) = (Vec::new(), Vec::new());
     let curve_out;
+    let mut deviation = None;
     match family {
         ElementFamily::Q1N { p, t } => {
             let (p, t) = (p as usize, t as usize);
@@ -569,15 +592,21 @@ fn build_2d(
                     ),
                 ));
             }
-            let e = base.elevate(p - base.degree()).map_err(geo)?;
-            // the base joints are nodes up to round-off: they are element boundaries already
-            let knots = e.knots.unique_with_multiplicity();
-            let x: Vec<f64> = params[1..n_el]
-                .iter()
-                .copied()
-                .filter(|&u| knots.iter().all(|&(k, _)| (k - u).abs() > 1e-12))
-                .collect();
-            let c = e.insert_knots(&x).map_err(geo)?.elevate(t).map_err(geo)?;
+            let c = if smooth && base.knots.n_elements() > 1 {
+                let (fit, d) = smooth_curve(&exact, p).map_err(geo)?;
+                deviation = Some(d);
+                fit.elevate(t).map_err(geo)?
+            } else {
+                let e = base.elevate(p - base.degree()).map_err(geo)?;
+                // the base joints are nodes up to round-off: they are element boundaries already
+                let knots = e.knots.unique_with_multiplicity();
+                let x: Vec<f64> = params[1..n_el]
+                    .iter()
+                    .copied()
+                    .filter(|&u| knots.iter().all(|&(k, _)| (k - u).abs() > 1e-12))
+                    .collect();
+                e.insert_knots(&x).map_err(geo)?.elevate(t).map_err(geo)?
+            };
             if c.knots.n_elements() != n_el {
                 return Err(faces_err(
                     set,
@@ -674,6 +703,33 @@ fn build_2d(
         pseudo,
         ExactSurface::Curve(curve_out),
     )
+    .map(|e| Enrichment {
+        smooth_deviation: deviation,
+        ..e
+    })
+}
+
+/// Points per element and direction at which a fit's distance from the exact surface is measured.
+const DEVIATION_SAMPLES: usize = 16;
+
+/// The smooth fit of order `p` of a 2D exact curve (see [`crate::geometry::fit`]): parametrised by
+/// the position along the curve (arc length for a line, angle for an arc), one span per face, and
+/// its largest distance from the exact curve.
+fn smooth_curve(exact: &Curve2d, p: usize) -> Result<(NurbsCurve, f64), GeometryError> {
+    let n_el = exact.pos.len() - 1;
+    let total = exact.pos[n_el];
+    let breaks: Vec<f64> = exact.pos[1..n_el].iter().map(|s| s / total).collect();
+    let at = |s: f64| exact.param(s * total);
+    let fit = fit_curve(p, &breaks, 2, &|s| exact.curve.point(at(s)))?;
+    let mut dev: f64 = 0.0;
+    for i in 0..n_el {
+        let (a, b) = (exact.pos[i] / total, exact.pos[i + 1] / total);
+        for k in 0..=DEVIATION_SAMPLES {
+            let s = a + (b - a) * k as f64 / DEVIATION_SAMPLES as f64;
+            dev = dev.max(distance_to_curve(&exact.curve, fit.point(s), at(s)));
+        }
+    }
+    Ok((fit, dev))
 }
 
 /// Assembles the [`Enrichment`] and the display-node interpolation.
@@ -728,6 +784,7 @@ fn finish(
         pseudo_nodes,
         display: display.into_iter().collect(),
         exact,
+        smooth_deviation: None,
     })
 }
 
@@ -759,6 +816,7 @@ fn build_3d(
     set: &str,
     cells: &[usize],
     family: ElementFamily,
+    smooth: bool,
 ) -> Result<Enrichment, EnrichError> {
     let ElementFamily::Q1N { p, t } = family else {
         return Err(unsupported(set, format!("{family} is 2D only")));
@@ -772,7 +830,7 @@ fn build_3d(
         Some(patch) => exact_grid(mesh, set, cells, patch)?,
         None => plane_grid(mesh, set, cells)?,
     };
-    build_3d_on_grid(mesh, set, p as usize, t as usize, grid)
+    build_3d_on_grid(mesh, set, p as usize, t as usize, grid, smooth)
 }
 
 /// The face grid of a generator-provided exact surface, checked against the mesh: face set entry
@@ -961,6 +1019,7 @@ fn build_3d_on_grid(
     p: usize,
     t: usize,
     g: FaceGrid,
+    smooth: bool,
 ) -> Result<Enrichment, EnrichError> {
     let geo = |source| EnrichError::Geometry {
         set: set.to_string(),
@@ -984,18 +1043,26 @@ fn build_3d_on_grid(
             .filter(|&u| knots.iter().all(|&(k, _)| (k - u).abs() > 1e-12))
             .collect()
     };
-    let e = g
-        .base
-        .elevate(Direction::U, p - du)
-        .and_then(|s| s.elevate(Direction::V, p - dv))
-        .map_err(geo)?;
-    let (xu, xv) = (new_knots(&g.xu, &e.knots_u), new_knots(&g.xv, &e.knots_v));
-    let s = e
-        .insert_knots(Direction::U, &xu)
-        .and_then(|s| s.insert_knots(Direction::V, &xv))
-        .and_then(|s| s.elevate(Direction::U, t))
-        .and_then(|s| s.elevate(Direction::V, t))
-        .map_err(geo)?;
+    let mut deviation = None;
+    let s = if smooth && (g.base.knots_u.n_elements() > 1 || g.base.knots_v.n_elements() > 1) {
+        let (fit, d) = smooth_surface(&g, p).map_err(geo)?;
+        deviation = Some(d);
+        fit.elevate(Direction::U, t)
+            .and_then(|s| s.elevate(Direction::V, t))
+            .map_err(geo)?
+    } else {
+        let e = g
+            .base
+            .elevate(Direction::U, p - du)
+            .and_then(|s| s.elevate(Direction::V, p - dv))
+            .map_err(geo)?;
+        let (xu, xv) = (new_knots(&g.xu, &e.knots_u), new_knots(&g.xv, &e.knots_v));
+        e.insert_knots(Direction::U, &xu)
+            .and_then(|s| s.insert_knots(Direction::V, &xv))
+            .and_then(|s| s.elevate(Direction::U, t))
+            .and_then(|s| s.elevate(Direction::V, t))
+            .map_err(geo)?
+    };
     if s.knots_u.n_elements() != nu || s.knots_v.n_elements() != nv {
         return Err(faces_err(
             set,
@@ -1079,4 +1146,61 @@ fn build_3d_on_grid(
         Vec::new(),
         ExactSurface::Surface(s),
     )
+    .map(|e| Enrichment {
+        smooth_deviation: deviation,
+        ..e
+    })
+}
+
+/// The smooth tensor-product fit of order `p` of the grid's exact surface (see
+/// [`crate::geometry::fit`]), one span per face, and its largest distance from the exact surface.
+/// Each direction is parametrised by arc length along the surface's middle iso-line (for the
+/// hemisphere: the angles of latitude and rotation, in which the sphere is analytic); the corners
+/// are interpolated and a collapsed edge (the hemisphere's rim points) stays one point.
+fn smooth_surface(g: &FaceGrid, p: usize) -> Result<(NurbsSurface, f64), GeometryError> {
+    let base = &g.base;
+    let interior = |kv: &KnotVector| -> Vec<f64> {
+        let u = kv.unique_with_multiplicity();
+        u[1..u.len() - 1].iter().map(|k| k.0).collect()
+    };
+    let norm = |a: [f64; 3]| (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    let speed_u = |u: f64| norm(base.eval(u, 0.5).1);
+    let speed_v = |v: f64| norm(base.eval(0.5, v).2);
+    let au = ArcLength::new(&speed_u, &interior(&base.knots_u))?;
+    let av = ArcLength::new(&speed_v, &interior(&base.knots_v))?;
+    let bu: Vec<f64> = g.xu.iter().map(|&u| au.length_to(u) / au.total()).collect();
+    let bv: Vec<f64> = g.xv.iter().map(|&v| av.length_to(v) / av.total()).collect();
+    let fit = fit_surface(
+        p,
+        &bu,
+        &bv,
+        &|s| au.param_at(s),
+        &|t| av.param_at(t),
+        &|u, v| base.point(u, v),
+    )?;
+    let samples = |b: &[f64]| -> Vec<f64> {
+        let mut e = vec![0.0];
+        e.extend_from_slice(b);
+        e.push(1.0);
+        let mut out = vec![0.0];
+        for w in e.windows(2) {
+            out.extend(
+                (1..=DEVIATION_SAMPLES)
+                    .map(|k| w[0] + (w[1] - w[0]) * k as f64 / DEVIATION_SAMPLES as f64),
+            );
+        }
+        out
+    };
+    let (su, sv) = (samples(&bu), samples(&bv));
+    let (uu, vv): (Vec<f64>, Vec<f64>) = (
+        su.iter().map(|&s| au.param_at(s)).collect(),
+        sv.iter().map(|&t| av.param_at(t)).collect(),
+    );
+    let mut dev: f64 = 0.0;
+    for (j, &t) in sv.iter().enumerate() {
+        for (i, &s) in su.iter().enumerate() {
+            dev = dev.max(distance_to_surface(base, fit.point(s, t), uu[i], vv[j]));
+        }
+    }
+    Ok((fit, dev))
 }
