@@ -562,26 +562,26 @@ fn layer_curve(m: &Model) -> crate::geometry::nurbs::NurbsCurve {
     }
 }
 
-/// Derivatives of orders 0..=k of the curve's polynomial piece on span `[a, b]`, at `at` (one of its
-/// ends): the piece is interpolated at `q + 1` points of the span by a polynomial of the curve's
-/// order `q` (exact for unit weights), in the local variable `(u - at) / (b - a)`.
-fn span_derivatives(
-    c: &crate::geometry::nurbs::NurbsCurve,
+/// Derivatives of orders 0..=k at `at` (one end of the span `[a, b]`) of the polynomial piece of
+/// order `q` that `f` is on that span: interpolated at `q + 1` points of the span (exact for a
+/// polynomial B-spline), in the local variable `(u - at) / (b - a)`.
+fn piece_derivatives(
+    f: &dyn Fn(f64) -> [f64; 3],
+    q: usize,
     a: f64,
     b: f64,
     at: f64,
     k: usize,
-) -> Vec<[f64; 2]> {
-    let q = c.degree();
+) -> Vec<[f64; 3]> {
     let h = b - a;
     let z: Vec<f64> = (0..=q)
         .map(|i| a + h * (0.05 + 0.9 * i as f64 / q as f64))
         .collect();
     let v = DMatrix::from_fn(q + 1, q + 1, |i, j| ((z[i] - at) / h).powi(j as i32));
     let lu = v.lu();
-    let mut out = vec![[0.0; 2]; k + 1];
-    for d in 0..2 {
-        let y = DVector::from_iterator(q + 1, z.iter().map(|&u| c.point(u)[d]));
+    let mut out = vec![[0.0; 3]; k + 1];
+    for d in 0..3 {
+        let y = DVector::from_iterator(q + 1, z.iter().map(|&u| f(u)[d]));
         let coef = lu.solve(&y).unwrap();
         let mut fact = 1.0;
         for (o, row) in out.iter_mut().enumerate() {
@@ -594,27 +594,32 @@ fn span_derivatives(
     out
 }
 
-/// Largest jump, relative to the derivative's size, of the derivative of order `k` of the curve at
-/// its interior knots.
-fn derivative_jump(c: &crate::geometry::nurbs::NurbsCurve, k: usize) -> f64 {
-    let u: Vec<f64> = c
-        .knots
-        .unique_with_multiplicity()
-        .iter()
-        .map(|x| x.0)
-        .collect();
+/// Largest jump of the derivative of order `k` of `f` (pieces of order `q` between the `knots`) at
+/// its interior knots, relative to the derivative's size.
+fn jump_at_knots(f: &dyn Fn(f64) -> [f64; 3], q: usize, knots: &[f64], k: usize) -> f64 {
     let mut worst: f64 = 0.0;
-    for i in 1..u.len() - 1 {
-        // the same local scale on both sides: both spans measured in the left span's length
-        let (hl, hr) = (u[i] - u[i - 1], u[i + 1] - u[i]);
-        let l = span_derivatives(c, u[i - 1], u[i], u[i], k)[k];
-        let r = span_derivatives(c, u[i], u[i + 1], u[i], k)[k];
-        let s = (hl / hr).powi(k as i32);
-        let (r0, r1) = (r[0] * s, r[1] * s);
-        let size = l[0].hypot(l[1]).max(r0.hypot(r1));
-        worst = worst.max((l[0] - r0).hypot(l[1] - r1) / size);
+    let norm = |a: [f64; 3]| (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    for i in 1..knots.len() - 1 {
+        let (u0, u1, u2) = (knots[i - 1], knots[i], knots[i + 1]);
+        // the same local scale on both sides: both measured in the left span's length
+        let l = piece_derivatives(f, q, u0, u1, u1, k)[k];
+        let r = piece_derivatives(f, q, u1, u2, u1, k)[k];
+        let s = ((u1 - u0) / (u2 - u1)).powi(k as i32);
+        let r = [r[0] * s, r[1] * s, r[2] * s];
+        let size = norm(l).max(norm(r));
+        worst = worst.max(norm([l[0] - r[0], l[1] - r[1], l[2] - r[2]]) / size);
     }
     worst
+}
+
+fn unique_knots(kv: &crate::geometry::knots::KnotVector) -> Vec<f64> {
+    kv.unique_with_multiplicity().iter().map(|x| x.0).collect()
+}
+
+/// Largest jump, relative to its size, of the curve's derivative of order `k` at its interior
+/// knots.
+fn derivative_jump(c: &crate::geometry::nurbs::NurbsCurve, k: usize) -> f64 {
+    jump_at_knots(&|u| c.point(u), c.degree(), &unique_knots(&c.knots), k)
 }
 
 #[test]
@@ -750,4 +755,127 @@ fn smooth_enriched_elements_partition_unity_match_fd_tangents_and_pass_the_patch
         du > 1e-9,
         "exact Q1N2: the rational layer misses the patch test by {du:e}"
     );
+}
+
+fn hemisphere_smooth(n: usize, m: usize, element: &str) -> Model {
+    let mesh = format!(
+        "generator = \"hemisphere_nurbs\"\ncenter = [0.1, -0.2, 1.0]\nouter_radius = 1.0\n\
+         thickness = 0.3\nn_surface = {n}\nn_thickness = {m}"
+    );
+    let text = case_text(3, &mesh, "b", element, "outer").replace(
+        "enriched_surface = \"outer\"",
+        "enriched_surface = \"outer\"\nenriched_geometry = \"smooth\"",
+    );
+    build(&text)
+}
+
+#[test]
+fn smooth_hemisphere_is_c_p_minus_1_keeps_rim_points_and_rim_plane_and_converges() {
+    let c = [0.1, -0.2, 1.0];
+    for (family, p) in [("Q1N2", 2), ("Q1N3", 3)] {
+        let mut devs = Vec::new();
+        for n in [4, 8, 16] {
+            let m = hemisphere_smooth(n, 1, family);
+            let e = m.bodies[0].enrichment.as_ref().unwrap();
+            let ExactSurface::Surface(s) = &e.exact else {
+                panic!("3D layer without a surface")
+            };
+            assert!(
+                s.weights.iter().all(|&w| (w - 1.0).abs() < 1e-12),
+                "{family}"
+            );
+            assert_eq!(s.knots_u.min_interior_continuity(), p - 1, "{family}");
+            assert_eq!(s.knots_v.min_interior_continuity(), p - 1, "{family}");
+            let (ku, kv) = (unique_knots(&s.knots_u), unique_knots(&s.knots_v));
+            assert_eq!(
+                (ku.len(), kv.len()),
+                (n + 1, n + 1),
+                "{family}: a span per face"
+            );
+            // C^{p-1} across every knot line, measured on iso-curves through the pole and
+            // off-centre
+            for w in [0.5, 0.3] {
+                for k in 1..p {
+                    let ju = jump_at_knots(&|u| s.point(u, w), p, &ku, k);
+                    let jv = jump_at_knots(&|v| s.point(w, v), p, &kv, k);
+                    assert!(
+                        ju < 1e-7 && jv < 1e-7,
+                        "{family} n={n}: order {k}: {ju:e} {jv:e}"
+                    );
+                }
+            }
+            let d = e.smooth_deviation.unwrap();
+            devs.push(d);
+            // sampled distance from the sphere within the reported deviation; below the rim plane
+            let g = m.surface_grid(8).unwrap();
+            let worst = g
+                .coords
+                .chunks(3)
+                .map(|x| (dist_to(x, c) - 1.0).abs())
+                .fold(0.0, f64::max);
+            assert!(
+                worst <= 1.01 * d && worst > 0.3 * d,
+                "{family} n={n}: {worst:e} vs {d:e}"
+            );
+            assert!(
+                g.coords.chunks(3).all(|x| x[2] <= c[2] + 1e-12),
+                "{family} n={n}"
+            );
+            // the rim set is every node on the rim plane, and the collapsed rim points are one
+            // node each: the degenerate faces keep a repeated node, no two distinct nodes coincide
+            let rim = m.set_nodes("b", "rim").unwrap();
+            let mut used = vec![false; m.n_nodes()];
+            m.cell_nodes.iter().for_each(|&a| used[a as usize] = true);
+            let on_rim: Vec<u32> = (0..m.n_nodes())
+                .filter(|&a| used[a] && (m.coords[3 * a + 2] - c[2]).abs() < 1e-12)
+                .map(|a| a as u32)
+                .collect();
+            assert_eq!(rim, on_rim, "{family} n={n}");
+            let mut ids = e.cells[0].nodes.clone();
+            ids.sort_unstable();
+            ids.dedup();
+            assert!(
+                ids.len() < e.cells[0].nodes.len(),
+                "face (0, 0) must stay degenerate"
+            );
+            let used: Vec<usize> = (0..m.n_nodes()).filter(|&a| used[a]).collect();
+            for (i, &a) in used.iter().enumerate() {
+                for &b in &used[i + 1..] {
+                    let d = dist_to(
+                        &m.coords[3 * a..3 * a + 3],
+                        [m.coords[3 * b], m.coords[3 * b + 1], m.coords[3 * b + 2]],
+                    );
+                    assert!(d > 1e-9, "{family} n={n}: nodes {a} and {b} coincide");
+                }
+            }
+        }
+        // measured: 16x per halving for both orders (3.7e-3, 2.3e-4, 1.5e-5 for Q1N2 on R = 1)
+        for w in devs.windows(2) {
+            let r = (w[0] / w[1]).log2();
+            assert!(r > 3.8, "{family}: rate {r} ({devs:?})");
+        }
+    }
+}
+
+#[test]
+fn smooth_hemisphere_elements_partition_unity_and_match_fd_tangents_at_rim_point_and_pole() {
+    let n = 4;
+    let m = hemisphere_smooth(n, 2, "Q1N2");
+    let e = m.bodies[0].enrichment.as_ref().unwrap();
+    for c in &e.cells {
+        let k = c.n_nodes();
+        let (mut N, mut dN) = (vec![0.0; k], vec![0.0; 3 * k]);
+        for xi in [[-1.0, -1.0, -1.0], [0.3, -0.6, 0.1], [1.0, 1.0, 1.0]] {
+            c.shape(&xi, &mut N, &mut dN);
+            let s: f64 = N.iter().sum();
+            assert!((s - 1.0).abs() < 1e-13, "sum N = {s}");
+            for d in 0..3 {
+                let sd: f64 = (0..k).map(|a| dN[3 * a + d]).sum();
+                assert!(sd.abs() < 1e-12, "sum dN/dxi_{d} = {sd}");
+            }
+        }
+    }
+    let (rim_cell, pole_cell) = (e.cells[0].cell, e.cells[n / 2 + n * (n / 2)].cell);
+    let err = tangent_error_at(&m, &[rim_cell, pole_cell], 0.05);
+    assert!(err < 1e-6, "smooth hemisphere Q1N2 tangent: {err}");
 }
