@@ -176,6 +176,71 @@ pub fn fit_surface(
     NurbsSurface::new(ku, kv, ctrl, vec![1.0; nu * nv])
 }
 
+/// The C^2 cubic B-spline through the points `q` [n+1][dim] at the increasing parameters `t`
+/// [n+1] (from 0 to 1), with single interior knots at `t` and Bessel end conditions: the end
+/// tangents are those of the parabola through the first (last) three points. A smooth reference
+/// curve for a curved face set whose exact geometry is unknown (e.g. a Gmsh boundary).
+#[allow(non_snake_case)]
+pub fn interpolate_cubic(
+    q: &[[f64; 3]],
+    t: &[f64],
+    dim: usize,
+) -> Result<NurbsCurve, GeometryError> {
+    let n = q.len() - 1;
+    if n < 2 || t.len() != n + 1 {
+        return Err(GeometryError::BadParameter {
+            name: "points",
+            value: q.len() as f64,
+            reason: "need at least 3 points, one parameter each",
+        });
+    }
+    let kv = single_knots(3, &t[1..n])?;
+    let m = kv.n_basis(); // n + 3
+    let mut a = DMatrix::zeros(m, m);
+    let mut d = [0.0; 2 * (MAX_ORDER + 1)];
+    for (i, &u) in t.iter().enumerate() {
+        let span = kv.find_span(u);
+        crate::geometry::bspline::ders_basis_funs(&kv, span, u, 1, &mut d);
+        for j in 0..4 {
+            a[(i, span - 3 + j)] = d[j];
+        }
+        // derivative rows for the two ends
+        if i == 0 || i == n {
+            let row = if i == 0 { n + 1 } else { n + 2 };
+            for j in 0..4 {
+                a[(row, span - 3 + j)] = d[4 + j];
+            }
+        }
+    }
+    // derivative of the parabola through three points at the first of them (dt to the others)
+    let parabola = |x0: [f64; 3], x1: [f64; 3], x2: [f64; 3], h1: f64, h2: f64| -> [f64; 3] {
+        let mut out = [0.0; 3];
+        for c in 0..3 {
+            let (d1, d2) = ((x1[c] - x0[c]) / h1, (x2[c] - x0[c]) / h2);
+            // p(s) = x0 + b s + c s^2 through (h1, x1), (h2, x2): b = (d1 h2 - d2 h1) / (h2 - h1)
+            out[c] = (d1 * h2 - d2 * h1) / (h2 - h1);
+        }
+        out
+    };
+    let d0 = parabola(q[0], q[1], q[2], t[1] - t[0], t[2] - t[0]);
+    let dn = parabola(q[n], q[n - 1], q[n - 2], t[n - 1] - t[n], t[n - 2] - t[n]);
+    let lu = a.lu();
+    let mut ctrl = vec![0.0; m * dim];
+    for c in 0..dim {
+        let mut rhs = nalgebra::DVector::zeros(m);
+        for i in 0..=n {
+            rhs[i] = q[i][c];
+        }
+        rhs[n + 1] = d0[c];
+        rhs[n + 2] = dn[c];
+        let x = lu.solve(&rhs).ok_or(GeometryError::SingularCollocation)?;
+        for k in 0..m {
+            ctrl[k * dim + c] = x[k];
+        }
+    }
+    NurbsCurve::new(kv, dim, ctrl, vec![1.0; m])
+}
+
 /// Arc length along a parametrised curve with speed `|dC/du|` on `[0, 1]`, smooth between the
 /// `breaks` (e.g. the exact curve's C^0 knots): cumulative length by 20-point Gauss rules on four
 /// sub-intervals per piece (round-off for the rational arcs), and its inverse by bisection.
@@ -369,6 +434,32 @@ mod tests {
             let u = a.param_at(f);
             assert!((a.length_to(u) / a.total() - f).abs() < 1e-13, "f={f}");
         }
+    }
+
+    #[test]
+    fn cubic_interpolant_passes_through_its_points_and_reproduces_a_cubic() {
+        // points of a cubic polynomial curve at uneven parameters: Bessel ends are exact for a
+        // parabola, the interpolant of a cubic is then close; for a parabola it is exact
+        let t = [0.0, 0.1, 0.35, 0.5, 0.8, 1.0];
+        let f = |s: f64| [1.0 + 2.0 * s - s * s, 0.5 * s * s - s, 0.0];
+        let q: Vec<[f64; 3]> = t.iter().map(|&s| f(s)).collect();
+        let c = interpolate_cubic(&q, &t, 2).unwrap();
+        for k in 0..=40 {
+            let s = k as f64 / 40.0;
+            assert!(dist(c.point(s), f(s)) < 1e-12, "s={s}");
+        }
+        let g = |s: f64| [(2.0 * s).cos(), (2.0 * s).sin(), 0.0];
+        let q: Vec<[f64; 3]> = t.iter().map(|&s| g(s)).collect();
+        let c = interpolate_cubic(&q, &t, 2).unwrap();
+        for (&s, x) in t.iter().zip(&q) {
+            assert!(dist(c.point(s), *x) < 1e-13, "through point {s}");
+        }
+        // measured: largest error 4.6e-3 for steps of up to 0.6 rad on the unit circle
+        let worst = (0..=100)
+            .map(|k| dist(c.point(k as f64 / 100.0), g(k as f64 / 100.0)))
+            .fold(0.0, f64::max);
+        assert!(worst < 6e-3 && worst > 1e-4, "{worst:e}");
+        assert_eq!(c.knots.min_interior_continuity(), 2);
     }
 
     #[test]

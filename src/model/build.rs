@@ -385,6 +385,11 @@ fn smooth_note(body: &str, set: &str, family: ElementFamily, e: &Enrichment) -> 
         e.cells.len()
     );
     match (family, e.smooth_deviation) {
+        (ElementFamily::Q1N { p, .. }, Some(d)) if e.interpolated_reference => format!(
+            "{head}: no exact geometry known (neither a line nor a circle): smooth C^{} fit of \
+             the cubic interpolant of its nodes, largest distance from it {d:.3e}",
+            p - 1
+        ),
         (ElementFamily::Q1N { p, .. }, Some(d)) => format!(
             "{head}: smooth C^{} fit, largest distance from the exact surface {d:.3e}",
             p - 1
@@ -392,6 +397,10 @@ fn smooth_note(body: &str, set: &str, family: ElementFamily, e: &Enrichment) -> 
         (ElementFamily::Q1N { .. }, None) => {
             format!("{head}: the exact surface has no C^0 joints (smooth already), kept exact")
         }
+        _ if e.interpolated_reference => format!(
+            "{head}: no exact geometry known (neither a line nor a circle): {family} interpolates \
+             the cubic interpolant of its nodes"
+        ),
         _ => format!(
             "{head}: enriched_geometry = \"smooth\" applies to Q1Np only; {family} keeps the \
              exact surface (its interpolation is C^0/C^1 by construction)"

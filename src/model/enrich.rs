@@ -25,7 +25,8 @@
 //! segments (< 180 degrees) whose joints are mesh nodes; those joints stay C^0 knots (multiplicity
 //! p+t) of the refined curve, every other element boundary has the continuity of Table 1; the same
 //! holds for the C^0 knot lines of a generator's exact 3D surface. Curves other than lines and
-//! circles, closed curves, and non-planar or non-rectangular 3D patches without an exact surface
+//! circles are enriched only with `enriched_geometry = "smooth"` (fitted to the C^2 cubic
+//! interpolant of their nodes, [`Enrichment::interpolated_reference`]); closed curves, and non-planar or non-rectangular 3D patches without an exact surface
 //! from the generator ([`Mesh::exact_surfaces`]) are reported as unsupported: in particular the
 //! Coons-map `hemisphere` generator's surface (use `hemisphere_nurbs`).
 //!
@@ -37,7 +38,7 @@
 use crate::fem::enriched::{q1c2_2d, q1ch_2d, q1np_2d, q1np_3d, EnrichedElementData};
 use crate::geometry::conics::{circular_arc_segments, line_segment, plane_patch};
 use crate::geometry::fit::{
-    distance_to_curve, distance_to_surface, fit_curve, fit_surface, ArcLength,
+    distance_to_curve, distance_to_surface, fit_curve, fit_surface, interpolate_cubic, ArcLength,
 };
 use crate::geometry::knots::KnotVector;
 use crate::geometry::nurbs::{NurbsCurve, NurbsSurface};
@@ -186,6 +187,9 @@ pub struct Enrichment {
     /// the largest distance between the fit and the exact surface, sampled at 17 points per
     /// element and direction; `None` when the layer interpolates the exact surface.
     pub smooth_deviation: Option<f64>,
+    /// The face set's geometry was unknown (2D: neither a line nor a circle), so the layer was
+    /// fitted to the cubic interpolant of its nodes, the reference of `smooth_deviation`.
+    pub interpolated_reference: bool,
 }
 
 impl Enrichment {
@@ -354,6 +358,8 @@ struct Curve2d {
     pos: Vec<f64>,
     /// `u -> position along the curve`
     along: AlongCurve,
+    /// No exact geometry: `curve` is the cubic interpolant of the nodes.
+    free: bool,
 }
 
 impl Curve2d {
@@ -387,7 +393,31 @@ fn reverse_curve(c: &NurbsCurve) -> Result<NurbsCurve, GeometryError> {
     NurbsCurve::new(KnotVector::new(p, knots)?, c.dim, ctrl, w)
 }
 
-fn detect_curve(set: &str, pts: &[[f64; 2]]) -> Result<Curve2d, EnrichError> {
+/// The curve of a face set without known exact geometry (`enriched_geometry = "smooth"` only): the
+/// C^2 cubic interpolant of its nodes in chord length (see
+/// [`crate::geometry::fit::interpolate_cubic`]), the reference the smooth layer is fitted to.
+fn free_curve(set: &str, pts: &[[f64; 2]]) -> Result<Curve2d, EnrichError> {
+    let mut pos = vec![0.0];
+    for w in pts.windows(2) {
+        pos.push(pos[pos.len() - 1] + dist(&w[0], &w[1]));
+    }
+    let total = pos[pos.len() - 1];
+    let t: Vec<f64> = pos.iter().map(|s| s / total).collect();
+    let q: Vec<[f64; 3]> = pts.iter().map(|x| [x[0], x[1], 0.0]).collect();
+    let curve = interpolate_cubic(&q, &t, 2).map_err(|source| EnrichError::Geometry {
+        set: set.to_string(),
+        source,
+    })?;
+    let along = Box::new(move |_: &NurbsCurve, u: f64| u * total);
+    Ok(Curve2d {
+        curve,
+        pos,
+        along,
+        free: true,
+    })
+}
+
+fn detect_curve(set: &str, pts: &[[f64; 2]], smooth: bool) -> Result<Curve2d, EnrichError> {
     let geo = |source| EnrichError::Geometry {
         set: set.to_string(),
         source,
@@ -415,7 +445,12 @@ fn detect_curve(set: &str, pts: &[[f64; 2]]) -> Result<Curve2d, EnrichError> {
                 let x = c.point(u);
                 (x[0] - a[0]) * d[0] + (x[1] - a[1]) * d[1]
             });
-            return Ok(Curve2d { curve, pos, along });
+            return Ok(Curve2d {
+                curve,
+                pos,
+                along,
+                free: false,
+            });
         }
     }
     if n < 2 {
@@ -426,14 +461,18 @@ fn detect_curve(set: &str, pts: &[[f64; 2]]) -> Result<Curve2d, EnrichError> {
     let (ax, ay, bx, by, cx, cy) = (a[0], a[1], m[0], m[1], b[0], b[1]);
     let det = 2.0 * (ax * (by - cy) + bx * (cy - ay) + cx * (ay - by));
     let not_conic = || {
-        unsupported(
+        if smooth {
+            return free_curve(set, pts);
+        }
+        Err(unsupported(
             set,
             "the surface nodes lie neither on a straight line nor on a circle (within 1e-10); \
-             other curves are not supported",
-        )
+             other curves can be enriched with enriched_geometry = \"smooth\" (a smooth fit \
+             through the nodes)",
+        ))
     };
     if det.abs() <= 1e-14 * scale * scale {
-        return Err(not_conic());
+        return not_conic();
     }
     let (a2, b2, c2) = (ax * ax + ay * ay, bx * bx + by * by, cx * cx + cy * cy);
     let center = [
@@ -442,7 +481,7 @@ fn detect_curve(set: &str, pts: &[[f64; 2]]) -> Result<Curve2d, EnrichError> {
     ];
     let r = dist(&a, &center);
     if pts.iter().any(|x| (dist(x, &center) - r).abs() > tol) {
-        return Err(not_conic());
+        return not_conic();
     }
     // unwrapped node angles, monotone in traversal order
     let ang = |x: &[f64; 2]| (x[1] - center[1]).atan2(x[0] - center[0]);
@@ -497,7 +536,12 @@ fn detect_curve(set: &str, pts: &[[f64; 2]]) -> Result<Curve2d, EnrichError> {
         let t = (x[1] - center[1]).atan2(x[0] - center[0]);
         (sign * (t - th0)).rem_euclid(2.0 * PI)
     });
-    Ok(Curve2d { curve, pos, along })
+    Ok(Curve2d {
+        curve,
+        pos,
+        along,
+        free: false,
+    })
 }
 
 /// Element half-length in arc length, `ds/dxi`, of span `[ua, ub]` (20-point Gauss: exact to
@@ -564,7 +608,7 @@ fn build_2d(
         .iter()
         .map(|&n| [mesh.node(n)[0], mesh.node(n)[1]])
         .collect();
-    let exact = detect_curve(set, &pts)?;
+    let exact = detect_curve(set, &pts, smooth)?;
     let n_el = cells.len();
     let mut params: Vec<f64> = exact.pos.iter().map(|&s| exact.param(s)).collect();
     (params[0], params[n_el]) = (0.0, 1.0);
@@ -583,7 +627,13 @@ fn build_2d(
         ElementFamily::Q1N { p, t } => {
             let (p, t) = (p as usize, t as usize);
             let base = &exact.curve;
-            if p < base.degree() {
+            if smooth && p < 2 && base.knots.n_elements() > 1 {
+                return Err(unsupported(
+                    set,
+                    "enriched_geometry = \"smooth\" needs an order p >= 2 (Q1N1 is C^0)",
+                ));
+            }
+            if !smooth && p < base.degree() {
                 return Err(unsupported(
                     set,
                     format!(
@@ -705,6 +755,7 @@ fn build_2d(
     )
     .map(|e| Enrichment {
         smooth_deviation: deviation,
+        interpolated_reference: exact.free,
         ..e
     })
 }
@@ -785,6 +836,7 @@ fn finish(
         display: display.into_iter().collect(),
         exact,
         smooth_deviation: None,
+        interpolated_reference: false,
     })
 }
 
