@@ -957,6 +957,24 @@ fn a_curve_without_exact_geometry_is_enriched_by_a_smooth_fit_through_its_nodes(
                 assert!(d > 0.0 && d < 2.5e-3, "Q1N{p} n={n}: {d:e}");
             }
         }
+        // Q1C2 and Q1CH interpolate the same cubic: mid nodes / tangents on it
+        for family in [ElementFamily::Q1C2, ElementFamily::Q1CH] {
+            let mut mesh = half_ellipse_mesh(8, b);
+            let e =
+                build_enrichment_with(&mut mesh, "arc", family, EnrichedGeometry::Smooth).unwrap();
+            assert!(e.interpolated_reference && e.smooth_deviation.is_none());
+            if family == ElementFamily::Q1C2 {
+                for k in 0..e.n_extra() {
+                    let x = [e.extra_coords[2 * k], e.extra_coords[2 * k + 1], 0.0];
+                    // measured: at most 4.2e-3 (the interpolant near the ends, n = 8)
+                    assert!(
+                        off(x) < 6e-3,
+                        "Q1C2 mid node {k} off the ellipse by {}",
+                        off(x)
+                    );
+                }
+            }
+        }
         // measured from the ellipse, Q1N2: 2.8e-3, 2.1e-4, 1.4e-5 (rates 3.7, 3.9); Q1N3 passes
         // through the nodes and converges at least at rate 3.5 (the interpolant's O(h^4))
         for w in errs.windows(2) {
