@@ -30,6 +30,16 @@
 //! from the generator ([`Mesh::exact_surfaces`]) are reported as unsupported: in particular the
 //! Coons-map `hemisphere` generator's surface (use `hemisphere_nurbs`).
 //!
+//! Smooth geometry (`bodies.X.enriched_geometry = "smooth"`, Q1Np(.t) only,
+//! [`build_enrichment_with`]): an exact surface with C^0 joints is replaced by a polynomial
+//! B-spline of order p with one span per face and single interior knots (C^{p-1} everywhere),
+//! least-squares fitted to it in arc length with its ends/corners interpolated
+//! ([`crate::geometry::fit`]), then elevated `t` times; [`Enrichment::smooth_deviation`] is its
+//! largest distance from the exact surface (17 samples per element and direction). In 3D the
+//! tensor-product fit keeps a collapsed edge collapsed (the hemisphere's rim points stay one node)
+//! and a planar boundary row planar. The fit does not pass through the interior mesh nodes; they
+//! stay display nodes, interpolated from the layer for output.
+//!
 //! Degenerate patches: where an edge of the exact surface collapses to a point (the hemisphere's two
 //! rim points), its coincident control points become one node, as the generator merged its mesh
 //! nodes there; an element then lists that node several times, which assembly sums.
