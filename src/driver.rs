@@ -331,7 +331,7 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
         log(rank, v, Verbosity::Normal, || format!("warning: {w}"));
     }
     for n in &model.notes {
-        log(rank, v, Verbosity::Normal, || n.clone());
+        log(rank, opts.verbosity, Verbosity::Normal, || n.clone());
     }
     // The case name is a plain name (validated), so the default stays inside out/. Rank 0 claims
     // the directory before any work: created, or an earlier run's, or refused (unless --overwrite).
