@@ -166,6 +166,9 @@ pub fn check_main(case_path: &Path, sets: &[String], petsc_args: Vec<String>) ->
     for w in &model.warnings {
         eprintln!("warning: {w}");
     }
+    for n in &model.notes {
+        println!("{n}");
+    }
     let part = vec![0u32; model.n_cells()];
     let dofs = number_and_check(&case, &model, &part, 1, 0)?;
     for w in check_holds(&case, &model, &dofs)?.warnings {
@@ -462,6 +465,9 @@ fn build_model(petsc: &Petsc, opts: &RunOptions) -> Result<(Case, Model, PathBuf
         log(rank, opts.verbosity, Verbosity::Normal, || {
             format!("warning: {w}")
         });
+    }
+    for n in &model.notes {
+        log(rank, opts.verbosity, Verbosity::Normal, || n.clone());
     }
     // The case name is a plain name (validated), so the default stays inside out/. Rank 0 claims
     // the directory before any work: created, or an earlier run's, or refused (unless --overwrite).

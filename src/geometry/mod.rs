@@ -10,12 +10,15 @@
 //!   refinement of section 3.3, all on homogeneous control points so geometry is unchanged.
 //! - [`conics`]: exact circular arcs, lines, planes and the hollow hemisphere of section 4.4, plus a
 //!   builder for refined curves of a family (p, t).
+//! - [`fit`]: smooth least-squares B-spline fits of an exact curve/surface (single interior knots),
+//!   arc-length parametrisation and point-to-curve/surface distances.
 //! - [`table1`]: the element properties of Table 1 measured on a constructed refined curve.
 use thiserror::Error;
 
 pub mod bezier;
 pub mod bspline;
 pub mod conics;
+pub mod fit;
 pub mod knots;
 pub mod nurbs;
 pub mod refine;

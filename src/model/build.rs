@@ -1,6 +1,6 @@
 //! Building a [`Model`] from a validated [`Case`].
 
-use super::enrich::{build_enrichment, EnrichedCell, Enrichment};
+use super::enrich::{build_enrichment_with, EnrichedCell, Enrichment};
 use crate::assembly::{DirichletBc, ElementSet, Prescription, RigidCoupling};
 use crate::fem::kernel::TlElement;
 use crate::fem::q1e4::Q1e4Element;
@@ -10,8 +10,8 @@ use crate::fem::{hex8, quad4};
 use crate::material::{LinearElastic, Material, NeoHookean};
 use crate::mesh::{self, CellKind, Mesh, MeshError};
 use crate::scene::{
-    validate_sets, BcSpec, Case, ElementFamily, Generator, MaterialModel, MeshSpec, SceneError,
-    SetKind,
+    validate_sets, BcSpec, Case, ElementFamily, EnrichedGeometry, Generator, MaterialModel,
+    MeshSpec, SceneError, SetKind,
 };
 
 /// Why a model could not be built from a (schema-valid) case.
@@ -192,6 +192,9 @@ pub struct Model {
     /// What is legal but suspicious in the input (e.g. mesh nodes in no cell), for the front end
     /// to print once.
     pub warnings: Vec<String>,
+    /// What the front end reports about the built model beside its summary (e.g. the distance of a
+    /// smooth enriched surface from the exact one), one line each.
+    pub notes: Vec<String>,
 }
 
 /// Builds or reads one mesh and validates it; also returns its warnings (nodes in no cell).
@@ -375,12 +378,43 @@ fn set_nodes(body: &Body, set: &str) -> Option<Vec<u32>> {
     Some(local.iter().map(|&n| n + body.node_offset).collect())
 }
 
+/// The line `check` and `run` print for `enriched_geometry = "smooth"`.
+fn smooth_note(body: &str, set: &str, family: ElementFamily, e: &Enrichment) -> String {
+    let head = format!(
+        "bodies.{body}: enriched surface `{set}` ({family}, {} elements)",
+        e.cells.len()
+    );
+    match (family, e.smooth_deviation) {
+        (ElementFamily::Q1N { p, .. }, Some(d)) if e.interpolated_reference => format!(
+            "{head}: no exact geometry known (neither a line nor a circle): smooth C^{} fit of \
+             the cubic interpolant of its nodes, largest distance from it {d:.3e}",
+            p - 1
+        ),
+        (ElementFamily::Q1N { p, .. }, Some(d)) => format!(
+            "{head}: smooth C^{} fit, largest distance from the exact surface {d:.3e}",
+            p - 1
+        ),
+        (ElementFamily::Q1N { .. }, None) => {
+            format!("{head}: the exact surface has no C^0 joints (smooth already), kept exact")
+        }
+        _ if e.interpolated_reference => format!(
+            "{head}: no exact geometry known (neither a line nor a circle): {family} interpolates \
+             the cubic interpolant of its nodes"
+        ),
+        _ => format!(
+            "{head}: enriched_geometry = \"smooth\" applies to Q1Np only; {family} keeps the \
+             exact surface (its interpolation is C^0/C^1 by construction)"
+        ),
+    }
+}
+
 impl Model {
     /// Builds meshes, bodies, conditions and ties of a validated case.
     pub fn build(case: &Case) -> Result<Model, ModelError> {
         let dim = case.case.dim;
         let mut bodies = Vec::new();
         let mut warnings: Vec<String> = Vec::new();
+        let mut notes: Vec<String> = Vec::new();
         let (mut node_offset, mut cell_offset) = (0u32, 0usize);
         for (name, spec) in &case.bodies {
             let mesh_spec = &case.meshes[&spec.mesh];
@@ -433,13 +467,17 @@ impl Model {
         for b in &mut bodies {
             let spec = &case.bodies[&b.name];
             if let (true, Some(set)) = (b.family.is_enriched(), &spec.enriched_surface) {
-                let e = build_enrichment(&mut b.mesh, set, b.family).map_err(|source| {
-                    ModelError::Enrichment {
+                let geometry = spec.enriched_geometry.unwrap_or_default();
+                let e = build_enrichment_with(&mut b.mesh, set, b.family, geometry).map_err(
+                    |source| ModelError::Enrichment {
                         file: case.file.clone(),
                         body: b.name.clone(),
                         source,
-                    }
-                })?;
+                    },
+                )?;
+                if geometry == EnrichedGeometry::Smooth {
+                    notes.push(smooth_note(&b.name, set, b.family, &e));
+                }
                 b.enrichment = Some(e);
             }
             b.node_offset = node_offset;
@@ -680,6 +718,7 @@ impl Model {
             contact_surfaces: Vec::new(),
             contact_pairs: Vec::new(),
             warnings,
+            notes,
         };
         let (surfaces, pairs) = super::contact::build_contact(case, &model)?;
         model.contact_surfaces = surfaces;

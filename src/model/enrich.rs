@@ -25,9 +25,20 @@
 //! segments (< 180 degrees) whose joints are mesh nodes; those joints stay C^0 knots (multiplicity
 //! p+t) of the refined curve, every other element boundary has the continuity of Table 1; the same
 //! holds for the C^0 knot lines of a generator's exact 3D surface. Curves other than lines and
-//! circles, closed curves, and non-planar or non-rectangular 3D patches without an exact surface
+//! circles are enriched only with `enriched_geometry = "smooth"` (fitted to the C^2 cubic
+//! interpolant of their nodes, [`Enrichment::interpolated_reference`]); closed curves, and non-planar or non-rectangular 3D patches without an exact surface
 //! from the generator ([`Mesh::exact_surfaces`]) are reported as unsupported: in particular the
 //! Coons-map `hemisphere` generator's surface (use `hemisphere_nurbs`).
+//!
+//! Smooth geometry (`bodies.X.enriched_geometry = "smooth"`, Q1Np(.t) only,
+//! [`build_enrichment_with`]): an exact surface with C^0 joints is replaced by a polynomial
+//! B-spline of order p with one span per face and single interior knots (C^{p-1} everywhere),
+//! least-squares fitted to it in arc length with its ends/corners interpolated
+//! ([`crate::geometry::fit`]), then elevated `t` times; [`Enrichment::smooth_deviation`] is its
+//! largest distance from the exact surface (17 samples per element and direction). In 3D the
+//! tensor-product fit keeps a collapsed edge collapsed (the hemisphere's rim points stay one node)
+//! and a planar boundary row planar. The fit does not pass through the interior mesh nodes; they
+//! stay display nodes, interpolated from the layer for output.
 //!
 //! Degenerate patches: where an edge of the exact surface collapses to a point (the hemisphere's two
 //! rim points), its coincident control points become one node, as the generator merged its mesh
@@ -36,12 +47,15 @@
 #![allow(clippy::needless_range_loop)] // index loops mirror the equations
 use crate::fem::enriched::{q1c2_2d, q1ch_2d, q1np_2d, q1np_3d, EnrichedElementData};
 use crate::geometry::conics::{circular_arc_segments, line_segment, plane_patch};
+use crate::geometry::fit::{
+    distance_to_curve, distance_to_surface, fit_curve, fit_surface, interpolate_cubic, ArcLength,
+};
 use crate::geometry::knots::KnotVector;
 use crate::geometry::nurbs::{NurbsCurve, NurbsSurface};
 use crate::geometry::refine::Direction;
 use crate::geometry::GeometryError;
 use crate::mesh::{CellKind, ExactPatch, Mesh};
-use crate::scene::ElementFamily;
+use crate::scene::{ElementFamily, EnrichedGeometry};
 use std::collections::{BTreeMap, BTreeSet};
 use std::f64::consts::PI;
 
@@ -146,7 +160,8 @@ impl EnrichedCell {
     }
 }
 
-/// The exact surface the enriched layer was built on (refined to the family for Q1Np).
+/// The surface the enriched layer was built on: the exact one (refined to the family for Q1Np), or
+/// for `enriched_geometry = "smooth"` its smooth fit (elevated to the family).
 #[derive(Debug, Clone, PartialEq)]
 pub enum ExactSurface {
     /// 2D: the curve in traversal order of the face set; for Q1Np refined so that knot spans
@@ -176,8 +191,15 @@ pub struct Enrichment {
     pub pseudo_nodes: Vec<u32>,
     /// Each display node with its interpolation `(element node, weight)` from one enriched cell.
     pub display: Vec<(u32, Vec<(u32, f64)>)>,
-    /// The exact (refined) surface.
+    /// The (refined) surface of the layer: exact, or its smooth fit.
     pub exact: ExactSurface,
+    /// For a smooth fit (`enriched_geometry = "smooth"` on a surface with C^0 joints, Q1Np only):
+    /// the largest distance between the fit and the exact surface, sampled at 17 points per
+    /// element and direction; `None` when the layer interpolates the exact surface.
+    pub smooth_deviation: Option<f64>,
+    /// The face set's geometry was unknown (2D: neither a line nor a circle), so the layer was
+    /// fitted to the cubic interpolant of its nodes, the reference of `smooth_deviation`.
+    pub interpolated_reference: bool,
 }
 
 impl Enrichment {
@@ -266,6 +288,19 @@ pub fn build_enrichment(
     set: &str,
     family: ElementFamily,
 ) -> Result<Enrichment, EnrichError> {
+    build_enrichment_with(mesh, set, family, EnrichedGeometry::Exact)
+}
+
+/// [`build_enrichment`] with the choice of geometry: for Q1Np(.t), `Smooth` replaces an exact
+/// surface that has C^0 joints by its C^{p-1} fit (see [`crate::geometry::fit`]), with one span per
+/// face; other families and surfaces without joints keep the exact geometry.
+pub fn build_enrichment_with(
+    mesh: &mut Mesh,
+    set: &str,
+    family: ElementFamily,
+    geometry: EnrichedGeometry,
+) -> Result<Enrichment, EnrichError> {
+    let smooth = geometry == EnrichedGeometry::Smooth;
     let faces = mesh
         .face_sets
         .get(set)
@@ -289,8 +324,8 @@ pub fn build_enrichment(
         ));
     }
     let layer = match mesh.dim {
-        2 => build_2d(mesh, set, &cells, family)?,
-        _ => build_3d(mesh, set, &cells, family)?,
+        2 => build_2d(mesh, set, &cells, family, smooth)?,
+        _ => build_3d(mesh, set, &cells, family, smooth)?,
     };
     check_replaced_not_shared(mesh, set, &layer)?;
     Ok(layer)
@@ -333,6 +368,8 @@ struct Curve2d {
     pos: Vec<f64>,
     /// `u -> position along the curve`
     along: AlongCurve,
+    /// No exact geometry: `curve` is the cubic interpolant of the nodes.
+    free: bool,
 }
 
 impl Curve2d {
@@ -366,7 +403,31 @@ fn reverse_curve(c: &NurbsCurve) -> Result<NurbsCurve, GeometryError> {
     NurbsCurve::new(KnotVector::new(p, knots)?, c.dim, ctrl, w)
 }
 
-fn detect_curve(set: &str, pts: &[[f64; 2]]) -> Result<Curve2d, EnrichError> {
+/// The curve of a face set without known exact geometry (`enriched_geometry = "smooth"` only): the
+/// C^2 cubic interpolant of its nodes in chord length (see
+/// [`crate::geometry::fit::interpolate_cubic`]), the reference the smooth layer is fitted to.
+fn free_curve(set: &str, pts: &[[f64; 2]]) -> Result<Curve2d, EnrichError> {
+    let mut pos = vec![0.0];
+    for w in pts.windows(2) {
+        pos.push(pos[pos.len() - 1] + dist(&w[0], &w[1]));
+    }
+    let total = pos[pos.len() - 1];
+    let t: Vec<f64> = pos.iter().map(|s| s / total).collect();
+    let q: Vec<[f64; 3]> = pts.iter().map(|x| [x[0], x[1], 0.0]).collect();
+    let curve = interpolate_cubic(&q, &t, 2).map_err(|source| EnrichError::Geometry {
+        set: set.to_string(),
+        source,
+    })?;
+    let along = Box::new(move |_: &NurbsCurve, u: f64| u * total);
+    Ok(Curve2d {
+        curve,
+        pos,
+        along,
+        free: true,
+    })
+}
+
+fn detect_curve(set: &str, pts: &[[f64; 2]], smooth: bool) -> Result<Curve2d, EnrichError> {
     let geo = |source| EnrichError::Geometry {
         set: set.to_string(),
         source,
@@ -394,7 +455,12 @@ fn detect_curve(set: &str, pts: &[[f64; 2]]) -> Result<Curve2d, EnrichError> {
                 let x = c.point(u);
                 (x[0] - a[0]) * d[0] + (x[1] - a[1]) * d[1]
             });
-            return Ok(Curve2d { curve, pos, along });
+            return Ok(Curve2d {
+                curve,
+                pos,
+                along,
+                free: false,
+            });
         }
     }
     if n < 2 {
@@ -405,14 +471,18 @@ fn detect_curve(set: &str, pts: &[[f64; 2]]) -> Result<Curve2d, EnrichError> {
     let (ax, ay, bx, by, cx, cy) = (a[0], a[1], m[0], m[1], b[0], b[1]);
     let det = 2.0 * (ax * (by - cy) + bx * (cy - ay) + cx * (ay - by));
     let not_conic = || {
-        unsupported(
+        if smooth {
+            return free_curve(set, pts);
+        }
+        Err(unsupported(
             set,
             "the surface nodes lie neither on a straight line nor on a circle (within 1e-10); \
-             other curves are not supported",
-        )
+             other curves can be enriched with enriched_geometry = \"smooth\" (a smooth fit \
+             through the nodes)",
+        ))
     };
     if det.abs() <= 1e-14 * scale * scale {
-        return Err(not_conic());
+        return not_conic();
     }
     let (a2, b2, c2) = (ax * ax + ay * ay, bx * bx + by * by, cx * cx + cy * cy);
     let center = [
@@ -421,7 +491,7 @@ fn detect_curve(set: &str, pts: &[[f64; 2]]) -> Result<Curve2d, EnrichError> {
     ];
     let r = dist(&a, &center);
     if pts.iter().any(|x| (dist(x, &center) - r).abs() > tol) {
-        return Err(not_conic());
+        return not_conic();
     }
     // unwrapped node angles, monotone in traversal order
     let ang = |x: &[f64; 2]| (x[1] - center[1]).atan2(x[0] - center[0]);
@@ -476,7 +546,12 @@ fn detect_curve(set: &str, pts: &[[f64; 2]]) -> Result<Curve2d, EnrichError> {
         let t = (x[1] - center[1]).atan2(x[0] - center[0]);
         (sign * (t - th0)).rem_euclid(2.0 * PI)
     });
-    Ok(Curve2d { curve, pos, along })
+    Ok(Curve2d {
+        curve,
+        pos,
+        along,
+        free: false,
+    })
 }
 
 /// Element half-length in arc length, `ds/dxi`, of span `[ua, ub]` (20-point Gauss: exact to
@@ -499,6 +574,7 @@ fn build_2d(
     set: &str,
     cells: &[usize],
     family: ElementFamily,
+    smooth: bool,
 ) -> Result<Enrichment, EnrichError> {
     let geo = |source| EnrichError::Geometry {
         set: set.to_string(),
@@ -542,7 +618,7 @@ fn build_2d(
         .iter()
         .map(|&n| [mesh.node(n)[0], mesh.node(n)[1]])
         .collect();
-    let exact = detect_curve(set, &pts)?;
+    let exact = detect_curve(set, &pts, smooth)?;
     let n_el = cells.len();
     let mut params: Vec<f64> = exact.pos.iter().map(|&s| exact.param(s)).collect();
     (params[0], params[n_el]) = (0.0, 1.0);
@@ -556,11 +632,18 @@ fn build_2d(
     let mut out_cells = Vec::with_capacity(n_el);
     let (mut replaced, mut pseudo) = (Vec::new(), Vec::new());
     let curve_out;
+    let mut deviation = None;
     match family {
         ElementFamily::Q1N { p, t } => {
             let (p, t) = (p as usize, t as usize);
             let base = &exact.curve;
-            if p < base.degree() {
+            if smooth && p < 2 && base.knots.n_elements() > 1 {
+                return Err(unsupported(
+                    set,
+                    "enriched_geometry = \"smooth\" needs an order p >= 2 (Q1N1 is C^0)",
+                ));
+            }
+            if !smooth && p < base.degree() {
                 return Err(unsupported(
                     set,
                     format!(
@@ -569,15 +652,21 @@ fn build_2d(
                     ),
                 ));
             }
-            let e = base.elevate(p - base.degree()).map_err(geo)?;
-            // the base joints are nodes up to round-off: they are element boundaries already
-            let knots = e.knots.unique_with_multiplicity();
-            let x: Vec<f64> = params[1..n_el]
-                .iter()
-                .copied()
-                .filter(|&u| knots.iter().all(|&(k, _)| (k - u).abs() > 1e-12))
-                .collect();
-            let c = e.insert_knots(&x).map_err(geo)?.elevate(t).map_err(geo)?;
+            let c = if smooth && base.knots.n_elements() > 1 {
+                let (fit, d) = smooth_curve(&exact, p).map_err(geo)?;
+                deviation = Some(d);
+                fit.elevate(t).map_err(geo)?
+            } else {
+                let e = base.elevate(p - base.degree()).map_err(geo)?;
+                // the base joints are nodes up to round-off: they are element boundaries already
+                let knots = e.knots.unique_with_multiplicity();
+                let x: Vec<f64> = params[1..n_el]
+                    .iter()
+                    .copied()
+                    .filter(|&u| knots.iter().all(|&(k, _)| (k - u).abs() > 1e-12))
+                    .collect();
+                e.insert_knots(&x).map_err(geo)?.elevate(t).map_err(geo)?
+            };
             if c.knots.n_elements() != n_el {
                 return Err(faces_err(
                     set,
@@ -674,6 +763,34 @@ fn build_2d(
         pseudo,
         ExactSurface::Curve(curve_out),
     )
+    .map(|e| Enrichment {
+        smooth_deviation: deviation,
+        interpolated_reference: exact.free,
+        ..e
+    })
+}
+
+/// Points per element and direction at which a fit's distance from the exact surface is measured.
+const DEVIATION_SAMPLES: usize = 16;
+
+/// The smooth fit of order `p` of a 2D exact curve (see [`crate::geometry::fit`]): parametrised by
+/// the position along the curve (arc length for a line, angle for an arc), one span per face, and
+/// its largest distance from the exact curve.
+fn smooth_curve(exact: &Curve2d, p: usize) -> Result<(NurbsCurve, f64), GeometryError> {
+    let n_el = exact.pos.len() - 1;
+    let total = exact.pos[n_el];
+    let breaks: Vec<f64> = exact.pos[1..n_el].iter().map(|s| s / total).collect();
+    let at = |s: f64| exact.param(s * total);
+    let fit = fit_curve(p, &breaks, 2, &|s| exact.curve.point(at(s)))?;
+    let mut dev: f64 = 0.0;
+    for i in 0..n_el {
+        let (a, b) = (exact.pos[i] / total, exact.pos[i + 1] / total);
+        for k in 0..=DEVIATION_SAMPLES {
+            let s = a + (b - a) * k as f64 / DEVIATION_SAMPLES as f64;
+            dev = dev.max(distance_to_curve(&exact.curve, fit.point(s), at(s)));
+        }
+    }
+    Ok((fit, dev))
 }
 
 /// Assembles the [`Enrichment`] and the display-node interpolation.
@@ -728,6 +845,8 @@ fn finish(
         pseudo_nodes,
         display: display.into_iter().collect(),
         exact,
+        smooth_deviation: None,
+        interpolated_reference: false,
     })
 }
 
@@ -759,6 +878,7 @@ fn build_3d(
     set: &str,
     cells: &[usize],
     family: ElementFamily,
+    smooth: bool,
 ) -> Result<Enrichment, EnrichError> {
     let ElementFamily::Q1N { p, t } = family else {
         return Err(unsupported(set, format!("{family} is 2D only")));
@@ -772,7 +892,7 @@ fn build_3d(
         Some(patch) => exact_grid(mesh, set, cells, patch)?,
         None => plane_grid(mesh, set, cells)?,
     };
-    build_3d_on_grid(mesh, set, p as usize, t as usize, grid)
+    build_3d_on_grid(mesh, set, p as usize, t as usize, grid, smooth)
 }
 
 /// The face grid of a generator-provided exact surface, checked against the mesh: face set entry
@@ -961,6 +1081,7 @@ fn build_3d_on_grid(
     p: usize,
     t: usize,
     g: FaceGrid,
+    smooth: bool,
 ) -> Result<Enrichment, EnrichError> {
     let geo = |source| EnrichError::Geometry {
         set: set.to_string(),
@@ -984,18 +1105,26 @@ fn build_3d_on_grid(
             .filter(|&u| knots.iter().all(|&(k, _)| (k - u).abs() > 1e-12))
             .collect()
     };
-    let e = g
-        .base
-        .elevate(Direction::U, p - du)
-        .and_then(|s| s.elevate(Direction::V, p - dv))
-        .map_err(geo)?;
-    let (xu, xv) = (new_knots(&g.xu, &e.knots_u), new_knots(&g.xv, &e.knots_v));
-    let s = e
-        .insert_knots(Direction::U, &xu)
-        .and_then(|s| s.insert_knots(Direction::V, &xv))
-        .and_then(|s| s.elevate(Direction::U, t))
-        .and_then(|s| s.elevate(Direction::V, t))
-        .map_err(geo)?;
+    let mut deviation = None;
+    let s = if smooth && (g.base.knots_u.n_elements() > 1 || g.base.knots_v.n_elements() > 1) {
+        let (fit, d) = smooth_surface(&g, p).map_err(geo)?;
+        deviation = Some(d);
+        fit.elevate(Direction::U, t)
+            .and_then(|s| s.elevate(Direction::V, t))
+            .map_err(geo)?
+    } else {
+        let e = g
+            .base
+            .elevate(Direction::U, p - du)
+            .and_then(|s| s.elevate(Direction::V, p - dv))
+            .map_err(geo)?;
+        let (xu, xv) = (new_knots(&g.xu, &e.knots_u), new_knots(&g.xv, &e.knots_v));
+        e.insert_knots(Direction::U, &xu)
+            .and_then(|s| s.insert_knots(Direction::V, &xv))
+            .and_then(|s| s.elevate(Direction::U, t))
+            .and_then(|s| s.elevate(Direction::V, t))
+            .map_err(geo)?
+    };
     if s.knots_u.n_elements() != nu || s.knots_v.n_elements() != nv {
         return Err(faces_err(
             set,
@@ -1079,4 +1208,61 @@ fn build_3d_on_grid(
         Vec::new(),
         ExactSurface::Surface(s),
     )
+    .map(|e| Enrichment {
+        smooth_deviation: deviation,
+        ..e
+    })
+}
+
+/// The smooth tensor-product fit of order `p` of the grid's exact surface (see
+/// [`crate::geometry::fit`]), one span per face, and its largest distance from the exact surface.
+/// Each direction is parametrised by arc length along the surface's middle iso-line (for the
+/// hemisphere: the angles of latitude and rotation, in which the sphere is analytic); the corners
+/// are interpolated and a collapsed edge (the hemisphere's rim points) stays one point.
+fn smooth_surface(g: &FaceGrid, p: usize) -> Result<(NurbsSurface, f64), GeometryError> {
+    let base = &g.base;
+    let interior = |kv: &KnotVector| -> Vec<f64> {
+        let u = kv.unique_with_multiplicity();
+        u[1..u.len() - 1].iter().map(|k| k.0).collect()
+    };
+    let norm = |a: [f64; 3]| (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    let speed_u = |u: f64| norm(base.eval(u, 0.5).1);
+    let speed_v = |v: f64| norm(base.eval(0.5, v).2);
+    let au = ArcLength::new(&speed_u, &interior(&base.knots_u))?;
+    let av = ArcLength::new(&speed_v, &interior(&base.knots_v))?;
+    let bu: Vec<f64> = g.xu.iter().map(|&u| au.length_to(u) / au.total()).collect();
+    let bv: Vec<f64> = g.xv.iter().map(|&v| av.length_to(v) / av.total()).collect();
+    let fit = fit_surface(
+        p,
+        &bu,
+        &bv,
+        &|s| au.param_at(s),
+        &|t| av.param_at(t),
+        &|u, v| base.point(u, v),
+    )?;
+    let samples = |b: &[f64]| -> Vec<f64> {
+        let mut e = vec![0.0];
+        e.extend_from_slice(b);
+        e.push(1.0);
+        let mut out = vec![0.0];
+        for w in e.windows(2) {
+            out.extend(
+                (1..=DEVIATION_SAMPLES)
+                    .map(|k| w[0] + (w[1] - w[0]) * k as f64 / DEVIATION_SAMPLES as f64),
+            );
+        }
+        out
+    };
+    let (su, sv) = (samples(&bu), samples(&bv));
+    let (uu, vv): (Vec<f64>, Vec<f64>) = (
+        su.iter().map(|&s| au.param_at(s)).collect(),
+        sv.iter().map(|&t| av.param_at(t)).collect(),
+    );
+    let mut dev: f64 = 0.0;
+    for (j, &t) in sv.iter().enumerate() {
+        for (i, &s) in su.iter().enumerate() {
+            dev = dev.max(distance_to_surface(base, fit.point(s, t), uu[i], vv[j]));
+        }
+    }
+    Ok((fit, dev))
 }

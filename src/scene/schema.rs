@@ -225,11 +225,34 @@ pub struct BodySpec {
     /// case of section 4.2 needs; the enriched layer itself gets no enhancement).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub bulk: Option<ElementFamily>,
+    /// Geometry of the enriched surface (Q1Np / Q1Np.t only): `"exact"` (default, the paper's
+    /// choice) or `"smooth"` (a C^{p-1} B-spline fit of the exact surface, see
+    /// [`EnrichedGeometry`]). Needs `enriched_surface`; ignored, like it, by linear families, and
+    /// ignored with a note by Q1C2 and Q1CH.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub enriched_geometry: Option<EnrichedGeometry>,
     pub material: MaterialSpec,
     /// Node sets selected from the mesh by position, by name (see [`NodeSelection`]), added to the
     /// mesh's own sets. Default: none.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub node_sets: BTreeMap<String, NodeSelection>,
+}
+
+/// `bodies.<name>.enriched_geometry`: which geometry a Q1Np(.t) enriched layer interpolates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EnrichedGeometry {
+    /// `"exact"` (default): the exact NURBS of the surface (line, circular arc, plane, or the
+    /// generator's exact surface) refined to the family. Exact, but C^0 at the joints of its
+    /// rational pieces (e.g. the lowest point of a half circle, the pole of the hemisphere).
+    #[default]
+    Exact,
+    /// `"smooth"`: a polynomial B-spline of order p with one span per enriched element and single
+    /// interior knots (C^{p-1} everywhere), least-squares fitted to the exact surface with its
+    /// ends/corners interpolated, then elevated `t` times; its largest distance from the exact
+    /// surface is printed by `check` and `run`. A surface without C^0 joints (a line, a plane, an
+    /// arc of one piece) is smooth already and kept exact.
+    Smooth,
 }
 
 /// `[bodies.<name>.node_sets.<set>]`: the nodes of the reference mesh chosen by position, among

@@ -4,7 +4,7 @@
 
 use crate::scene::element_family::ElementFamily;
 use crate::scene::error::Issue;
-use crate::scene::schema::{BcSpec, Case, Component, Generator, MeshSpec};
+use crate::scene::schema::{BcSpec, Case, Component, EnrichedGeometry, Generator, MeshSpec};
 use crate::scene::SceneError;
 use std::collections::BTreeSet;
 
@@ -373,6 +373,12 @@ fn check_bodies(case: &Case, dim_ok: bool, v: &mut Issues) {
             }
             _ => {}
         }
+        if b.enriched_geometry == Some(EnrichedGeometry::Smooth) && b.enriched_surface.is_none() {
+            v.push(
+                k("enriched_geometry"),
+                "\"smooth\" fits the enriched surface: it needs bodies.<name>.enriched_surface",
+            );
+        }
         match b.bulk {
             None | Some(ElementFamily::Q1C1) => {}
             Some(ElementFamily::Q1E4) if case.case.dim == 2 => {}
@@ -722,6 +728,35 @@ mod tests {
             has(&i, "bodies.strip.enriched_surface", "must name a face set"),
             "{i:?}"
         );
+    }
+
+    #[test]
+    fn smooth_enriched_geometry_needs_an_enriched_surface_and_a_known_value() {
+        let i = issues(
+            STRIP_BENDING_2D,
+            &["bodies.strip.enriched_geometry=\"smooth\""],
+        );
+        assert!(
+            has(
+                &i,
+                "bodies.strip.enriched_geometry",
+                "needs bodies.<name>.enriched_surface"
+            ),
+            "{i:?}"
+        );
+        for g in ["exact", "smooth"] {
+            let o = [
+                "bodies.strip.enriched_surface=ymax".to_string(),
+                format!("bodies.strip.enriched_geometry=\"{g}\""),
+            ];
+            assert!(
+                parse_case(STRIP_BENDING_2D, Path::new("c.toml"), &o).is_ok(),
+                "{g}"
+            );
+        }
+        let o = ["bodies.strip.enriched_geometry=\"wavy\"".to_string()];
+        let e = parse_case(STRIP_BENDING_2D, Path::new("c.toml"), &o).unwrap_err();
+        assert!(e.to_string().contains("wavy"), "{e}");
     }
 
     #[test]
