@@ -41,6 +41,12 @@ def window(cols, keep):
     return lambda k: [cols[k][i] for i in idx]
 
 
+def same_sense(series):
+    """The two half-passes' forces act on different bodies: the second is negated so both are
+    the force on the first body, as the paper plots P_1 and P_2 over each other."""
+    return [s if i == 0 else [-v for v in s] for i, s in enumerate(series)]
+
+
 def eq22(series):
     vals = [v for s in series for v in s]
     return max(vals) - min(vals)
@@ -83,7 +89,8 @@ def run_info(cols, summ):
         "steps": len(its),
         "newton_max": int(max(its)) if its else 0,
         "newton_total": int(sum(its)),
-        "cutbacks": int(cols["cutbacks"][-1]) if cols.get("cutbacks") else 0,
+        "cutbacks": sum(int(st.get("cutbacks", 0)) for st in summ.get("steps", [])),
+        "rescued_steps": sum(1 for st in summ.get("steps", []) if st.get("pseudo_steps", 0)),
         "wall_s": cols["wall_time"][-1] if cols.get("wall_time") else float("nan"),
         "status": summ.get("status", "?"),
     }
@@ -95,14 +102,11 @@ def ironing(d):
     w = window(cols, lambda lam: lam >= 1.25 - 1e-9)
     out = run_info(cols, summ)
     for c in "xy":
-        ks = pick(cols, "P_", "_" + c)
-        series = [w(k) for k in ks]
-        if c == "y":
-            series = [[-v for v in s] if sum(s) < 0 else s for s in series]
+        series = same_sense([w(k) for k in pick(cols, "P_", "_" + c)])
         out["dP" + c] = eq22(series)
         out["dP" + c + "_ece"] = eq23(series)
         if c == "y":
-            out["mean_Py"] = sum(sum(s) / len(s) for s in series) / len(series)
+            out["mean_Py"] = abs(sum(sum(s) / len(s) for s in series) / len(series))
     return out
 
 
@@ -143,8 +147,7 @@ def twisting(d):
     cols, summ = read(d)
     w = window(cols, lambda lam: lam > 1.0 + 1e-9)
     out = run_info(cols, summ)
-    pz = [w(k) for k in pick(cols, "P_twist_", "_z")]
-    pz = [[-v for v in s] if sum(s) < 0 else s for s in pz]
+    pz = same_sense([w(k) for k in pick(cols, "P_twist_", "_z")])
     out["dPz"] = eq22(pz)
     out["dPz_ece"] = eq23(pz)
     mz = [w(k) for k in pick(cols, "M_twist_", "_z")]
