@@ -1069,6 +1069,15 @@ impl ContactSystem {
             .collect()
     }
 
+    /// Per pair: true when it has Coulomb friction (its results carry tangential forces and
+    /// stick/slip counts).
+    pub fn frictional(&self) -> Vec<bool> {
+        self.pairs
+            .iter()
+            .map(|p| p.def.friction.is_some())
+            .collect()
+    }
+
     /// Names of the half-passes of each pair: the integrated surface's name.
     pub fn pass_names(&self) -> Vec<(String, Vec<String>)> {
         self.pairs
