@@ -200,3 +200,38 @@ fn cattaneo_mindlin_stick_zone_of_the_hertz_half_disk() {
         100.0 * err
     );
 }
+
+#[test]
+fn bad_friction_keys_are_named() {
+    let c = case("friction_block_2d.toml");
+    for (set, want) in [
+        ("contact.0.mu=-0.1", "contact.0.mu"),
+        ("contact.0.eps_t=0.0", "contact.0.eps_t"),
+        (
+            "contact.0.friction_stages=[true]",
+            "contact.0.friction_stages",
+        ),
+    ] {
+        let d = scratch(&format!("friction-bad-{}", want.replace('.', "-")));
+        let out = run(
+            1,
+            &[
+                "run",
+                c.to_str().unwrap(),
+                "--out",
+                d.to_str().unwrap(),
+                "-q",
+                "--overwrite",
+                "--set",
+                set,
+            ],
+        );
+        let err = stderr(&out);
+        assert!(!out.status.success(), "{set}: accepted");
+        assert!(!err.contains("panicked"), "{set}: panic:\n{err}");
+        assert!(
+            err.contains(want) && err.contains("friction_block_2d.toml"),
+            "{set}: message does not name the key and file:\n{err}"
+        );
+    }
+}
