@@ -136,15 +136,19 @@ fn friction_is_rank_invariant() {
         &h5_last(&d2, "bulk", "displacement"),
     );
     assert!(e < 1e-10, "1 vs 2 ranks differ by {e:e}");
-    for col in [
-        "P_fric_block_bottom_x",
-        "Pt_fric_block_bottom_x",
-        "stick_fric_block_bottom",
-        "slip_fric_block_bottom",
-    ] {
+    // the resultants are penalty forces, eps times a gap (a difference of positions ~1e3 times
+    // smaller than them): they amplify the displacement's round-off; measured up to 1.3e-10
+    for col in ["P_fric_block_bottom_x", "Pt_fric_block_bottom_x"] {
         let (a, b) = (history_col(&d1, col), history_col(&d2, col));
         let e = rel_diff(&a, &b);
-        assert!(e < 1e-10, "{col}: 1 vs 2 ranks differ by {e:e}");
+        assert!(e < 1e-8, "{col}: 1 vs 2 ranks differ by {e:e}");
+    }
+    for col in ["stick_fric_block_bottom", "slip_fric_block_bottom"] {
+        assert_eq!(
+            history_col(&d1, col),
+            history_col(&d2, col),
+            "{col}: 1 vs 2 ranks"
+        );
     }
     // some frictional steps mix stick and slip
     let stick = history_col(&d2, "stick_fric_block_bottom");
