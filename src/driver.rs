@@ -1094,7 +1094,8 @@ fn history_extra_labels(model: &Model) -> Vec<String> {
 /// `history.csv` columns of the contact pairs, per pair and half-pass (named after the integrated
 /// surface): resultant force `P_<pair>_<surface>_<x|y|z>` on that surface's body, moment of the
 /// contact forces about the pair's moment point `M_<pair>_<surface>[_<x|y|z>]` (2D: about z),
-/// active quadrature points and largest penetration.
+/// active quadrature points and largest penetration; with friction, the resultant tangential force
+/// `Pt_<pair>_<surface>_<x|y|z>` and the sticking and slipping points `stick_`/`slip_<pair>_<surface>`.
 fn contact_history_labels(model: &Model) -> Vec<String> {
     let dim = model.dim;
     let mut out = Vec::new();
@@ -1113,6 +1114,13 @@ fn contact_history_labels(model: &Model) -> Vec<String> {
             }
             out.push(format!("active_{tag}"));
             out.push(format!("penetration_{tag}"));
+            if pair.friction.is_some() {
+                for a in &["x", "y", "z"][..dim] {
+                    out.push(format!("Pt_{tag}_{a}"));
+                }
+                out.push(format!("stick_{tag}"));
+                out.push(format!("slip_{tag}"));
+            }
         }
     }
     out
@@ -1127,8 +1135,11 @@ fn contact_history(asm: &Assembler, dim: usize) -> Vec<f64> {
         return Vec::new();
     };
     let (mut sums, mut maxes) = (Vec::new(), Vec::new());
-    for (_, passes) in c.results() {
+    // per half-pass: the columns summed before its penetration and after it
+    let mut layout = Vec::new();
+    for ((_, passes), frictional) in c.results().into_iter().zip(c.frictional()) {
         for r in passes {
+            let first = sums.len();
             sums.extend_from_slice(&r.force[..dim]);
             if dim == 2 {
                 sums.push(r.moment[2]);
@@ -1136,6 +1147,13 @@ fn contact_history(asm: &Assembler, dim: usize) -> Vec<f64> {
                 sums.extend_from_slice(&r.moment);
             }
             sums.push(r.n_active as f64);
+            let mid = sums.len();
+            if frictional {
+                sums.extend_from_slice(&r.tangential[..dim]);
+                sums.push(r.n_stick as f64);
+                sums.push(r.n_slip as f64);
+            }
+            layout.push((first, mid, sums.len()));
             maxes.push(r.max_penetration);
         }
     }
@@ -1143,11 +1161,11 @@ fn contact_history(asm: &Assembler, dim: usize) -> Vec<f64> {
     let (mut s, mut m) = (vec![0.0; sums.len()], vec![0.0; maxes.len()]);
     comm.all_reduce_into(&sums[..], &mut s[..], SystemOperation::sum());
     comm.all_reduce_into(&maxes[..], &mut m[..], SystemOperation::max());
-    let per = if dim == 2 { dim + 2 } else { dim + 4 };
     let mut out = Vec::new();
-    for (i, mx) in m.iter().enumerate() {
-        out.extend_from_slice(&s[i * per..(i + 1) * per]);
+    for (&(first, mid, end), mx) in layout.iter().zip(&m) {
+        out.extend_from_slice(&s[first..mid]);
         out.push(*mx);
+        out.extend_from_slice(&s[mid..end]);
     }
     out
 }

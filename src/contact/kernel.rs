@@ -69,6 +69,44 @@ pub enum Area {
     Reference,
 }
 
+/// Coulomb friction at a point (Sauer & De Lorenzis 2015): the current position of the point's
+/// anchor on the partner (held fixed within a load step) and the parameters. The trial tangential
+/// traction is `-eps_t g_T` with `g_T = (I - n n)(x_k - x_a)`; beyond `mu p_N` (`p_N = t_N . n`,
+/// the law's normal pressure) the point slips and the traction is returned onto the cone,
+/// `t_T = mu p_N s`, `s = -g_T / |g_T|`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrictionIn {
+    pub mu: f64,
+    pub eps_t: f64,
+    /// Current position of the anchor [3].
+    pub anchor: [f64; 3],
+}
+
+/// Stick or slip of a frictional point.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum SlipState {
+    /// No tangential traction (no normal pressure, or no friction).
+    #[default]
+    None,
+    Stick,
+    Slip,
+}
+
+/// What friction computed at a point.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct FrictionOut {
+    pub state: SlipState,
+    /// Tangential traction `t_T` [3] (included in the point's traction).
+    pub t_t: [f64; 3],
+    /// `d t_T,i / d x_a,j` [3][3] row-major: the derivative with respect to the anchor's position
+    /// (the caller chains it with the anchor element's shape functions).
+    pub dt_dxa: [f64; 9],
+    /// Slip: where the anchor moves, `x_a + g_T - g_T'` with `g_T'` the elastic part of the
+    /// tangential gap that the returned traction corresponds to (`t_T = -eps_t g_T'`); not on the
+    /// partner surface when it is curved (the caller projects it).
+    pub slip_target: [f64; 3],
+}
+
 /// What a point computed, for forces, moments and output.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct PointResult {
@@ -82,6 +120,8 @@ pub struct PointResult {
     pub force: [f64; 3],
     /// True when the traction is not zero.
     pub active: bool,
+    /// Friction at the point (state `None` without friction).
+    pub friction: FrictionOut,
 }
 
 /// Reusable buffers (nothing allocates per quadrature point once they have grown).
@@ -91,6 +131,7 @@ pub struct Scratch {
     dn: Vec<[f64; 3]>,
     dJ: Vec<f64>,
     dxi: Vec<[f64; 2]>,
+    dtt: Vec<[f64; 3]>,
 }
 
 fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
@@ -155,17 +196,20 @@ pub fn contact_point(
     K: Option<&mut [f64]>,
     s: &mut Scratch,
 ) -> PointResult {
-    contact_point_pass(dim, own, partner, law, area, false, r, K, s)
+    contact_point_pass(dim, own, partner, law, None, area, false, r, K, s)
 }
 
 /// [`contact_point`], with `one_pass`: the partner element's rows follow the own rows in `r`
-/// [(n_k + n_l) * dim] and `K` [(n_k + n_l) * dim][n_cols] (no effect for a rigid partner).
+/// [(n_k + n_l) * dim] and `K` [(n_k + n_l) * dim][n_cols] (no effect for a rigid partner); and
+/// with `friction`, Coulomb friction on top of the law's traction (the anchor's own unknowns are
+/// not among the columns: their block is `-N_a w J dt_dxa N_b(xi_a)`, see [`FrictionOut`]).
 #[allow(clippy::too_many_arguments)]
 pub fn contact_point_pass(
     dim: usize,
     own: &OwnPoint,
     partner: &PartnerPoint,
     law: &dyn Fn(&[f64; 3], &[f64; 3]) -> Traction,
+    friction: Option<&FrictionIn>,
     area: Area,
     one_pass: bool,
     r: &mut [f64],
@@ -222,12 +266,54 @@ pub fn contact_point_pass(
         _ => unreachable!("a deformable partner always has its geometry"),
     };
     let tr = law(&g, &n);
+    // friction on top of the law's normal traction
+    let mut fr = FrictionOut::default();
+    let p_n = dot(&tr.t, &n);
+    let mut fric = None;
+    if let Some(f) = friction.filter(|_| p_n > 0.0 && !tr.is_zero()) {
+        let d = [0, 1, 2].map(|k| xk[k] - f.anchor[k]);
+        let nd = dot(&n, &d);
+        let gt = [0, 1, 2].map(|k| d[k] - n[k] * nd);
+        let gl = dot(&gt, &gt).sqrt();
+        if f.eps_t * gl <= f.mu * p_n {
+            fr.state = SlipState::Stick;
+            fr.t_t = gt.map(|c| -f.eps_t * c);
+            for i in 0..3 {
+                for j in 0..3 {
+                    // d g_T / d x_a = -(I - n n)
+                    let pij = if i == j { 1.0 } else { 0.0 } - n[i] * n[j];
+                    fr.dt_dxa[3 * i + j] = f.eps_t * pij;
+                }
+            }
+        } else {
+            fr.state = SlipState::Slip;
+            let sv = gt.map(|c| -c / gl);
+            fr.t_t = sv.map(|c| f.mu * p_n * c);
+            let ratio = f.mu * p_n / (f.eps_t * gl);
+            fr.slip_target = [0, 1, 2].map(|k| f.anchor[k] + gt[k] * (1.0 - ratio));
+            // d s / d x_a = (I - s s)(I - n n) / |g_T|
+            for i in 0..3 {
+                for j in 0..3 {
+                    let mut v = 0.0;
+                    for k in 0..3 {
+                        let ss = if i == k { 1.0 } else { 0.0 } - sv[i] * sv[k];
+                        let pkj = if k == j { 1.0 } else { 0.0 } - n[k] * n[j];
+                        v += ss * pkj;
+                    }
+                    fr.dt_dxa[3 * i + j] = f.mu * p_n * v / gl;
+                }
+            }
+        }
+        fric = Some((f, d, nd, gt, gl));
+    }
+    let t_tot = [0, 1, 2].map(|k| tr.t[k] + fr.t_t[k]);
     let mut out = PointResult {
         g,
         n,
         x: xk,
-        force: tr.t.map(|c| c * J * own.w),
+        force: t_tot.map(|c| c * J * own.w),
         active: !tr.is_zero(),
+        friction: fr,
     };
     // `active` means "contributes to the residual or the tangent"; resultants count only points
     // that carry traction (a touching point with zero traction contributes stiffness only)
@@ -236,7 +322,7 @@ pub fn contact_point_pass(
     }
     for a in 0..nk {
         for i in 0..dim {
-            r[a * dim + i] -= own.N[a] * tr.t[i] * J * own.w;
+            r[a * dim + i] -= own.N[a] * t_tot[i] * J * own.w;
         }
     }
     let master = one_pass && nl > 0;
@@ -244,7 +330,7 @@ pub fn contact_point_pass(
         let ge = geom.as_ref().expect("a deformable partner");
         for b in 0..nl {
             for i in 0..dim {
-                r[(nk + b) * dim + i] += ge.N[b] * tr.t[i] * J * own.w;
+                r[(nk + b) * dim + i] += ge.N[b] * t_tot[i] * J * own.w;
             }
         }
     }
@@ -396,16 +482,51 @@ pub fn contact_point_pass(
         }
         _ => unreachable!(),
     }
+    // variation of the tangential traction per column (the anchor held fixed)
+    s.dtt.clear();
+    s.dtt.resize(nc, [0.0; 3]);
+    if let Some((f, d, nd, gt, gl)) = fric {
+        for c in 0..nc {
+            let (node, i) = (c / dim, c % dim);
+            let (dg, dn) = (&s.dg[c], &s.dn[c]);
+            // d x_k for this column (the partner's nodes move x_k not at all)
+            let mut dd = [0.0; 3];
+            if node < nk {
+                dd[i] = own.N[node];
+            }
+            // d g_T = (I - n n) dd - (n . d) dn - n (d . dn)
+            let ndd = dot(&n, &dd);
+            let ddn = dot(&d, dn);
+            let dgt = [0, 1, 2].map(|k| dd[k] - n[k] * ndd - nd * dn[k] - n[k] * ddn);
+            s.dtt[c] = match fr.state {
+                SlipState::Stick => dgt.map(|v| -f.eps_t * v),
+                _ => {
+                    // p_N = t_N . n: d p_N = n . (dt/dg dg + dt/dn dn) + t_N . dn
+                    let mut dp = dot(&tr.t, dn);
+                    for i2 in 0..3 {
+                        let mut v = 0.0;
+                        for j in 0..3 {
+                            v += tr.dt_dg[3 * i2 + j] * dg[j] + tr.dt_dn[3 * i2 + j] * dn[j];
+                        }
+                        dp += n[i2] * v;
+                    }
+                    let sv = gt.map(|c| -c / gl);
+                    let sdg = dot(&sv, &dgt);
+                    [0, 1, 2].map(|k| f.mu * sv[k] * dp - f.mu * p_n * (dgt[k] - sv[k] * sdg) / gl)
+                }
+            };
+        }
+    }
     for a in 0..nk {
         for i in 0..dim {
             let row = (a * dim + i) * nc;
             let f = -own.N[a] * own.w;
             for c in 0..nc {
-                let mut v = 0.0;
+                let mut v = s.dtt[c][i];
                 for j in 0..dim {
                     v += tr.dt_dg[3 * i + j] * s.dg[c][j] + tr.dt_dn[3 * i + j] * s.dn[c][j];
                 }
-                K[row + c] += f * (v * J + tr.t[i] * s.dJ[c]);
+                K[row + c] += f * (v * J + t_tot[i] * s.dJ[c]);
             }
         }
     }
@@ -416,13 +537,13 @@ pub fn contact_point_pass(
             for i in 0..dim {
                 let row = ((nk + b) * dim + i) * nc;
                 for c in 0..nc {
-                    let mut v = 0.0;
+                    let mut v = s.dtt[c][i];
                     for j in 0..dim {
                         v += tr.dt_dg[3 * i + j] * s.dg[c][j] + tr.dt_dn[3 * i + j] * s.dn[c][j];
                     }
                     let dNb: f64 = (0..m).map(|al| ge.dN[b * m + al] * s.dxi[c][al]).sum();
                     K[row + c] +=
-                        own.w * (ge.N[b] * (v * J + tr.t[i] * s.dJ[c]) + dNb * tr.t[i] * J);
+                        own.w * (ge.N[b] * (v * J + t_tot[i] * s.dJ[c]) + dNb * t_tot[i] * J);
                 }
             }
         }

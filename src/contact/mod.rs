@@ -20,7 +20,7 @@ pub mod search;
 pub mod surface;
 pub mod system;
 
-pub use system::{ContactSystem, Coupling, Law, PairDef, Partner, PassResult};
+pub use system::{Anchor, ContactSystem, Coupling, Friction, Law, PairDef, Partner, PassResult};
 
 #[cfg(test)]
 mod tests;

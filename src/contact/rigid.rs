@@ -62,6 +62,33 @@ fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
+impl RigidMotion {
+    fn at(&self, lambda: f64) -> (f64, [f64; 3]) {
+        let theta = stage_lerp(&self.angles, lambda, 0.0, |a, b, f| a + (b - a) * f);
+        let shift = stage_lerp(&self.translations, lambda, [0.0; 3], |a, b, f| {
+            [0, 1, 2].map(|i| a[i] + (b[i] - a[i]) * f)
+        });
+        (theta, shift)
+    }
+
+    /// Current position at load `lambda` of the rigid body's material point `p` (reference
+    /// position).
+    pub fn apply(&self, p: &[f64; 3], lambda: f64) -> [f64; 3] {
+        let (theta, shift) = self.at(lambda);
+        let r = rotate(sub(p, &self.center), self.axis, theta);
+        [0, 1, 2].map(|i| self.center[i] + r[i] + shift[i])
+    }
+
+    /// Reference position of the rigid body's material point that is at `x` at load `lambda`
+    /// (the inverse of [`RigidMotion::apply`]).
+    pub fn inverse(&self, x: &[f64; 3], lambda: f64) -> [f64; 3] {
+        let (theta, shift) = self.at(lambda);
+        let d = [0, 1, 2].map(|i| x[i] - shift[i] - self.center[i]);
+        let r = rotate(d, self.axis, -theta);
+        [0, 1, 2].map(|i| self.center[i] + r[i])
+    }
+}
+
 impl RigidShape {
     /// The shape moved by `motion` at load `lambda`.
     pub fn at(&self, motion: &RigidMotion, lambda: f64) -> RigidShape {
@@ -194,6 +221,32 @@ mod tests {
                 assert!((fnn - p.dn_dx[3 * i + j]).abs() < 1e-7, "dn {i}{j}");
             }
         }
+    }
+
+    #[test]
+    fn rigid_motion_inverse_returns_the_material_point() {
+        let m = RigidMotion {
+            translations: vec![[0.1, -0.2, 0.3], [0.4, 0.0, -0.1]],
+            angles: vec![0.3, 1.2],
+            axis: [0.0, 0.6, 0.8],
+            center: [0.5, -0.5, 1.0],
+        };
+        let p = [0.3, 0.7, -0.2];
+        for lambda in [0.0, 0.4, 1.0, 1.7] {
+            let x = m.apply(&p, lambda);
+            let back = m.inverse(&x, lambda);
+            assert!((0..3).all(|i| (back[i] - p[i]).abs() < 1e-14), "{back:?}");
+        }
+        // the moved shape carries its material points along
+        let plane = RigidShape::Plane {
+            point: p,
+            normal: [0.0, 0.0, 1.0],
+        };
+        let RigidShape::Plane { point, .. } = plane.at(&m, 1.7) else {
+            unreachable!()
+        };
+        let x = m.apply(&p, 1.7);
+        assert!((0..3).all(|i| (x[i] - point[i]).abs() < 1e-14));
     }
 
     #[test]

@@ -11,7 +11,9 @@
 #![allow(non_snake_case)]
 
 use crate::assembly::{DofMap, MatrixSink};
-use crate::contact::kernel::{contact_point_pass, Area, OwnPoint, PartnerPoint, Scratch};
+use crate::contact::kernel::{
+    contact_point_pass, Area, FrictionIn, OwnPoint, PartnerPoint, Scratch, SlipState,
+};
 use crate::contact::law::{self, Traction};
 use crate::contact::projection::{global_search, surface_grid, walk, Positions, Projection};
 use crate::contact::rigid::{RigidMotion, RigidShape};
@@ -37,6 +39,38 @@ pub enum Law {
         /// The penalty against penetration is quadratic in the penetration (else linear).
         quadratic: bool,
     },
+}
+
+/// Coulomb friction of a pair (Sauer & De Lorenzis 2015, unbiased two-half-pass): every quadrature
+/// point keeps an anchor on the partner where it sticks; see [`crate::contact::kernel::FrictionIn`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Friction {
+    /// Friction coefficient (> 0).
+    pub mu: f64,
+    /// Tangential penalty (> 0).
+    pub eps_t: f64,
+    /// Per load stage: friction on (empty: every stage). A frictionless stage moves each anchor
+    /// with its point, so friction starts from the state the stage leaves.
+    pub stages: Vec<bool>,
+}
+
+impl Friction {
+    /// True when friction acts at load `lambda` (stage `s` runs over `(s, s + 1]`).
+    pub fn on_at(&self, lambda: f64) -> bool {
+        if self.stages.is_empty() {
+            return true;
+        }
+        let s = ((lambda - 1e-9).ceil() - 1.0).max(0.0) as usize;
+        self.stages[s.min(self.stages.len() - 1)]
+    }
+}
+
+/// Where a frictional point sticks: a material point of the partner (deformable: element and
+/// surface coordinates; rigid: its position in the rigid body's reference configuration).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Anchor {
+    Surface(u32, [f64; 2]),
+    Rigid([f64; 3]),
 }
 
 /// The partner of a half-pass.
@@ -67,6 +101,8 @@ pub struct PairDef {
     /// One-pass (master/slave): the single half-pass also applies the opposite force to the
     /// partner (master) surface.
     pub one_pass: bool,
+    /// Coulomb friction (penalty law, and the cohesive law's penalty against penetration).
+    pub friction: Option<Friction>,
 }
 
 /// Projection state of one quadrature point.
@@ -90,6 +126,12 @@ struct QPoint {
     force: [f64; 3],
     /// Normal gap to the partner at the last evaluation (`None`: no partner within reach).
     gap: Option<f64>,
+    /// Friction: the anchor of the last converged step (load-step history).
+    anchor: Option<Anchor>,
+    /// Friction: the anchor the last evaluation leads to (committed when its step converges).
+    anchor_trial: Option<Anchor>,
+    /// Friction: stick or slip at the last evaluation.
+    slip: SlipState,
 }
 
 /// A surface element this rank integrates.
@@ -116,6 +158,11 @@ pub struct PassResult {
     pub max_penetration: f64,
     /// Active points whose closest point is an edge or corner of a faceted (C0) partner.
     pub n_edge: usize,
+    /// Friction: resultant tangential contact force on the integrated body [3].
+    pub tangential: [f64; 3],
+    /// Friction: sticking and slipping quadrature points.
+    pub n_stick: usize,
+    pub n_slip: usize,
 }
 
 struct Pass {
@@ -513,6 +560,11 @@ impl ContactSystem {
                         if let Some((l, _)) = qp.pairing {
                             out.push((pass_id, oe.e, l));
                         }
+                        if let Some(Anchor::Surface(l, _)) = qp.anchor {
+                            if pair.def.friction.is_some() {
+                                out.push((pass_id, oe.e, l));
+                            }
+                        }
                     }
                 }
                 pass_id += 1;
@@ -545,11 +597,16 @@ impl ContactSystem {
                     };
                     for q in oe.first..oe.first + oe.n {
                         let qp = &pass.points[q];
+                        let anchor = match qp.anchor {
+                            Some(Anchor::Surface(la, _)) if pair.def.friction.is_some() => Some(la),
+                            _ => None,
+                        };
                         for le in qp
                             .current
                             .map(|p| p.elem)
                             .into_iter()
                             .chain(qp.pairing.map(|p| p.0))
+                            .chain(anchor)
                         {
                             near.clear();
                             near.push(le);
@@ -681,8 +738,19 @@ impl ContactSystem {
             let mpt = self.pairs[pi].def.moment_point;
             let dist = self.pairs[pi].def.search_distance;
             let one_pass = self.pairs[pi].def.one_pass;
+            let lambda = self.lambda;
+            let friction = self.pairs[pi]
+                .def
+                .friction
+                .clone()
+                .filter(|f| f.on_at(lambda));
+            let has_friction = self.pairs[pi].def.friction.is_some();
             for qi in 0..self.pairs[pi].passes.len() {
                 let pass = &mut self.pairs[pi].passes[qi];
+                let motion = match &pass.partner {
+                    Partner::Rigid(_, m) => Some(m.clone()),
+                    Partner::Surface(_) => None,
+                };
                 let k = pass.k;
                 let l = match pass.partner {
                     Partner::Surface(l) => Some(l),
@@ -766,6 +834,8 @@ impl ContactSystem {
                         }
                         let mut fsum = [0.0; 3];
                         let mut gap = None;
+                        let mut anchor_trial = None;
+                        let mut slip = SlipState::None;
                         for (le, pp, area, cohesive) in contributions.into_iter().flatten() {
                             let on_edge = matches!(&pp, PartnerPoint::Projected { free, .. } if !free[..m].iter().all(|&f| f));
                             let nl = match &pp {
@@ -774,23 +844,48 @@ impl ContactSystem {
                                 | PartnerPoint::Material { el, .. } => el.basis.n_nodes(),
                             };
                             let nc = (nk + nl) * dim;
-                            let kb = jac.as_ref().map(|_| {
-                                match blocks[..n_used].iter().position(|(b, _)| *b == le) {
-                                    Some(i) => i,
-                                    None => {
-                                        let rows = if one_pass { nc } else { nk * dim };
-                                        if n_used == blocks.len() {
-                                            blocks.push((le, Vec::new()));
+                            let rows = if one_pass { nc } else { nk * dim };
+                            let kb = jac
+                                .as_ref()
+                                .map(|_| block_slot(&mut blocks, &mut n_used, le, rows * nc));
+                            // friction: the committed anchor's current position (and the anchor
+                            // element's basis there, for its block)
+                            let mut anchor_el: Option<(u32, [f64; MAX_FACE_NODES], usize)> = None;
+                            let fin = match (&friction, cohesive, qp.anchor) {
+                                (Some(f), false, Some(a)) => {
+                                    let xa = match (a, l, &motion) {
+                                        (Anchor::Surface(la, xia), Some(l), _) => {
+                                            let ela = &self.surfaces[l].elements[la as usize];
+                                            let ya = self.pos[l].of(la as usize);
+                                            let (mut Na, mut dNa, mut ddNa) = (
+                                                [0.0; MAX_FACE_NODES],
+                                                [0.0; 2 * MAX_FACE_NODES],
+                                                [0.0; 4 * MAX_FACE_NODES],
+                                            );
+                                            ela.basis.eval(&xia[..m], &mut Na, &mut dNa, &mut ddNa);
+                                            let na = ela.basis.n_nodes();
+                                            let mut xa = [0.0; 3];
+                                            for b in 0..na {
+                                                for c in 0..dim {
+                                                    xa[c] += Na[b] * ya[b * dim + c];
+                                                }
+                                            }
+                                            anchor_el = Some((la, Na, na));
+                                            Some(xa)
                                         }
-                                        let (key, buf) = &mut blocks[n_used];
-                                        *key = le;
-                                        buf.clear();
-                                        buf.resize(rows * nc, 0.0);
-                                        n_used += 1;
-                                        n_used - 1
-                                    }
+                                        (Anchor::Rigid(X), None, Some(mo)) => {
+                                            Some(mo.apply(&X, lambda))
+                                        }
+                                        _ => None,
+                                    };
+                                    xa.map(|anchor| FrictionIn {
+                                        mu: f.mu,
+                                        eps_t: f.eps_t,
+                                        anchor,
+                                    })
                                 }
-                            });
+                                _ => None,
+                            };
                             let kslice = kb.map(|i| &mut blocks[i].1[..]);
                             let lawf = |g: &[f64; 3], n: &[f64; 3]| -> Traction {
                                 if cohesive {
@@ -810,6 +905,7 @@ impl ContactSystem {
                                 &own,
                                 &pp,
                                 &lawf,
+                                fin.as_ref(),
                                 area,
                                 master,
                                 if master { &mut self.rc } else { &mut r },
@@ -831,6 +927,70 @@ impl ContactSystem {
                             if !cohesive {
                                 gap =
                                     Some(pr.g[0] * pr.n[0] + pr.g[1] * pr.n[1] + pr.g[2] * pr.n[2]);
+                            }
+                            // friction: the anchor's block, the state and the anchor this
+                            // evaluation leads to
+                            let fo = pr.friction;
+                            if let (Some((la, Na, na)), Some(_)) = (anchor_el, jac.as_ref()) {
+                                if fo.state != SlipState::None {
+                                    let nca = (nk + na) * dim;
+                                    let ib =
+                                        block_slot(&mut blocks, &mut n_used, la, nk * dim * nca);
+                                    let kb = &mut blocks[ib].1;
+                                    let Jw = point_area(dim, &own) * qp.w;
+                                    for a in 0..nk {
+                                        for i in 0..dim {
+                                            let row = (a * dim + i) * nca;
+                                            for b in 0..na {
+                                                for j in 0..dim {
+                                                    kb[row + (nk + b) * dim + j] -=
+                                                        N[a] * Jw * fo.dt_dxa[3 * i + j] * Na[b];
+                                                }
+                                            }
+                                        }
+                                    }
+                                }
+                            }
+                            if has_friction && !cohesive && pr.active {
+                                slip = fo.state;
+                                res.n_stick += (fo.state == SlipState::Stick) as usize;
+                                res.n_slip += (fo.state == SlipState::Slip) as usize;
+                                let Jw = point_area(dim, &own) * qp.w;
+                                for c in 0..3 {
+                                    res.tangential[c] += fo.t_t[c] * Jw;
+                                }
+                                // where the point sticks from the next step on
+                                let xp = [0, 1, 2].map(|c| pr.x[c] - pr.g[c]);
+                                let target = match fo.state {
+                                    SlipState::Stick => None,
+                                    SlipState::Slip => Some(fo.slip_target),
+                                    SlipState::None => Some(xp),
+                                };
+                                anchor_trial = match (target, l, &pass.shape, &motion) {
+                                    (None, ..) => qp.anchor,
+                                    (Some(t), Some(l), ..) => {
+                                        let start = qp.current.map(|p| (p.elem, p.xi));
+                                        let onto = if fo.state == SlipState::Slip {
+                                            start.and_then(|w| {
+                                                walk(&self.surfaces[l], &self.pos[l], &t, w)
+                                            })
+                                        } else {
+                                            None
+                                        };
+                                        match onto {
+                                            Some(p) => Some(Anchor::Surface(p.elem, p.xi)),
+                                            None => start.map(|(e, xi)| Anchor::Surface(e, xi)),
+                                        }
+                                    }
+                                    (Some(t), None, Some(shape), Some(mo)) => {
+                                        let on = shape
+                                            .project(&t)
+                                            .map(|rp| [0, 1, 2].map(|c| t[c] - rp.g[c]))
+                                            .unwrap_or(xp);
+                                        Some(Anchor::Rigid(mo.inverse(&on, lambda)))
+                                    }
+                                    _ => None,
+                                };
                             }
                             for c in 0..3 {
                                 fsum[c] += pr.force[c];
@@ -860,6 +1020,8 @@ impl ContactSystem {
                         }
                         pass.points[q].force = fsum;
                         pass.points[q].gap = gap;
+                        pass.points[q].anchor_trial = anchor_trial;
+                        pass.points[q].slip = slip;
                     }
                     for (i, &li) in oe.local.iter().enumerate() {
                         if li != u32::MAX {
@@ -904,6 +1066,15 @@ impl ContactSystem {
                     p.passes.iter().map(|q| q.result).collect(),
                 )
             })
+            .collect()
+    }
+
+    /// Per pair: true when it has Coulomb friction (its results carry tangential forces and
+    /// stick/slip counts).
+    pub fn frictional(&self) -> Vec<bool> {
+        self.pairs
+            .iter()
+            .map(|p| p.def.friction.is_some())
             .collect()
     }
 
@@ -1106,6 +1277,7 @@ impl ContactSystem {
             for pass in &mut pair.passes {
                 for q in &mut pass.points {
                     q.committed = q.warm;
+                    q.anchor = q.anchor_trial;
                 }
             }
         }
@@ -1117,6 +1289,7 @@ impl ContactSystem {
             for pass in &mut pair.passes {
                 for q in &mut pass.points {
                     q.warm = q.committed;
+                    q.anchor_trial = q.anchor;
                 }
             }
         }
@@ -1131,6 +1304,38 @@ impl ContactSystem {
     pub fn n_table(&self) -> usize {
         self.table.len()
     }
+}
+
+/// The slot of the tangent block coupling the current own element with partner element `le`,
+/// zeroed to `len` entries when it is new for this element.
+fn block_slot(blocks: &mut Vec<(u32, Vec<f64>)>, n_used: &mut usize, le: u32, len: usize) -> usize {
+    if let Some(i) = blocks[..*n_used].iter().position(|(b, _)| *b == le) {
+        return i;
+    }
+    if *n_used == blocks.len() {
+        blocks.push((le, Vec::new()));
+    }
+    let (key, buf) = &mut blocks[*n_used];
+    *key = le;
+    buf.clear();
+    buf.resize(len, 0.0);
+    *n_used += 1;
+    *n_used - 1
+}
+
+/// The current area element of an own point (what the penalty law's traction is measured on).
+fn point_area(dim: usize, own: &OwnPoint) -> f64 {
+    let m = dim - 1;
+    let mut a = [[0.0; 3]; 2];
+    for (b, row) in own.x.chunks_exact(dim).enumerate() {
+        for i in 0..m {
+            for c in 0..dim {
+                a[i][c] += own.dN[b * m + i] * row[c];
+            }
+        }
+    }
+    let nu = raw_normal(dim, &a);
+    (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt()
 }
 
 fn area_of(law: &Law) -> Area {

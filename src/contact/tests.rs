@@ -851,3 +851,196 @@ fn adhesive_and_cohesive_tangents_match_central_differences_for_every_2d_family_
         }
     }
 }
+
+/// Friction: the pair is pressed to `u0` and that state committed (every active point anchors at
+/// its projection), then the tangent at `u1` is checked against central differences at those fixed
+/// anchors (the consistent tangent of a step). Returns (error, largest entry, sticking points,
+/// slipping points) at `u1`.
+fn friction_fd(h: &mut Harness, u0: &[f64], u1: &[f64]) -> (f64, f64, usize, usize) {
+    h.eval(u0, false);
+    h.sys.commit();
+    let (err, kmax) = tangent_error(h, u1);
+    h.eval(u1, false);
+    let res = h.sys.results();
+    let stick = res[0].1.iter().map(|r| r.n_stick).sum();
+    let slip = res[0].1.iter().map(|r| r.n_slip).sum();
+    (err, kmax, stick, slip)
+}
+
+/// `u` plus a rigid shift of the bodies `f` selects.
+fn shifted(h: &Harness, u: &[f64], f: &dyn Fn(usize) -> Vec<f64>) -> Vec<f64> {
+    let d = h.displacement(&|b, _| f(b));
+    u.iter().zip(&d).map(|(a, b)| a + b).collect()
+}
+
+#[test]
+fn friction_tangent_matches_central_differences_in_stick_and_slip_2d() {
+    for (block, disk) in [
+        ("Q1C1", "Q1C1"),
+        ("Q1N2", "Q1N2"),
+        ("Q1N2", "Q1C1"),
+        ("Q1N2.1", "Q1CH"),
+    ] {
+        let law = "law = \"penalty\"\neps_n = 100.0\nmu = 0.3\neps_t = 80.0";
+        for (shift, want_slip) in [(2e-4, false), (0.06, true)] {
+            let mut h = Harness::new(&case_2d(block, disk, law));
+            let u0 = pressed(&h, 0.08, 0.0, 2e-3, 11);
+            let disk_i = h
+                .model
+                .bodies
+                .iter()
+                .position(|b| b.name == "disk")
+                .unwrap();
+            let u1 = shifted(&h, &u0, &|b| {
+                if b == disk_i {
+                    vec![shift, 0.0]
+                } else {
+                    vec![0.0; 2]
+                }
+            });
+            let (err, kmax, stick, slip) = friction_fd(&mut h, &u0, &u1);
+            let what = if want_slip { "slip" } else { "stick" };
+            assert!(kmax > 1.0, "{block}/{disk} {what}: no stiffness ({kmax})");
+            if want_slip {
+                assert!(
+                    slip > stick,
+                    "{block}/{disk}: {slip} slipping, {stick} sticking"
+                );
+            } else {
+                assert!(
+                    stick > slip,
+                    "{block}/{disk}: {stick} sticking, {slip} slipping"
+                );
+            }
+            assert!(err < 1e-6, "{block}/{disk} {what}: tangent error {err:e}");
+        }
+    }
+}
+
+#[test]
+fn friction_tangent_matches_central_differences_in_stick_and_slip_3d() {
+    for (lower, upper) in [("Q1C1", "Q1C1"), ("Q1N2", "Q1N2"), ("Q1N2", "Q1C1")] {
+        let law = "law = \"penalty\"\neps_n = 100.0\nmu = 0.3";
+        for (shift, want_slip) in [(1e-4, false), (0.05, true)] {
+            let mut h = Harness::new(&case_3d_blocks(lower, upper, law));
+            let u0 = pressed_3d(&h, 0.04, [0.11, -0.07], 2e-3, 17);
+            let lo = h
+                .model
+                .bodies
+                .iter()
+                .position(|b| b.name == "lower")
+                .unwrap();
+            let u1 = shifted(&h, &u0, &|b| {
+                if b == lo {
+                    vec![0.0; 3]
+                } else {
+                    vec![shift, 0.6 * shift, 0.0]
+                }
+            });
+            let (err, kmax, stick, slip) = friction_fd(&mut h, &u0, &u1);
+            let what = if want_slip { "slip" } else { "stick" };
+            assert!(kmax > 1.0, "{lower}/{upper} {what}: no stiffness ({kmax})");
+            if want_slip {
+                assert!(
+                    slip > stick,
+                    "{lower}/{upper}: {slip} slipping, {stick} sticking"
+                );
+            } else {
+                assert!(
+                    stick > slip,
+                    "{lower}/{upper}: {stick} sticking, {slip} slipping"
+                );
+            }
+            assert!(err < 1e-6, "{lower}/{upper} {what}: tangent error {err:e}");
+        }
+    }
+    // the curved partner: a Q1N2 hemisphere on a block
+    let law = "law = \"penalty\"\neps_n = 100.0\nmu = 0.3";
+    for (lower, shell) in [("Q1N2", "Q1N2"), ("Q1C1", "Q1N2")] {
+        for (shift, want_slip) in [(1e-4, false), (0.05, true)] {
+            let mut h = Harness::new(&case_3d_hemisphere(lower, shell, law));
+            let u0 = pressed_3d(&h, 0.06, [0.05, 0.08], 2e-3, 23);
+            let lo = h
+                .model
+                .bodies
+                .iter()
+                .position(|b| b.name == "lower")
+                .unwrap();
+            let u1 = shifted(&h, &u0, &|b| {
+                if b == lo {
+                    vec![0.0; 3]
+                } else {
+                    vec![-shift, shift, 0.0]
+                }
+            });
+            let (err, _, stick, slip) = friction_fd(&mut h, &u0, &u1);
+            let what = if want_slip { "slip" } else { "stick" };
+            assert!(stick + slip > 0, "{lower}/{shell}: no frictional point");
+            if want_slip {
+                assert!(slip > 0, "{lower}/{shell}: no slipping point");
+            } else {
+                assert!(stick > 0, "{lower}/{shell}: no sticking point");
+            }
+            assert!(err < 1e-6, "{lower}/{shell} {what}: tangent error {err:e}");
+        }
+    }
+}
+
+#[test]
+fn friction_tangent_against_rigid_partners_matches_central_differences() {
+    let rigid_2d = [
+        "{ shape = \"plane\", point = [0.0, 0.0], normal = [0.2, 1.0], translation = [[0.3, 0.1]] }",
+        "{ shape = \"circle\", center = [0.3, -2.0], radius = 2.0 }",
+    ];
+    let rigid_3d = [
+        "{ shape = \"plane\", point = [0.0, 0.0, 0.0], normal = [0.1, -0.2, 1.0] }",
+        "{ shape = \"sphere\", center = [0.2, 0.1, -3.0], radius = 3.0, rotation_deg = [10.0] }",
+    ];
+    for (dim, fams, shapes) in [
+        (2, &["Q1C1", "Q1N2", "Q1N2.1"][..], &rigid_2d),
+        (3, &["Q1C1", "Q1N2"][..], &rigid_3d),
+    ] {
+        for fam in fams {
+            for r in shapes {
+                for (shift, want_slip) in [(1e-4, false), (0.3, true)] {
+                    let text = case_rigid(dim, fam, r)
+                        .replace("eps_n = 100.0", "eps_n = 100.0\nmu = 0.4\neps_t = 50.0");
+                    let mut h = Harness::new(&text);
+                    // the rigid partner sits at its load-0.5 position (translated, rotated)
+                    h.sys.set_load(0.5);
+                    let down = if dim == 2 {
+                        vec![0.05, -0.06]
+                    } else {
+                        vec![0.02, 0.01, -0.05]
+                    };
+                    let u0 = h
+                        .displacement(&|_, _| down.clone())
+                        .iter()
+                        .enumerate()
+                        .map(|(i, v)| v + 2e-3 * rnd(&mut (i as u64 + 1)))
+                        .collect::<Vec<_>>();
+                    // rigid shift along x (the partner moves too: its anchors with it)
+                    let u1 = shifted(&h, &u0, &|_| {
+                        let mut v = vec![0.0; dim];
+                        v[0] = shift;
+                        v
+                    });
+                    h.eval(&u0, false);
+                    h.sys.commit();
+                    h.sys.set_load(0.6);
+                    let (err, kmax) = tangent_error(&mut h, &u1);
+                    h.eval(&u1, false);
+                    let res = &h.sys.results()[0].1[0];
+                    let what = if want_slip { "slip" } else { "stick" };
+                    assert!(kmax > 1.0, "{fam} {r} {what}: no stiffness ({kmax})");
+                    if want_slip {
+                        assert!(res.n_slip > 0, "{fam} {r}: {res:?}");
+                    } else {
+                        assert!(res.n_stick > 0, "{fam} {r}: {res:?}");
+                    }
+                    assert!(err < 1e-6, "{fam} {r} {what}: tangent error {err:e}");
+                }
+            }
+        }
+    }
+}

@@ -7,7 +7,7 @@ use super::build::{Model, ModelError};
 use crate::contact::rigid::{RigidMotion, RigidShape};
 use crate::contact::search::Aabb;
 use crate::contact::surface::ContactSurface;
-use crate::contact::{Law, PairDef, Partner};
+use crate::contact::{Friction, Law, PairDef, Partner};
 use crate::scene::{
     Algorithm, BoxSpec, Case, ContactSpec, LawKind, PenaltyForm, RigidShapeKind, RigidSpec,
 };
@@ -216,6 +216,7 @@ pub fn build_contact(
             None => [0.0; 3],
             Some(p) => vec3(case, key("moment_point"), p, dim)?,
         };
+        let friction = friction(case, i, spec, &law)?;
         // partners
         let passes = match (&spec.rigid, idx.len()) {
             (Some(r), 1) => {
@@ -260,9 +261,86 @@ pub fn build_contact(
             debonded,
             region,
             one_pass: spec.algorithm == Algorithm::OnePass && spec.rigid.is_none(),
+            friction,
         });
     }
     Ok((surfaces, pairs))
+}
+
+/// Coulomb friction of pair `i`: `mu`, `eps_t`, `friction_stages`.
+fn friction(
+    case: &Case,
+    i: usize,
+    spec: &ContactSpec,
+    law: &Law,
+) -> Result<Option<Friction>, ModelError> {
+    let key = |k: &str| format!("contact.{i}.{k}");
+    let Some(mu) = spec.mu else {
+        for (k, given) in [
+            ("eps_t", spec.eps_t.is_some()),
+            ("friction_stages", !spec.friction_stages.is_empty()),
+        ] {
+            if given {
+                return Err(err(
+                    case,
+                    key(k),
+                    "a friction parameter, but no `mu` is given",
+                ));
+            }
+        }
+        return Ok(None);
+    };
+    let mu = positive(case, key("mu"), Some(mu), "the friction coefficient")?;
+    let eps_t = match (law, spec.eps_t) {
+        (_, Some(_)) => positive(case, key("eps_t"), spec.eps_t, "the tangential penalty")?,
+        (Law::Penalty { eps_n }, None)
+        | (
+            Law::Cohesive {
+                eps_n,
+                quadratic: false,
+                ..
+            },
+            None,
+        ) => *eps_n,
+        (Law::Cohesive { .. }, None) => {
+            return Err(err(
+                case,
+                key("eps_t"),
+                "missing: the tangential penalty (the quadratic penetration penalty's `eps_n` has other units)",
+            ))
+        }
+        (Law::VanDerWaals { .. }, None) => 0.0,
+    };
+    if matches!(law, Law::VanDerWaals { .. }) {
+        return Err(err(
+            case,
+            key("mu"),
+            "friction goes with the `penalty` law and the `cohesive` law's penalty, not with `van_der_waals`",
+        ));
+    }
+    if spec.algorithm == Algorithm::OnePass {
+        return Err(err(
+            case,
+            key("mu"),
+            "friction is implemented for the two-half-pass algorithm only (drop `algorithm = \"one_pass\"`)",
+        ));
+    }
+    let n_stages = case.stages.len();
+    if !spec.friction_stages.is_empty() && spec.friction_stages.len() != n_stages {
+        return Err(err(
+            case,
+            key("friction_stages"),
+            format!(
+                "give one switch per stage ({n_stages}), found {}",
+                spec.friction_stages.len()
+            ),
+        ));
+    }
+    Ok(Some(Friction {
+        mu,
+        eps_t,
+        stages: spec.friction_stages.clone(),
+    }))
 }
 
 /// The history name of pair `i`.

@@ -18,6 +18,14 @@ use serde::{Deserialize, Serialize};
 /// law = "van_der_waals"
 /// a_h = 1e-19
 /// r0 = 0.4
+///
+/// [[contact]]
+/// surfaces = ["block.bottom"]              # Coulomb friction, frictionless in the first stage
+/// rigid = { shape = "plane", point = [0.0, 0.0], normal = [0.0, 1.0] }
+/// law = "penalty"
+/// eps_n = 1000.0
+/// mu = 0.3
+/// friction_stages = [false, true]
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -73,6 +81,20 @@ pub struct ContactSpec {
     /// mean element length of the pair's surfaces.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub search_distance: Option<f64>,
+    /// Coulomb friction coefficient (> 0) of `penalty`, and of the penalty against penetration of
+    /// `cohesive` (Sauer & De Lorenzis 2015: each quadrature point sticks to an anchor on the
+    /// partner until its tangential traction reaches `mu` times its normal pressure, then slips).
+    /// Default: frictionless. Not with `algorithm = "one_pass"`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mu: Option<f64>,
+    /// Tangential penalty (> 0, units of `eps_n`) of the stick law `t_T = -eps_t g_T`. Default:
+    /// `eps_n` (a `cohesive` pair with the quadratic penetration penalty must give it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub eps_t: Option<f64>,
+    /// `[n_stages]`: friction on (`true`) or off in each stage, e.g. `[false, true]` to indent
+    /// without friction and then slide with it. Default: every stage.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub friction_stages: Vec<bool>,
     /// `[dim]`: point about which `history.csv` reports the moment of the contact forces.
     /// Default: the origin.
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -1,0 +1,241 @@
+//! Coulomb friction end to end (`cases/friction_block_2d.toml`): a block pressed onto a rigid flat
+//! without friction, then pushed sideways with `mu = 0.3`. It sticks while the tangential force is
+//! below `mu` times the normal force and slides at exactly `mu` times it; Newton converges
+//! quadratically within the frictional steps; 1 and 2 ranks agree.
+
+mod common;
+use common::*;
+use std::path::PathBuf;
+
+const MU: f64 = 0.3;
+
+fn run_case(name: &str, np: usize, sets: &[&str]) -> PathBuf {
+    let d = scratch(name);
+    let c = case("friction_block_2d.toml");
+    let mut args = vec![
+        "run",
+        c.to_str().unwrap(),
+        "--out",
+        d.to_str().unwrap(),
+        "-q",
+        "--overwrite",
+    ];
+    for s in sets {
+        args.extend(["--set", s]);
+    }
+    run_ok(np, &args);
+    d
+}
+
+#[test]
+fn a_pushed_block_sticks_below_mu_n_then_slides_at_mu_n_with_quadratic_newton() {
+    for fam in ["Q1C1", "Q1N2"] {
+        let d = run_case(
+            &format!("friction-block-{fam}"),
+            1,
+            &[&format!("bodies.block.element={fam}")],
+        );
+        let stage = history_col(&d, "stage");
+        let px = history_col(&d, "P_fric_block_bottom_x");
+        let py = history_col(&d, "P_fric_block_bottom_y");
+        let pt = history_col(&d, "Pt_fric_block_bottom_x");
+        let stick = history_col(&d, "stick_fric_block_bottom");
+        let slip = history_col(&d, "slip_fric_block_bottom");
+        let active = history_col(&d, "active_fric_block_bottom");
+        assert_eq!(stage.len(), 12, "{fam}: every step converged once");
+        for i in 0..stage.len() {
+            assert!(py[i] > 0.01, "{fam} step {i}: pressed ({})", py[i]);
+            // Coulomb's cone: never more than mu N
+            assert!(
+                px[i].abs() <= MU * py[i] * (1.0 + 1e-9),
+                "{fam} step {i}: |P_x| {} above mu P_y {}",
+                px[i].abs(),
+                MU * py[i]
+            );
+            if stage[i] == 0.0 {
+                // frictionless indentation
+                assert!(
+                    px[i].abs() < 1e-12 * py[i],
+                    "{fam}: P_x {} in stage 0",
+                    px[i]
+                );
+                assert_eq!(stick[i] + slip[i], 0.0);
+            } else {
+                // a flat rigid partner: the tangential force is the horizontal one
+                assert!((pt[i] - px[i]).abs() < 1e-12 * py[i]);
+            }
+        }
+        // first push step: mostly stuck, well below mu N, opposing the push
+        let i = 2;
+        assert!(
+            stick[i] > slip[i],
+            "{fam}: {} stick, {} slip",
+            stick[i],
+            slip[i]
+        );
+        assert!(
+            px[i] < 0.0 && px[i].abs() < 0.8 * MU * py[i],
+            "{fam}: first push step P_x {} vs mu P_y {}",
+            px[i],
+            MU * py[i]
+        );
+        // the end: every active point slips, the force is mu N (exact in 2D against a flat)
+        let n = stage.len() - 1;
+        assert_eq!(stick[n], 0.0, "{fam}: still sticking at the end");
+        assert_eq!(slip[n], active[n], "{fam}: every active point slips");
+        assert!(
+            (px[n] + MU * py[n]).abs() < 1e-9 * py[n],
+            "{fam}: sliding P_x {} vs -mu P_y {}",
+            px[n],
+            -MU * py[n]
+        );
+        // Newton within the frictional steps: converged tightly, quadratically at the end
+        let s = summary(&d);
+        let steps = s["steps"].as_array().unwrap();
+        let mut checked = 0;
+        for st in &steps[2..] {
+            let h: Vec<f64> = st["residual_history"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_f64().unwrap())
+                .collect();
+            let last = *h.last().unwrap();
+            assert!(
+                last < 1e-10 * h[0],
+                "{fam}: step not converged tightly: {h:?}"
+            );
+            let best = h[1..]
+                .windows(3)
+                .filter(|w| w[2] > 1e-13 * h[0] && w[1] < w[0])
+                .map(|w| (w[2] / w[1]).ln() / (w[1] / w[0]).ln())
+                .fold(f64::MIN, f64::max);
+            if best > f64::MIN {
+                assert!(best > 1.8, "{fam}: convergence order {best:.2} in {h:?}");
+                checked += 1;
+            }
+        }
+        assert!(
+            checked >= 8,
+            "{fam}: too few steps with a measurable rate ({checked})"
+        );
+    }
+}
+
+#[test]
+fn friction_is_rank_invariant() {
+    let sets = [
+        "bodies.block.element=Q1N2",
+        "meshes.block.divisions=[12, 4]",
+        "stages.1.steps=5",
+    ];
+    let d1 = run_case("friction-np1", 1, &sets);
+    let d2 = run_case("friction-np2", 2, &sets);
+    let e = rel_diff(
+        &h5_last(&d1, "bulk", "displacement"),
+        &h5_last(&d2, "bulk", "displacement"),
+    );
+    assert!(e < 1e-10, "1 vs 2 ranks differ by {e:e}");
+    // the resultants are penalty forces, eps times a gap (a difference of positions ~1e3 times
+    // smaller than them): they amplify the displacement's round-off; measured up to 1.3e-10
+    for col in ["P_fric_block_bottom_x", "Pt_fric_block_bottom_x"] {
+        let (a, b) = (history_col(&d1, col), history_col(&d2, col));
+        let e = rel_diff(&a, &b);
+        assert!(e < 1e-8, "{col}: 1 vs 2 ranks differ by {e:e}");
+    }
+    for col in ["stick_fric_block_bottom", "slip_fric_block_bottom"] {
+        assert_eq!(
+            history_col(&d1, col),
+            history_col(&d2, col),
+            "{col}: 1 vs 2 ranks"
+        );
+    }
+    // some frictional steps mix stick and slip
+    let stick = history_col(&d2, "stick_fric_block_bottom");
+    assert!(stick.iter().any(|&v| v > 0.0));
+}
+
+#[test]
+fn cattaneo_mindlin_stick_zone_of_the_hertz_half_disk() {
+    // Q1N2 at the middle mesh (n_arc = 128): pressed, then shifted to Q/(mu P) of about 0.5
+    let d = scratch("cattaneo-mindlin-q1n2-128");
+    let c = case("cattaneo_mindlin_2d.toml");
+    run_ok(
+        1,
+        &[
+            "run",
+            c.to_str().unwrap(),
+            "--out",
+            d.to_str().unwrap(),
+            "-q",
+            "--overwrite",
+        ],
+    );
+    let q = history_col(&d, "P_cm_disk_arc_x");
+    let p = history_col(&d, "P_cm_disk_arc_y");
+    let stick = history_col(&d, "stick_cm_disk_arc");
+    let slip = history_col(&d, "slip_cm_disk_arc");
+    let active = history_col(&d, "active_cm_disk_arc");
+    let n = q.len() - 1;
+    let ratio = -q[n] / (MU * p[n]);
+    assert!(
+        ratio > 0.3 && ratio < 0.9,
+        "partial slip expected: Q/(mu P) = {ratio}"
+    );
+    assert!(
+        stick[n] > 0.0 && slip[n] > 0.0,
+        "a stick zone and slip zones"
+    );
+    assert_eq!(
+        stick[n] + slip[n],
+        active[n],
+        "every active point sticks or slips"
+    );
+    // c/a from the points: the contact points are (nearly) evenly spaced across the contact
+    let c_a = stick[n] / active[n];
+    let cm = (1.0 - ratio).sqrt();
+    let err = c_a / cm - 1.0;
+    // measured -8.7 % (BENCHMARKS.md): the estimator resolves one point of 22 (4.5 %) and the
+    // rigid flat against nu = 0.3 couples normal and tangential loads (Cattaneo-Mindlin assumes
+    // it does not); the 5 % is not met here
+    assert!(
+        err.abs() < 0.12,
+        "c/a = {c_a:.4} against Cattaneo-Mindlin {cm:.4} ({:+.1} %)",
+        100.0 * err
+    );
+}
+
+#[test]
+fn bad_friction_keys_are_named() {
+    let c = case("friction_block_2d.toml");
+    for (set, want) in [
+        ("contact.0.mu=-0.1", "contact.0.mu"),
+        ("contact.0.eps_t=0.0", "contact.0.eps_t"),
+        (
+            "contact.0.friction_stages=[true]",
+            "contact.0.friction_stages",
+        ),
+    ] {
+        let d = scratch(&format!("friction-bad-{}", want.replace('.', "-")));
+        let out = run(
+            1,
+            &[
+                "run",
+                c.to_str().unwrap(),
+                "--out",
+                d.to_str().unwrap(),
+                "-q",
+                "--overwrite",
+                "--set",
+                set,
+            ],
+        );
+        let err = stderr(&out);
+        assert!(!out.status.success(), "{set}: accepted");
+        assert!(!err.contains("panicked"), "{set}: panic:\n{err}");
+        assert!(
+            err.contains(want) && err.contains("friction_block_2d.toml"),
+            "{set}: message does not name the key and file:\n{err}"
+        );
+    }
+}
