@@ -190,6 +190,10 @@ pub type SlotOf<'a> = dyn Fn(&Coupling) -> Option<usize> + 'a;
 /// Every contact pair of the model on this rank.
 pub struct ContactSystem {
     dim: usize,
+    /// The surface displacement and load of the last successful [`ContactSystem::update`] since
+    /// the last commit or rollback: an update at the same state (the Jacobian after the residual
+    /// at one iterate) keeps its projections instead of repeating them.
+    last_update: Option<(f64, Vec<f64>)>,
     surfaces: Vec<ContactSurface>,
     /// Global node ids whose displacement the system needs (all surface nodes), sorted.
     table: Vec<u32>,
@@ -305,6 +309,7 @@ impl ContactSystem {
             r_table: Vec::new(),
             rc: Vec::new(),
             blocks: Vec::new(),
+            last_update: None,
         };
         sys.r_table = vec![0.0; sys.table.len() * dim];
         sys.update_positions(&vec![0.0; sys.X.len()]);
@@ -474,6 +479,20 @@ impl ContactSystem {
     /// integrates. An error is a projection that failed where a partner was in reach: the caller
     /// makes it a domain error, so the step is cut back.
     pub fn update(&mut self, u_table: &[f64]) -> Result<(), String> {
+        if let Some((lambda, u)) = &self.last_update {
+            if *lambda == self.lambda && u.as_slice() == u_table {
+                return Ok(());
+            }
+        }
+        let mut last = self.last_update.take().map(|(_, u)| u).unwrap_or_default();
+        self.project_all(u_table)?;
+        last.clear();
+        last.extend_from_slice(u_table);
+        self.last_update = Some((self.lambda, last));
+        Ok(())
+    }
+
+    fn project_all(&mut self, u_table: &[f64]) -> Result<(), String> {
         self.update_positions(u_table);
         let dim = self.dim;
         for pi in 0..self.pairs.len() {
@@ -1273,6 +1292,7 @@ impl ContactSystem {
 
     /// Keeps the current projections as warm starts of the next step.
     pub fn commit(&mut self) {
+        self.last_update = None;
         for pair in &mut self.pairs {
             for pass in &mut pair.passes {
                 for q in &mut pass.points {
@@ -1285,6 +1305,7 @@ impl ContactSystem {
 
     /// Returns the warm starts to the last committed state.
     pub fn rollback(&mut self) {
+        self.last_update = None;
         for pair in &mut self.pairs {
             for pass in &mut pair.passes {
                 for q in &mut pass.points {
