@@ -368,3 +368,33 @@ fn a_snapping_peel_front_is_carried_through_by_the_pseudo_transient_rescue() {
     let dm = rel_diff(&m1, &m2);
     assert!(dm < 1e-9, "1 and 2 ranks differ by {dm:e}");
 }
+
+#[test]
+fn frictional_twisting_coarse_agrees_on_one_and_two_ranks_and_the_rim_carries_the_friction_moment()
+{
+    // mesh 2, pressed by 0.2 without friction, then twisted by 6 degrees with mu = 0.5
+    let sets = [
+        "bcs.3.translation=[[0.0, 0.0, -0.2], [0.0, 0.0, -0.2]]",
+        "bcs.3.angle_deg=[0.0, 6.0]",
+        "stages.0.steps=2",
+        "stages.1.steps=3",
+        "output.every=5",
+    ];
+    let d1 = run_case("twist-friction-1", "twisting_friction_3d.toml", 1, &sets);
+    let d2 = run_case("twist-friction-2", "twisting_friction_3d.toml", 2, &sets);
+    assert_ranks_agree(&d1, &d2, "twisting_friction_3d");
+    let mz = last(&d1, "M_shell_rim_z");
+    let mc = last(&d1, "M_twist_shell_outer_z");
+    let rz = last(&d1, "R_shell_rim_z");
+    // the frictional torque is what the rim must hold; it balances the shell's contact moment
+    assert!(
+        mz.abs() > 1e-3 * rz.abs(),
+        "friction should resist the twist: rim moment {mz}, rim force {rz}"
+    );
+    assert!(
+        (mz + mc).abs() < 1e-8 * mz.abs(),
+        "rim {mz} vs contact {mc}"
+    );
+    let frictional = last(&d1, "slip_twist_shell_outer") + last(&d1, "stick_twist_shell_outer");
+    assert!(frictional > 0.0, "no frictional point on the shell");
+}
