@@ -4,38 +4,7 @@
 
 mod common;
 use common::*;
-use std::path::{Path, PathBuf};
-
-fn run_case(name: &str, case: &str, np: usize, sets: &[&str]) -> PathBuf {
-    let d = scratch(name);
-    let c = common::case(case);
-    let mut args = vec![
-        "run",
-        c.to_str().unwrap(),
-        "--out",
-        d.to_str().unwrap(),
-        "-q",
-        "--overwrite",
-    ];
-    for s in sets {
-        args.extend(["--set", s]);
-    }
-    run_ok(np, &args);
-    d
-}
-
-fn last(dir: &Path, col: &str) -> f64 {
-    *history_col(dir, col).last().expect("a converged step")
-}
-
-fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
-    assert_eq!(a.len(), b.len());
-    let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1e-300);
-    a.iter()
-        .zip(b)
-        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
-        / scale
-}
+use std::path::Path;
 
 #[test]
 fn contact_patch_test_pressure_is_uniform_on_both_surfaces_in_2d_and_3d() {

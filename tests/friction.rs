@@ -9,28 +9,15 @@ use std::path::PathBuf;
 
 const MU: f64 = 0.3;
 
-fn run_case(name: &str, np: usize, sets: &[&str]) -> PathBuf {
-    let d = scratch(name);
-    let c = case("friction_block_2d.toml");
-    let mut args = vec![
-        "run",
-        c.to_str().unwrap(),
-        "--out",
-        d.to_str().unwrap(),
-        "-q",
-        "--overwrite",
-    ];
-    for s in sets {
-        args.extend(["--set", s]);
-    }
-    run_ok(np, &args);
-    d
+/// Runs `cases/friction_block_2d.toml`.
+fn run_block(name: &str, np: usize, sets: &[&str]) -> PathBuf {
+    run_case(name, "friction_block_2d.toml", np, sets)
 }
 
 #[test]
 fn a_pushed_block_sticks_below_mu_n_then_slides_at_mu_n_with_quadratic_newton() {
     for fam in ["Q1C1", "Q1N2"] {
-        let d = run_case(
+        let d = run_block(
             &format!("friction-block-{fam}"),
             1,
             &[&format!("bodies.block.element={fam}")],
@@ -129,8 +116,8 @@ fn friction_is_rank_invariant() {
         "meshes.block.divisions=[12, 4]",
         "stages.1.steps=5",
     ];
-    let d1 = run_case("friction-np1", 1, &sets);
-    let d2 = run_case("friction-np2", 2, &sets);
+    let d1 = run_block("friction-np1", 1, &sets);
+    let d2 = run_block("friction-np2", 2, &sets);
     let e = rel_diff(
         &h5_last(&d1, "bulk", "displacement"),
         &h5_last(&d2, "bulk", "displacement"),

@@ -6,29 +6,7 @@
 
 mod common;
 use common::*;
-use std::path::{Path, PathBuf};
-
-fn run_case(name: &str, case: &str, np: usize, sets: &[&str]) -> PathBuf {
-    let d = scratch(name);
-    let c = common::case(case);
-    let mut args = vec![
-        "run",
-        c.to_str().unwrap(),
-        "--out",
-        d.to_str().unwrap(),
-        "-q",
-        "--overwrite",
-    ];
-    for s in sets {
-        args.extend(["--set", s]);
-    }
-    run_ok(np, &args);
-    d
-}
-
-fn last(dir: &Path, col: &str) -> f64 {
-    *history_col(dir, col).last().expect("a converged step")
-}
+use std::path::Path;
 
 /// Every history column except the wall time and the active-point counts, flattened, for rank
 /// comparisons.
@@ -166,14 +144,7 @@ fn dcb_coarse_agrees_on_one_and_two_ranks_and_the_pin_force_balances_the_cohesio
     let d1 = run_case("dcb-1", "dcb_2d.toml", 1, &sets);
     let d2 = run_case("dcb-2", "dcb_2d.toml", 2, &sets);
     assert_ranks_agree(&d1, &d2, "dcb_2d");
-    let h = history(&d1);
-    let col = |prefix: &str| -> f64 {
-        let (_, v) = h
-            .iter()
-            .find(|(n, _)| n.starts_with(prefix))
-            .unwrap_or_else(|| panic!("no column {prefix}* in {:?}", h.iter().map(|c| &c.0)));
-        *v.last().unwrap()
-    };
+    let col = |name: &str| last(&d1, name);
     let r_upper = col("R_upper_pin_y");
     let r_lower = col("R_lower_pin_y");
     let p_upper = col("P_bond_upper_bottom_y");
@@ -207,14 +178,7 @@ fn twisting_coarse_agrees_on_one_and_two_ranks_and_the_rim_balances_the_contact(
     assert_ranks_agree(&d1, &d2, "twisting_3d");
     // the shell is held by its rim only: rim reaction + the shell's contact force = 0, and the
     // same for the moment about the vertical axis
-    let h = history(&d1);
-    let col = |prefix: &str| -> f64 {
-        let (_, v) = h
-            .iter()
-            .find(|(n, _)| n.starts_with(prefix))
-            .unwrap_or_else(|| panic!("no column {prefix}* in {:?}", h.iter().map(|c| &c.0)));
-        *v.last().unwrap()
-    };
+    let col = |name: &str| last(&d1, name);
     let rz = col("R_shell_rim_z");
     let pz = col("P_twist_shell_outer_z");
     // reactions are the forces the conditions exert: the rim is pulled down against the cube

@@ -188,3 +188,28 @@ pub fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
         .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
         / scale
 }
+
+/// Runs `cases/<case>` on `np` ranks into a fresh scratch directory `name` with `--set` overrides
+/// (quiet, overwriting), asserts success, and returns the output directory.
+pub fn run_case(name: &str, case_file: &str, np: usize, sets: &[&str]) -> PathBuf {
+    let d = scratch(name);
+    let c = case(case_file);
+    let mut args = vec![
+        "run",
+        c.to_str().unwrap(),
+        "--out",
+        d.to_str().unwrap(),
+        "-q",
+        "--overwrite",
+    ];
+    for s in sets {
+        args.extend(["--set", s]);
+    }
+    run_ok(np, &args);
+    d
+}
+
+/// The last value of a history.csv column (the last converged step).
+pub fn last(dir: &Path, col: &str) -> f64 {
+    *history_col(dir, col).last().expect("a converged step")
+}
