@@ -1170,12 +1170,13 @@ fn contact_history(asm: &Assembler, dim: usize) -> Vec<f64> {
     out
 }
 
-/// Nodal contact pressure and normal gap [n_nodes] on rank 0 (L2 projections of the pointwise
-/// values on each contact surface, Sauer 2013), `None` without contact or off rank 0. A node shared
-/// by two contact surfaces shows the last surface's value.
+/// Nodal contact pressure (per current area), nominal contact pressure (per reference area) and
+/// normal gap [n_nodes] on rank 0 (L2 projections of the pointwise values on each contact surface,
+/// Sauer 2013), in this order; `None` without contact or off rank 0. A node shared by two contact
+/// surfaces shows the last surface's value.
 ///
 /// Collective.
-fn contact_fields(asm: &Assembler, n_nodes: usize, root: bool) -> Option<(Vec<f64>, Vec<f64>)> {
+fn contact_fields(asm: &Assembler, n_nodes: usize, root: bool) -> Option<[Vec<f64>; 3]> {
     let c = asm.contact()?;
     let (fp, fg) = c.l2_rhs();
     let comm = asm.comm();
@@ -1186,17 +1187,19 @@ fn contact_fields(asm: &Assembler, n_nodes: usize, root: bool) -> Option<(Vec<f6
         return None;
     }
     let nt = c.n_table();
-    let (mut p, mut g) = (vec![0.0; n_nodes], vec![0.0; n_nodes]);
+    let (mut p, mut pn, mut g) = (vec![0.0; n_nodes], vec![0.0; n_nodes], vec![0.0; n_nodes]);
     for s in 0..c.surfaces().len() {
-        let ps = c.l2_project(s, &sp[s * nt..(s + 1) * nt]);
-        let gs = c.l2_project(s, &sg[s * nt..(s + 1) * nt]);
+        let ps = c.l2_project(s, &sp[s * nt..(s + 1) * nt], false);
+        let pns = c.l2_project(s, &sp[s * nt..(s + 1) * nt], true);
+        let gs = c.l2_project(s, &sg[s * nt..(s + 1) * nt], false);
         for t in c.surface_nodes(s) {
             let node = c.table()[t as usize] as usize;
             p[node] = ps[t as usize];
+            pn[node] = pns[t as usize];
             g[node] = gs[t as usize];
         }
     }
-    Some((p, g))
+    Some([p, pn, g])
 }
 
 /// Results of a run on rank 0 (the other ranks only take part in the gathers).
@@ -1406,7 +1409,7 @@ impl<'p> Output<'p> {
         &mut self,
         load: f64,
         cell_measures: &[f64],
-        contact: Option<&(Vec<f64>, Vec<f64>)>,
+        contact: Option<&[Vec<f64>; 3]>,
         offsets: &NodeOffsets,
     ) -> Result<(), Error> {
         let mut u = self.u_root.read()?.to_vec();
@@ -1445,8 +1448,8 @@ impl<'p> Output<'p> {
         // contact pressure and gap: nodal values of the L2 projection on the contact surfaces'
         // own interpolation, shown on the bulk grid (display nodes interpolated) and sampled grids
         let mut contact_nodal = Vec::new();
-        if let Some((p, g)) = contact {
-            for f in [p, g] {
+        if let Some(fs) = contact {
+            for f in fs {
                 let mut v = f.clone();
                 crate::model::apply_display(&self.display, 1, &mut v);
                 let sampled: Vec<Vec<f64>> =
@@ -1454,10 +1457,11 @@ impl<'p> Output<'p> {
                 contact_nodal.push((v, sampled));
             }
         }
-        for ((v, sampled), name) in contact_nodal
-            .iter()
-            .zip(["contact_pressure", "contact_gap"])
-        {
+        for ((v, sampled), name) in contact_nodal.iter().zip([
+            "contact_pressure",
+            "contact_pressure_nominal",
+            "contact_gap",
+        ]) {
             fields.push(FieldData::node_vector("bulk", name, 1, v));
             for (g, sv) in self.sampled.iter().zip(sampled) {
                 fields.push(FieldData::node_vector(g.name, name, 1, sv));

@@ -320,29 +320,30 @@ fn contact_is_rank_invariant_in_2d_and_3d_with_split_contact_surfaces() {
     );
 }
 
-/// Peak of the post-processed pressure and the load of a `hertz_2d` run.
-fn hertz_peak(family: &str, n_arc: usize, depth: f64) -> (f64, f64) {
+/// Peaks of the post-processed pressure per current area and per reference area (nominal), and the
+/// load, of a `hertz_2d` run.
+fn hertz_peaks(family: &str, n_arc: usize) -> (f64, f64, f64) {
     let d = run_case(
-        &format!("hertz-{family}-{n_arc}-{depth}"),
+        &format!("hertz-{family}-{n_arc}"),
         "hertz_2d.toml",
         1,
         &[
             &format!("bodies.disk.element={family}"),
             &format!("meshes.disk.n_arc={n_arc}"),
             &format!("meshes.disk.n_radial={}", n_arc / 4),
-            &format!("bcs.0.value=[[0.0, -{depth}]]"),
         ],
     );
     let grid = if family == "Q1C1" { "bulk" } else { "surface" };
-    let p = h5_last(&d, grid, "contact_pressure");
-    let peak = p.iter().fold(f64::MIN, |m, &v| m.max(v));
+    let max = |v: Vec<f64>| v.iter().fold(f64::MIN, |m, &x| m.max(x));
+    let peak = max(h5_last(&d, grid, "contact_pressure"));
+    let peak_nominal = max(h5_last(&d, grid, "contact_pressure_nominal"));
     let load = last(&d, "P_flat_disk_arc_y");
     let r = last(&d, "R_disk_top_y");
     assert!(
         (load + r).abs() < 1e-8 * load,
         "contact force {load} vs reaction {r}"
     );
-    (peak, load)
+    (peak, peak_nominal, load)
 }
 
 /// Relative error of a peak pressure against Hertz's p0 for load `p` (R = 1, E = 1, nu = 0.3).
@@ -354,21 +355,27 @@ fn hertz_error(peak: f64, p: f64) -> f64 {
 }
 
 #[test]
-fn hertz_2d_peak_pressure_approaches_hertz_as_the_contact_shrinks() {
-    // Q1N2 at the middle mesh of BENCHMARKS.md: +4.35 % (the target of 1 % is not met; the
-    // half disk is not a half-space: see BENCHMARKS.md)
-    let (peak, p) = hertz_peak("Q1N2", 128, 0.015);
-    let e = hertz_error(peak, p);
+fn hertz_2d_nominal_peak_pressure_converges_to_hertz() {
+    // Hertz's theory is geometrically linear: its pressure is the force per reference area. The
+    // pressure per current area is larger by the inverse surface stretch (about 2.3 % at the
+    // centre, where the surface is compressed). BENCHMARKS.md, "Hertz, 2D".
+    let (peak_c, peak_n, p) = hertz_peaks("Q1C1", 128);
+    let (e_c, e_n) = (hertz_error(peak_c, p), hertz_error(peak_n, p));
     assert!(
-        e.abs() < 0.05,
-        "Q1N2: peak pressure {peak} is {e:+.4} from Hertz"
+        e_n.abs() < 0.01,
+        "Q1C1 n_arc 128: nominal peak {peak_n} is {e_n:+.4} from Hertz"
     );
-    // the gap to the half-space solution closes as a/R falls (same mesh, Q1C1)
-    let (pk1, p1) = hertz_peak("Q1C1", 128, 0.015);
-    let (pk2, p2) = hertz_peak("Q1C1", 128, 0.005);
-    let (e1, e2) = (hertz_error(pk1, p1), hertz_error(pk2, p2));
+    let stretch = peak_n / peak_c;
     assert!(
-        e1.abs() < 0.04 && e2.abs() < e1.abs(),
-        "errors {e1:+.4} (a/R 0.1), {e2:+.4} (a/R 0.05)"
+        (0.965..0.985).contains(&stretch),
+        "Q1C1: nominal / current peak {stretch} (current {e_c:+.4})"
+    );
+    // Q1N2: 8 elements across the contact width (n_arc 128) +1.95 %, 16 (n_arc 256) +0.93 %
+    let (_, n128, p128) = hertz_peaks("Q1N2", 128);
+    let (_, n256, p256) = hertz_peaks("Q1N2", 256);
+    let (e128, e256) = (hertz_error(n128, p128), hertz_error(n256, p256));
+    assert!(
+        e128.abs() < 0.025 && e256.abs() < 0.01 && e256.abs() < 0.6 * e128.abs(),
+        "Q1N2 nominal peak errors {e128:+.4} (n_arc 128), {e256:+.4} (n_arc 256)"
     );
 }

@@ -1160,7 +1160,12 @@ impl ContactSystem {
     /// own interpolation in the current configuration (conjugate gradients, Jacobi-preconditioned,
     /// matrix-free over the surface's elements). `f`: `[table node]` (the slice of
     /// [`ContactSystem::l2_rhs`] for `s`). Returns values per table node (zero off the surface).
-    pub fn l2_project(&self, s: usize, f: &[f64]) -> Vec<f64> {
+    ///
+    /// `nominal`: the mass matrix of the reference configuration instead, `M_AB = int N_A N_B dA`;
+    /// with the pressure's right-hand side (`int N_A p da`) this gives the nominal pressure, the
+    /// contact force per reference area (the measure a geometrically linear theory such as Hertz's
+    /// predicts; it differs from the current one by the surface stretch).
+    pub fn l2_project(&self, s: usize, f: &[f64], nominal: bool) -> Vec<f64> {
         let (dim, m, nt) = (self.dim, self.dim - 1, self.table.len());
         let surf = &self.surfaces[s];
         // element mass matrices, once
@@ -1171,9 +1176,19 @@ impl ContactSystem {
             [0.0; 4 * MAX_FACE_NODES],
         );
         let mut diag = vec![0.0; nt];
+        let mut Xe = Vec::new();
         for (e, el) in surf.elements.iter().enumerate() {
             let n = el.basis.n_nodes();
             let mut Me = vec![0.0; n * n];
+            let x_e: &[f64] = if nominal {
+                Xe.clear();
+                for &t in &self.slots[s][e] {
+                    Xe.extend_from_slice(&self.X[t as usize * dim..(t as usize + 1) * dim]);
+                }
+                &Xe
+            } else {
+                self.pos[s].of(e)
+            };
             let Ok(rule) = tensor_rule(&el.basis.quadrature_counts()) else {
                 blocks.push(Me);
                 continue;
@@ -1182,7 +1197,7 @@ impl ContactSystem {
                 let mut x2 = [0.0; 2];
                 x2[..m].copy_from_slice(xi);
                 el.basis.eval(xi, &mut N, &mut dN, &mut ddN);
-                let (_, _, nu) = crate::contact::surface::frame(el, dim, self.pos[s].of(e), &x2);
+                let (_, _, nu) = crate::contact::surface::frame(el, dim, x_e, &x2);
                 let J = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt();
                 for a in 0..n {
                     for b in 0..n {
