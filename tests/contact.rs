@@ -379,3 +379,45 @@ fn hertz_2d_nominal_peak_pressure_converges_to_hertz() {
         "Q1N2 nominal peak errors {e128:+.4} (n_arc 128), {e256:+.4} (n_arc 256)"
     );
 }
+
+#[test]
+fn a_failed_projection_cuts_the_load_step_back_on_1_and_2_ranks() {
+    // The first two projections of the run fail (fault injection, src/contact/fault.rs): the first
+    // attempt of step 1 must be cut back and retried, and the run must end where an undisturbed run
+    // ends (frictionless elastic contact: the end state does not depend on the load path).
+    let clean = run_case("projection-fault-clean", "contact_patch_2d.toml", 1, &[]);
+    let u_clean = h5_last(&clean, "bulk", "displacement");
+    for np in [1, 2] {
+        let d = scratch(&format!("projection-fault-{np}"));
+        let c = case("contact_patch_2d.toml");
+        let args = [
+            "run",
+            c.to_str().unwrap(),
+            "--out",
+            d.to_str().unwrap(),
+            "-q",
+            "--overwrite",
+        ];
+        let out = run_with_env(
+            np,
+            &args,
+            None,
+            std::time::Duration::from_secs(300),
+            &[("NURBS_CONTACT_FAIL_PROJECTION_AT", "1-2")],
+        )
+        .expect("the run finished");
+        assert!(out.status.success(), "{np} ranks: {}", stderr(&out));
+        let s = summary(&d);
+        assert_eq!(s["status"], "converged", "{np} ranks");
+        let first = &s["steps"][0];
+        assert_eq!(first["cutbacks"], 1, "{np} ranks: {first}");
+        let reason = first["failed_attempts"][0][1].as_str().unwrap_or_default();
+        assert!(
+            reason.contains("projection"),
+            "{np} ranks: the failed attempt names the projection: {reason}"
+        );
+        let u = h5_last(&d, "bulk", "displacement");
+        let diff = rel_diff(&u_clean, &u);
+        assert!(diff < 1e-10, "{np} ranks: end state differs by {diff:e}");
+    }
+}

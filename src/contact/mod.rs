@@ -10,8 +10,10 @@
 //! - [`law`]: pointwise laws, eqs. (5)-(7); [`rigid`]: rigid partners.
 //! - [`kernel`]: one quadrature point's residual and consistent tangent.
 //! - [`system`]: all pairs on a rank: state, evaluation, resultants (no PETSc, no MPI).
+//! - `fault`: an injected projection failure, for tests of the cutback path.
 
 pub mod basis;
+mod fault;
 pub mod kernel;
 pub mod law;
 pub mod projection;

@@ -493,6 +493,13 @@ impl ContactSystem {
     }
 
     fn project_all(&mut self, u_table: &[f64]) -> Result<(), String> {
+        if crate::contact::fault::projection_fails() {
+            return Err(format!(
+                "contact: the projection of the points failed (injected by \
+                 NURBS_CONTACT_FAIL_PROJECTION_AT at load {})",
+                self.lambda
+            ));
+        }
         self.update_positions(u_table);
         let dim = self.dim;
         for pi in 0..self.pairs.len() {

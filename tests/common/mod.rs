@@ -57,6 +57,17 @@ pub fn run_with(
     cwd: Option<&Path>,
     timeout: std::time::Duration,
 ) -> Option<Output> {
+    run_with_env(np, args, cwd, timeout, &[])
+}
+
+/// [`run_with`] with extra environment variables (inherited by every rank).
+pub fn run_with_env(
+    np: usize,
+    args: &[&str],
+    cwd: Option<&Path>,
+    timeout: std::time::Duration,
+    env: &[(&str, &str)],
+) -> Option<Output> {
     use std::io::Read;
     let mut cmd = if np == 1 {
         Command::new(bin())
@@ -69,6 +80,7 @@ pub fn run_with(
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped());
     mpi_env(&mut cmd);
+    cmd.envs(env.iter().copied());
     if let Some(dir) = cwd {
         cmd.current_dir(dir);
     }
