@@ -182,6 +182,9 @@ fn tiny_study_computes_metrics_and_resumes() {
     ] {
         let svg = std::fs::read_to_string(out.join("plots").join(p)).unwrap();
         assert!(svg.contains("Q1C1") && svg.contains("<polyline"), "{p}");
+        // the same plot as PNG
+        let png = std::fs::read(out.join("plots").join(p.replace(".svg", ".png"))).unwrap();
+        assert!(png.starts_with(b"\x89PNG") && png.len() > 10_000, "{p}");
     }
     let md = std::fs::read_to_string(out.join("study.md")).unwrap();
     assert!(

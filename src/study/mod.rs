@@ -80,7 +80,7 @@
 //!   `newton_max_per_step`, `cutbacks`, `wall_time` (s, summary.json's total), every metric, `reason`.
 //! - `study.md`: the runs table, then one table per metric with the series values as columns and
 //!   the other axes as rows, each value also in percent of the reference's.
-//! - `plots/*.svg`: `run_<run>.svg` (the `[plot]` curves of each run), `curve_<column>.svg` (one
+//! - `plots/*.svg` (and the same as `*.png`): `run_<run>.svg` (the `[plot]` curves of each run), `curve_<column>.svg` (one
 //!   curve of all runs), `<metric>_vs_level.svg` (each metric against the level axis' values, one
 //!   series per combination of the other axes) and `<metric>_vs_wall_time.svg` (the same series
 //!   against wall time: speed against error). Logarithmic axes when all values are positive and
@@ -94,6 +94,7 @@
 
 pub mod exec;
 pub mod metrics;
+pub mod png;
 pub mod report;
 pub mod spec;
 pub mod svg;
@@ -274,11 +275,18 @@ fn file_safe(s: &str) -> String {
         .collect()
 }
 
+/// Writes a plot as `<name>.svg` and, rendered from the same SVG, `<name>.png`.
 fn write_svg(dir: &Path, name: &str, plot: &Plot) -> Result<(), StudyError> {
-    write_atomic(
-        &dir.join(format!("{}.svg", file_safe(name))),
-        plot.to_svg().as_bytes(),
-    )?;
+    let svg = plot.to_svg();
+    let base = file_safe(name);
+    write_atomic(&dir.join(format!("{base}.svg")), svg.as_bytes())?;
+    let png_path = dir.join(format!("{base}.png"));
+    let png = png::svg_to_png(&svg).map_err(|m| StudyError::Io {
+        path: png_path.clone(),
+        op: "render the plot",
+        source: std::io::Error::other(m),
+    })?;
+    write_atomic(&png_path, &png)?;
     Ok(())
 }
 

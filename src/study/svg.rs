@@ -1,5 +1,5 @@
 //! A small SVG line-plot writer (axes with ticks, optional logarithmic axes, markers, legend):
-//! enough for the study's plots without a plotting dependency or system fonts.
+//! enough for the study's plots without a plotting dependency (`png` renders them to PNG).
 
 use std::fmt::Write;
 
