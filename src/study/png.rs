@@ -22,8 +22,12 @@ fn fonts() -> Arc<fontdb::Database> {
                     .any(|(name, _)| name.contains("Sans") && !name.contains("Mono"))
             })
             .map(|face| face.families[0].0.clone());
-        if let Some(family) = family {
-            db.set_sans_serif_family(family);
+        match family {
+            Some(family) => db.set_sans_serif_family(family),
+            None => eprintln!(
+                "warning: no sans-serif system font: the PNG plots are drawn without text \
+                 (Debian: apt-get install fonts-dejavu-core)"
+            ),
         }
         Arc::new(db)
     })
@@ -31,8 +35,9 @@ fn fonts() -> Arc<fontdb::Database> {
 }
 
 /// True when a font for the plots' text was found (without one, PNGs are drawn without text).
-pub fn has_fonts() -> bool {
-    fonts().len() > 0
+#[cfg(test)]
+fn has_fonts() -> bool {
+    !fonts().is_empty()
 }
 
 /// Renders an SVG document to PNG bytes.
