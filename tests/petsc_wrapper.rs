@@ -11,6 +11,24 @@ use nurbs_contact::petsc::{Ksp, Matrix, NonlinearProblem, Petsc, ProblemError, S
 struct Cubic {
     domain_error_below: f64,
     panic: bool,
+    /// The Jacobian evaluation of this number (from 1) raises a domain error.
+    jacobian_error_at: Option<usize>,
+    /// `stop_requested` from this Jacobian evaluation on.
+    stop_from: Option<usize>,
+    /// Jacobian evaluations so far.
+    jacobians: usize,
+}
+
+impl Cubic {
+    fn new(domain_error_below: f64, panic: bool) -> Cubic {
+        Cubic {
+            domain_error_below,
+            panic,
+            jacobian_error_at: None,
+            stop_from: None,
+            jacobians: 0,
+        }
+    }
 }
 
 impl NonlinearProblem for Cubic {
@@ -29,7 +47,15 @@ impl NonlinearProblem for Cubic {
         Ok(())
     }
 
+    fn stop_requested(&self) -> bool {
+        self.stop_from.is_some_and(|n| self.jacobians >= n)
+    }
+
     fn jacobian(&mut self, x: &Vector, j: &mut Matrix) -> Result<(), ProblemError> {
+        self.jacobians += 1;
+        if self.jacobian_error_at == Some(self.jacobians) {
+            return Err(ProblemError::Domain("no Jacobian here".into()));
+        }
         let (lo, _) = x
             .ownership_range()
             .map_err(|e| ProblemError::Fatal(e.to_string()))?;
@@ -146,10 +172,7 @@ fn petsc_wrapper_end_to_end() {
     let mut jm = diagonal_matrix(&petsc, 3);
     let mut xs = Vector::new_mpi(&petsc, 3).unwrap();
     xs.set(1.0).unwrap();
-    let mut problem = Cubic {
-        domain_error_below: -1e9,
-        panic: false,
-    };
+    let mut problem = Cubic::new(-1e9, false);
     let out = snes.solve(&mut problem, &mut xs, &mut jm).unwrap();
     assert!(out.converged, "{out:?}");
     assert!(xs.read().unwrap().iter().all(|&v| (v - 2.0).abs() < 1e-12));
@@ -163,28 +186,57 @@ fn petsc_wrapper_end_to_end() {
 
     // A domain error at the start is reported as a diverged solve with the message, not an error.
     xs.set(1.0).unwrap();
-    let mut problem = Cubic {
-        domain_error_below: 1.5,
-        panic: false,
-    };
+    let mut problem = Cubic::new(1.5, false);
     let out = snes.solve(&mut problem, &mut xs, &mut jm).unwrap();
     assert!(!out.converged);
     assert_eq!(out.domain_error.as_deref(), Some("x left the domain"));
 
     // A panic inside a callback is caught at the FFI boundary and comes back as an error.
-    let mut problem = Cubic {
-        domain_error_below: -1e9,
-        panic: true,
-    };
+    let mut problem = Cubic::new(-1e9, true);
     let err = snes.solve(&mut problem, &mut xs, &mut jm).unwrap_err();
     assert!(err.message.contains("deliberate panic"), "{err}");
 
+    // A Jacobian domain error stops the solve after that iteration (PETSc 3.18 would otherwise go
+    // on with the previous matrix and its factorisation), and does not stick to the SNES: the
+    // next solve converges quadratically, every iteration with a fresh factorisation.
+    xs.set(1.0).unwrap();
+    let mut problem = Cubic::new(-1e9, false);
+    problem.jacobian_error_at = Some(2);
+    let out = snes.solve(&mut problem, &mut xs, &mut jm).unwrap();
+    assert!(!out.converged, "{out:?}");
+    assert_eq!(out.reason, "DIVERGED_JACOBIAN_DOMAIN");
+    assert_eq!(out.iterations, 2, "{out:?}");
+    assert_eq!(out.domain_error.as_deref(), Some("no Jacobian here"));
+    let mut problem = Cubic::new(-1e9, false);
+    let out = snes.solve(&mut problem, &mut xs, &mut jm).unwrap();
+    assert!(out.converged, "{out:?}");
+    assert_eq!(problem.jacobians, out.iterations);
+    let h = &out.residual_history;
+    let k = h.len() - 2;
+    assert!(
+        h[k] < 1e-4 && h[k] / (h[k - 1] * h[k - 1]) < 10.0,
+        "not quadratic after a Jacobian domain error: {h:?}"
+    );
+
+    // The problem can ask for a stop (a new sparsity pattern between solves): the solve ends
+    // after that iteration, not converged and with no domain error, and the caller resumes.
+    xs.set(1.0).unwrap();
+    let mut problem = Cubic::new(-1e9, false);
+    problem.stop_from = Some(1);
+    let out = snes.solve(&mut problem, &mut xs, &mut jm).unwrap();
+    assert!(!out.converged, "{out:?}");
+    assert_eq!(out.iterations, 1, "{out:?}");
+    assert_eq!(out.domain_error, None);
+    let mut problem = Cubic::new(-1e9, false);
+    assert!(
+        snes.solve(&mut problem, &mut xs, &mut jm)
+            .unwrap()
+            .converged
+    );
+
     // The solver is still usable afterwards.
     xs.set(3.0).unwrap();
-    let mut problem = Cubic {
-        domain_error_below: -1e9,
-        panic: false,
-    };
+    let mut problem = Cubic::new(-1e9, false);
     assert!(
         snes.solve(&mut problem, &mut xs, &mut jm)
             .unwrap()

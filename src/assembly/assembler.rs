@@ -660,8 +660,9 @@ impl<'p> Assembler<'p> {
 
     /// Projects the contact points at `x` and agrees on the outcome. In a Jacobian evaluation,
     /// a coupling outside the sparsity pattern (a point whose partner element moved beyond the
-    /// reserved band) stops the Newton solve with a domain error and marks the pattern outdated:
-    /// the load stepping rebuilds it on a new matrix and continues Newton from the same iterate
+    /// reserved band) is left out of that Jacobian and marks the pattern outdated; the solve stops
+    /// after that Newton step ([`NonlinearProblem::stop_requested`]) and the load stepping
+    /// rebuilds the pattern on a new matrix and continues Newton from the iterate reached
     /// ([`Assembler::pattern_outdated`]); the pattern is never changed inside a solve.
     ///
     /// Collective.
@@ -679,6 +680,9 @@ impl<'p> Assembler<'p> {
                 "contact needs the COO assembly path (drop --matsetvalues)".into(),
             ));
         }
+        // Coupling blocks outside the pattern are left out of this Jacobian (the sink has no slot
+        // for them): the Newton step is taken with the rest, and the solve stops after it
+        // (`stop_requested`) for the pattern to be rebuilt between solves.
         let missing = match &self.contact {
             Some(c) => c
                 .sys
@@ -688,21 +692,17 @@ impl<'p> Assembler<'p> {
                 .count(),
             None => 0,
         };
-        let local = if missing > 0 {
-            Err(ProblemError::Domain(format!(
-                "{missing} contact coupling blocks outside the sparsity pattern"
-            )))
-        } else {
-            Ok(())
-        };
-        let agreed = self.agree(local);
-        if agreed.is_err() {
+        let mut any = 0u64;
+        self.petsc
+            .comm()
+            .all_reduce_into(&(missing as u64), &mut any, SystemOperation::max());
+        if any > 0 {
             if let Some(c) = &mut self.contact {
                 c.stale = true;
                 c.missing_blocks += missing;
             }
         }
-        agreed
+        Ok(())
     }
 
     /// True when the last solve stopped because the contact couplings left the sparsity pattern
@@ -932,6 +932,10 @@ impl<'p> Assembler<'p> {
 }
 
 impl NonlinearProblem for Assembler<'_> {
+    fn stop_requested(&self) -> bool {
+        self.pattern_outdated()
+    }
+
     fn residual(&mut self, x: &Vector, f: &mut Vector) -> Result<(), ProblemError> {
         let t0 = Instant::now();
         if let Err(e) = self.prepare_contact(x, false) {

@@ -95,8 +95,11 @@ pub fn project_on_element(
     }
     let f_of = |p: &[f64; 3]| 0.5 * (0..dim).map(|k| (x[k] - p[k]).powi(2)).sum::<f64>();
     let mut free = [true; 2];
+    // the geometry at `xi`: evaluated once here, then carried over from the accepted trial point
+    // of each line search (the same coordinates, so the same values, without a second evaluation)
+    let mut cur = eval(&xi, &mut N, &mut dN, &mut ddN);
     for _ in 0..MAX_NEWTON {
-        let (p, a, aa) = eval(&xi, &mut N, &mut dN, &mut ddN);
+        let (p, a, aa) = cur;
         let g = [x[0] - p[0], x[1] - p[1], x[2] - p[2]];
         let f0 = f_of(&p);
         let mut grad = [0.0; 2];
@@ -136,9 +139,10 @@ pub fn project_on_element(
             for i in 0..m {
                 trial[i] = (xi[i] + t * step[i]).clamp(-1.0, 1.0);
             }
-            let (pt, _, _) = eval(&trial, &mut N, &mut dN, &mut ddN);
-            if f_of(&pt) <= f0 + 1e-15 * scale2 {
+            let geom = eval(&trial, &mut N, &mut dN, &mut ddN);
+            if f_of(&geom.0) <= f0 + 1e-15 * scale2 {
                 accepted = trial;
+                cur = geom;
                 break;
             }
             t *= 0.5;
@@ -148,7 +152,7 @@ pub fn project_on_element(
             .fold(0.0, f64::max);
         xi = accepted;
         if moved < 1e-13 {
-            let (p, a, _) = eval(&xi, &mut N, &mut dN, &mut ddN);
+            let (p, a, _) = cur;
             let g = [x[0] - p[0], x[1] - p[1], x[2] - p[2]];
             // recompute which coordinates the boundary holds at the final point
             for i in 0..m {

@@ -143,6 +143,36 @@ struct OwnElem {
     n: usize,
     /// Local (ghosted) index of each unknown, [n_nodes * dim].
     local: Vec<u32>,
+    /// The element's basis at its points (their surface coordinates never change), evaluated
+    /// once: values [n][n_nodes] and first derivatives [n][n_nodes][m].
+    N: Vec<f64>,
+    dN: Vec<f64>,
+}
+
+impl OwnElem {
+    /// Basis values and first derivatives at point `q` (an index into the pass's points).
+    fn basis(&self, q: usize) -> (&[f64], &[f64]) {
+        let nk = self.N.len() / self.n;
+        let m = self.dN.len() / self.N.len();
+        let i = q - self.first;
+        (
+            &self.N[i * nk..(i + 1) * nk],
+            &self.dN[i * nk * m..(i + 1) * nk * m],
+        )
+    }
+
+    /// Current position of point `q` on the element's current nodal positions `x` [n_nodes][dim]
+    /// (the sum of [`crate::contact::surface::frame`], with the stored basis).
+    fn position(&self, q: usize, x: &[f64], dim: usize) -> [f64; 3] {
+        let (N, _) = self.basis(q);
+        let mut p = [0.0; 3];
+        for (b, &Nb) in N.iter().enumerate() {
+            for k in 0..dim {
+                p[k] += Nb * x[b * dim + k];
+            }
+        }
+        p
+    }
 }
 
 /// Resultants of one half-pass over this rank's points (sum over ranks for the whole).
@@ -327,7 +357,14 @@ impl ContactSystem {
                         tensor_rule(&el.basis.quadrature_counts()).map_err(|e| e.to_string())?;
                     let first = points.len();
                     let m = dim - 1;
+                    let nk = el.basis.n_nodes();
                     let Xe = sys.pos[*k].of(e).to_vec();
+                    let (mut bN, mut bdN) = (Vec::new(), Vec::new());
+                    let (mut N, mut dN, mut ddN) = (
+                        [0.0; MAX_FACE_NODES],
+                        [0.0; 2 * MAX_FACE_NODES],
+                        [0.0; 4 * MAX_FACE_NODES],
+                    );
                     for (q, xi) in rule.points.chunks_exact(m).enumerate() {
                         let mut x2 = [0.0; 2];
                         x2[..m].copy_from_slice(xi);
@@ -335,6 +372,9 @@ impl ContactSystem {
                         if def.region.as_ref().is_some_and(|b| !b.contains(&xr[..dim])) {
                             continue;
                         }
+                        el.basis.eval(&x2[..m], &mut N, &mut dN, &mut ddN);
+                        bN.extend_from_slice(&N[..nk]);
+                        bdN.extend_from_slice(&dN[..nk * m]);
                         let nu = raw_normal(dim, &a);
                         let J0 = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt();
                         points.push(QPoint {
@@ -359,6 +399,8 @@ impl ContactSystem {
                         first,
                         n: points.len() - first,
                         local,
+                        N: bN,
+                        dN: bdN,
                     });
                 }
                 passes.push(Pass {
@@ -520,7 +562,11 @@ impl ContactSystem {
                             };
                             for q in first..first + n {
                                 let qp = self.pairs[pi].passes[qi].points[q];
-                                let x = self.point_position(k, e, &qp.xi);
+                                let x = self.pairs[pi].passes[qi].elems[oe].position(
+                                    q,
+                                    self.pos[k].of(e),
+                                    dim,
+                                );
                                 let mut p = qp
                                     .warm
                                     .and_then(|w| walk(&self.surfaces[l], &self.pos[l], &x, w));
@@ -749,11 +795,7 @@ impl ContactSystem {
         let dim = self.dim;
         let m = dim - 1;
         let mut pass_id = 0u32;
-        let (mut N, mut dN, mut ddN) = (
-            [0.0; MAX_FACE_NODES],
-            [0.0; 2 * MAX_FACE_NODES],
-            [0.0; 4 * MAX_FACE_NODES],
-        );
+        let (mut N, mut dN) = ([0.0; MAX_FACE_NODES], [0.0; 2 * MAX_FACE_NODES]);
         self.r_table.fill(0.0);
         // blocks of the current own element, keyed by partner element
         let mut blocks = std::mem::take(&mut self.blocks);
@@ -794,7 +836,9 @@ impl ContactSystem {
                     n_used = 0;
                     for q in oe.first..oe.first + oe.n {
                         let qp = pass.points[q];
-                        el.basis.eval(&qp.xi[..m], &mut N, &mut dN, &mut ddN);
+                        let (bN, bdN) = oe.basis(q);
+                        N[..nk].copy_from_slice(bN);
+                        dN[..nk * m].copy_from_slice(bdN);
                         let own = OwnPoint {
                             N: &N[..nk],
                             dN: &dN[..nk * m],

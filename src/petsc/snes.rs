@@ -26,6 +26,13 @@ pub trait NonlinearProblem {
     fn residual(&mut self, x: &Vector, f: &mut Vector) -> Result<(), ProblemError>;
     /// `J = dF/dx (x)`. Collective.
     fn jacobian(&mut self, x: &Vector, j: &mut Matrix) -> Result<(), ProblemError>;
+    /// True when the solve should stop after the current Newton iteration (unless it has
+    /// converged), for the caller to change something between solves and resume from the iterate
+    /// reached (a contact sparsity pattern that no longer holds the Jacobian). Must be the same on
+    /// every rank. Collective only in that sense; must not communicate.
+    fn stop_requested(&self) -> bool {
+        false
+    }
 }
 
 /// The result of one [`Snes::solve`].
@@ -65,6 +72,8 @@ struct Context<'a> {
     jac: *mut c_void,
     domain: Option<String>,
     fatal: Option<String>,
+    /// A Jacobian evaluation raised a domain error: the solve stops after this iteration.
+    jacobian_failed: bool,
 }
 
 /// PETSc's code for "error in user callback" (PETSC_ERR_USER in petscerror.h).
@@ -110,7 +119,7 @@ unsafe extern "C" fn residual_trampoline(
 }
 
 unsafe extern "C" fn jacobian_trampoline(
-    snes: sys::SNES,
+    _snes: sys::SNES,
     x: sys::Vec,
     j: sys::Mat,
     _p: sys::Mat,
@@ -133,9 +142,13 @@ unsafe extern "C" fn jacobian_trampoline(
     match catch_unwind(AssertUnwindSafe(|| ctx.problem.jacobian(&xv, jm))) {
         Ok(Ok(())) => 0,
         Ok(Err(ProblemError::Domain(msg))) => {
+            // Not `SNESSetJacobianDomainError`: PETSc 3.18 ignores that flag unless told to check
+            // it (SNES then goes on with the previous matrix and its factorisation, a chord step),
+            // and once checked it stays set for every later solve of the same SNES. The
+            // convergence test stops the solve after this iteration instead.
             ctx.domain = Some(msg);
-            // SAFETY: snes is the live solver calling us.
-            unsafe { sys::SNESSetJacobianDomainError(snes) }
+            ctx.jacobian_failed = true;
+            0
         }
         Ok(Err(ProblemError::Fatal(msg))) => {
             ctx.fatal = Some(msg);
@@ -146,6 +159,34 @@ unsafe extern "C" fn jacobian_trampoline(
             PETSC_ERR_USER
         }
     }
+}
+
+/// SNES's default convergence test, then a stop (`SNES_DIVERGED_JACOBIAN_DOMAIN`) when a Jacobian
+/// evaluation failed or the problem asks for one ([`NonlinearProblem::stop_requested`]).
+unsafe extern "C" fn converged_trampoline(
+    snes: sys::SNES,
+    it: PetscInt,
+    xnorm: f64,
+    snorm: f64,
+    fnorm: f64,
+    reason: *mut sys::SNESConvergedReason,
+    ctx: *mut c_void,
+) -> sys::PetscErrorCode {
+    // SAFETY: snes and reason are valid for this call; the default test takes no context.
+    let err = unsafe {
+        sys::SNESConvergedDefault(snes, it, xnorm, snorm, fnorm, reason, std::ptr::null_mut())
+    };
+    if err != 0 {
+        return err;
+    }
+    // SAFETY: ctx is the &mut Context installed by `solve`, alive for the whole SNESSolve.
+    let ctx = unsafe { &mut *(ctx as *mut Context) };
+    // SAFETY: reason points to SNES's reason, written just above.
+    let r = unsafe { &mut *reason };
+    if r.0 == 0 && (ctx.jacobian_failed || ctx.problem.stop_requested()) {
+        *r = sys::SNESConvergedReason::SNES_DIVERGED_JACOBIAN_DOMAIN;
+    }
+    0
 }
 
 impl<'p> Snes<'p> {
@@ -162,6 +203,11 @@ impl<'p> Snes<'p> {
         unsafe {
             call!(SNESCreate(petsc.comm().as_raw(), &mut raw))?;
             call!(SNESSetType(raw, sys::SNESNEWTONLS.as_ptr()))?;
+            // PETSc 3.18 ignores a Jacobian domain error unless asked to check it: SNES then goes
+            // on with the previous matrix and its factorisation (the operator's state is
+            // unchanged), i.e. a chord iteration that converges linearly. A Jacobian that cannot be
+            // formed (a contact block outside the sparsity pattern) must stop the solve instead.
+            call!(SNESSetCheckJacobianDomainError(raw, sys::PetscBool(1)))?;
             let mut ksp_raw = std::ptr::null_mut();
             call!(SNESGetKSP(raw, &mut ksp_raw))?;
             let mut ksp = Ksp::borrowed(ksp_raw);
@@ -240,6 +286,7 @@ impl<'p> Snes<'p> {
             jac: jac as *mut Matrix as *mut c_void,
             domain: None,
             fatal: None,
+            jacobian_failed: false,
         };
         let ctx_ptr = &mut ctx as *mut Context as *mut c_void;
         // SAFETY: ctx outlives SNESSolve (it is on this stack frame); the callbacks are re-registered
@@ -257,6 +304,13 @@ impl<'p> Snes<'p> {
                 jac_raw,
                 Some(jacobian_trampoline),
                 ctx_ptr
+            ))?;
+            // replaces a `-snes_convergence_test` choice: ours is the default test plus the stops
+            call!(SNESSetConvergenceTest(
+                self.raw,
+                Some(converged_trampoline),
+                ctx_ptr,
+                None
             ))?;
             call!(SNESSolve(self.raw, std::ptr::null_mut(), x.as_raw()))
         };
