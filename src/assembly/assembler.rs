@@ -428,6 +428,11 @@ impl<'p> Assembler<'p> {
         self.contact.as_ref().map(|c| (c.ring, c.missing_blocks))
     }
 
+    /// The contact system, to export or import its state (checkpoints).
+    pub fn contact_mut(&mut self) -> Option<&mut ContactSystem> {
+        self.contact.as_mut().map(|c| &mut c.sys)
+    }
+
     /// Sets the load parameter (rigid contact partners move with it).
     pub fn set_load(&mut self, lambda: f64) {
         self.offsets.set_load(lambda);

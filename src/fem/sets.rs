@@ -184,6 +184,19 @@ impl ElementSet for Q1e4Set {
         self.alpha.copy_from_slice(&self.alpha_committed);
     }
 
+    fn history_width(&self) -> usize {
+        4
+    }
+
+    fn history(&self, e: usize) -> &[f64] {
+        &self.alpha_committed[e]
+    }
+
+    fn set_history(&mut self, e: usize, values: &[f64]) {
+        self.alpha_committed[e] = as_array(values);
+        self.alpha[e] = self.alpha_committed[e];
+    }
+
     fn cell_id(&self, e: usize) -> (usize, usize) {
         self.base.cell_id(e)
     }
