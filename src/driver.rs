@@ -632,6 +632,10 @@ fn build_model(petsc: &Petsc, opts: &RunOptions) -> Result<(Case, Model, PathBuf
         .clone()
         .or_else(|| opts.restart.clone())
         .unwrap_or_else(|| PathBuf::from("out").join(&case.case.name));
+    // a restart without a checkpoint is refused before the directory is claimed
+    if let Some(dir) = &opts.restart {
+        agree(comm, crate::checkpoint::latest(dir).map_err(Error::Restart))?;
+    }
     agree(
         comm,
         if rank == 0 {

@@ -55,6 +55,14 @@ reactions = [{ body = "block", set = "top" }]
 /// through stick into slip.
 const FRICTION: &[&str] = &["stages.0.steps=4", "stages.1.steps=60", "output.every=5"];
 
+/// Tolerance of the 2-rank contact comparisons. Two *uninterrupted* 2-rank runs of the frictional
+/// block are not bitwise equal (measured: up to 9.4e-11 relative in the penetration column, 6.9e-12
+/// in the contact force, Newton iteration counts differing by 1-2 in a few steps; with MUMPS and
+/// with SuperLU_DIST alike; 1-rank runs and the 2-rank Q1E4 run repeat exactly), so a restarted
+/// 2-rank contact run can only match to that spread: measured 2.8e-10 restarted vs uninterrupted.
+/// The bound is the Newton tolerance scale, and iteration counts are not compared there.
+const TWO_RANK_CONTACT: f64 = 1e-8;
+
 /// Writes the case text (or copies a shipped case) into `dir` and returns its path.
 fn case_file(dir: &Path, text: Option<&str>, shipped: &str) -> PathBuf {
     match text {
@@ -164,17 +172,20 @@ fn all_results(dir: &Path) -> (Vec<f64>, Vec<(String, Vec<f64>)>) {
     (loads, data)
 }
 
-/// The largest relative difference between two runs' history.csv (every column but wall_time;
-/// the residual norms absolutely, relative to the first step's reactions' scale being irrelevant)
-/// and results.h5 (every dataset); panics if their shapes differ.
-fn compare_runs(a: &Path, b: &Path) -> f64 {
+/// The largest relative difference between two runs' history.csv (every column but wall_time) and
+/// results.h5 (every dataset); panics if their shapes differ. With `solver_exact`, the Newton
+/// iteration counts and final residual norms count too (a residual norm absolutely: they are
+/// round-off sized); without, only the solution and what is computed from it (see
+/// [`TWO_RANK_CONTACT`]).
+fn compare_runs(a: &Path, b: &Path, solver_exact: bool) -> f64 {
     let (ha, hb) = (history(a), history(b));
     let names = |h: &[(String, Vec<f64>)]| h.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
     assert_eq!(names(&ha), names(&hb), "history columns");
     let mut worst = 0.0f64;
     for ((name, x), (_, y)) in ha.iter().zip(&hb) {
         assert_eq!(x.len(), y.len(), "history rows of {name}");
-        if name == "wall_time" {
+        let solver_column = name == "residual" || name == "newton_iterations";
+        if name == "wall_time" || (solver_column && !solver_exact) {
             continue;
         }
         let d = if name == "residual" {
@@ -185,6 +196,9 @@ fn compare_runs(a: &Path, b: &Path) -> f64 {
         } else {
             rel_diff(x, y)
         };
+        if d > worst {
+            eprintln!("history {name}: {d:.3e}");
+        }
         worst = worst.max(d);
     }
     let steps = history_col(b, "step");
@@ -197,13 +211,18 @@ fn compare_runs(a: &Path, b: &Path) -> f64 {
     for ((na, x), (nb, y)) in da.iter().zip(&db) {
         assert_eq!(na, nb);
         // `rank` differs by design between rank counts; compared only for the same count
-        worst = worst.max(rel_diff(x, y));
+        let d = rel_diff(x, y);
+        if d > worst {
+            eprintln!("results {na}: {d:.3e}");
+        }
+        worst = worst.max(d);
     }
     worst
 }
 
 /// Uninterrupted run, killed run, restart of the killed run (on `np_restart` ranks); returns the
 /// largest difference between the uninterrupted and the restarted run's output.
+#[allow(clippy::too_many_arguments)]
 fn kill_and_restart(
     tag: &str,
     text: Option<&str>,
@@ -212,6 +231,7 @@ fn kill_and_restart(
     np: usize,
     np_restart: usize,
     every: &str,
+    solver_exact: bool,
 ) -> (PathBuf, f64) {
     let dir = scratch(&format!("restart/{tag}"));
     let case = case_file(&dir, text, shipped);
@@ -224,20 +244,20 @@ fn kill_and_restart(
     );
     assert_eq!(summary(&killed)["status"], "converged", "{}", stderr(&out));
     assert!(!killed.join("results.h5.partial").exists());
-    let d = compare_runs(&whole, &killed);
+    let d = compare_runs(&whole, &killed, solver_exact);
     eprintln!("{tag}: largest difference restarted vs uninterrupted {d:.3e}");
     (killed, d)
 }
 
 #[test]
 fn q1e4_killed_and_restarted_equals_an_uninterrupted_run_on_1_rank() {
-    let (_, d) = kill_and_restart("q1e4-np1", Some(Q1E4), "", &[], 1, 1, "10");
+    let (_, d) = kill_and_restart("q1e4-np1", Some(Q1E4), "", &[], 1, 1, "10", true);
     assert!(d <= 1e-12, "difference {d:e}");
 }
 
 #[test]
 fn q1e4_killed_and_restarted_equals_an_uninterrupted_run_on_2_ranks() {
-    let (_, d) = kill_and_restart("q1e4-np2", Some(Q1E4), "", &[], 2, 2, "10");
+    let (_, d) = kill_and_restart("q1e4-np2", Some(Q1E4), "", &[], 2, 2, "10", true);
     assert!(d <= 1e-12, "difference {d:e}");
 }
 
@@ -251,6 +271,7 @@ fn friction_killed_and_restarted_equals_an_uninterrupted_run_on_1_rank() {
         1,
         1,
         "8",
+        true,
     );
     assert!(d <= 1e-12, "difference {d:e}");
 }
@@ -265,8 +286,9 @@ fn friction_killed_and_restarted_equals_an_uninterrupted_run_on_2_ranks() {
         2,
         2,
         "8",
+        false,
     );
-    assert!(d <= 1e-12, "difference {d:e}");
+    assert!(d <= TWO_RANK_CONTACT, "difference {d:e}");
 }
 
 /// The state is in global numbering: a checkpoint of 2 ranks continues on 1. Against the
@@ -293,9 +315,9 @@ fn a_checkpoint_written_on_2_ranks_restarts_on_1() {
         "{}",
         stderr(&out)
     );
-    let d = compare_runs(&whole, &killed);
+    let d = compare_runs(&whole, &killed, false);
     eprintln!("np2 -> np1: largest difference {d:.3e}");
-    assert!(d <= 1e-8, "difference {d:e}");
+    assert!(d <= TWO_RANK_CONTACT, "difference {d:e}");
 }
 
 /// A restart with a changed material value is refused, naming the key; the run directory is left
