@@ -369,3 +369,57 @@ fn a_restart_with_a_changed_material_is_refused_with_the_key() {
     assert!(!out.status.success());
     assert!(stderr(&out).contains("no checkpoint"), "{}", stderr(&out));
 }
+
+/// With checkpointing on, a SIGINT writes a checkpoint of the last converged step (whatever the
+/// schedule says), and the restart from it ends like an uninterrupted run: the same history and
+/// final results (results.h5 keeps the extra output step the interrupt wrote).
+#[test]
+fn an_interrupt_writes_a_checkpoint_of_the_last_step() {
+    let dir = scratch("restart/sigint");
+    let case = case_file(&dir, Some(Q1E4), "");
+    let (whole, stopped) = (dir.join("whole"), dir.join("stopped"));
+    run_ok(1, &args(&case, &[], &["--out", whole.to_str().unwrap()]));
+    let mut a = args(&case, &[], &["--out", stopped.to_str().unwrap()]);
+    a.extend(["--checkpoint-every", "100000"]);
+    let mut cmd = Command::new(bin());
+    cmd.args(&a).stdout(Stdio::null()).stderr(Stdio::null());
+    let mut child = cmd.spawn().unwrap();
+    let t0 = Instant::now();
+    while std::fs::read_to_string(stopped.join("history.csv"))
+        .map(|t| t.lines().count() < 2)
+        .unwrap_or(true)
+    {
+        assert!(child.try_wait().unwrap().is_none(), "ended before step 1");
+        assert!(t0.elapsed() < Duration::from_secs(120), "no first step");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    let _ = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status();
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130));
+    let n = summary(&stopped)["converged_steps"].as_u64().unwrap();
+    assert_eq!(checkpoints(&stopped), vec![format!("step-{n:06}")]);
+    run_ok(
+        1,
+        &args(&case, &[], &["--restart", stopped.to_str().unwrap()]),
+    );
+    let (hw, hs) = (history(&whole), history(&stopped));
+    for ((name, x), (_, y)) in hw.iter().zip(&hs) {
+        if name != "wall_time" {
+            assert_eq!(x, y, "history column {name}");
+        }
+    }
+    let (lw, _) = all_results(&whole);
+    let (ls, _) = all_results(&stopped);
+    assert_eq!(
+        ls.len(),
+        lw.len() + 1,
+        "the interrupt's output step is kept"
+    );
+    let d = rel_diff(
+        &h5_last(&whole, "bulk", "displacement"),
+        &h5_last(&stopped, "bulk", "displacement"),
+    );
+    assert!(d <= 1e-12, "difference {d:e}");
+}
