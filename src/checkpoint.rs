@@ -61,6 +61,9 @@ pub struct State {
     pub element_history_width: usize,
     /// Contact state, [`crate::contact::system::CHECKPOINT_ROW`] values per point.
     pub contact_points: Vec<f64>,
+    /// Coupling blocks of the contact sparsity pattern, (pass, element, partner) per block, all
+    /// ranks' (empty: none to keep, the restart builds its own).
+    pub contact_pattern: Vec<f64>,
     /// Ranks that wrote the checkpoint (for information).
     pub ranks: usize,
     /// The log so far.
@@ -115,7 +118,8 @@ fn write_state(path: &Path, s: &State) -> Result<(), IoError> {
             .and_then(|d| d.write_raw(b))
             .map_err(h5err(path, name))?;
     }
-    let floats: [(&str, &[f64]); 4] = [
+    let floats: [(&str, &[f64]); 5] = [
+        ("contact_pattern", &s.contact_pattern),
         ("position", &position),
         ("displacement", &s.displacement),
         ("element_history", &s.element_history),
@@ -186,6 +190,7 @@ pub fn read_state(checkpoint: &Path) -> Result<State, IoError> {
         element_history: floats("element_history")?,
         element_history_width: meta.element_history_width,
         contact_points: floats("contact_points")?,
+        contact_pattern: floats("contact_pattern")?,
         ranks: meta.ranks,
         log: meta.log,
     })
@@ -455,6 +460,7 @@ every = 1
             element_history: Vec::new(),
             element_history_width: 0,
             contact_points: vec![1.0; 16],
+            contact_pattern: vec![0.0, 3.0, 4.0],
             ranks: 2,
             log: RunLog::default(),
         };
@@ -471,6 +477,7 @@ every = 1
         assert_eq!(back.position, s.position);
         assert_eq!(back.displacement, s.displacement);
         assert_eq!(back.contact_points, s.contact_points);
+        assert_eq!(back.contact_pattern, s.contact_pattern);
         assert!(back.element_history.is_empty());
         assert_eq!(back.case_toml, CASE);
         assert!(latest(&dir.join("nothing")).is_err());

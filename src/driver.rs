@@ -501,6 +501,14 @@ fn restore(
             set.set_history(e, &state.element_history[g * w..g * w + hw]);
         }
     }
+    if !state.contact_pattern.is_empty() {
+        let all: Vec<crate::contact::Coupling> = state
+            .contact_pattern
+            .chunks_exact(3)
+            .map(|r| (r[0] as u32, r[1] as u32, r[2] as u32))
+            .collect();
+        solver.asm.preset_contact_pattern(&all);
+    }
     if local.is_ok() {
         if let Some(c) = solver.asm.contact_mut() {
             local = c
@@ -1187,6 +1195,20 @@ impl<'c, 'p> StepObserver<'c, 'p> {
             Some(c) => gather_rows(comm, &c.export_points()),
             None => Vec::new(),
         };
+        // the contact sparsity pattern, if every rank has a current one
+        let pattern = asm.contact_pattern();
+        let (have, mut all) = (i32::from(pattern.is_some()), 0i32);
+        comm.all_reduce_into(&have, &mut all, SystemOperation::min());
+        let contact_pattern = if asm.contact().is_some() && all == 1 {
+            let rows: Vec<f64> = pattern
+                .unwrap_or_default()
+                .iter()
+                .flat_map(|&(p, e, l)| [p as f64, e as f64, l as f64])
+                .collect();
+            gather_rows(comm, &rows)
+        } else {
+            Vec::new()
+        };
         let local = if root {
             let state = crate::checkpoint::State {
                 case_toml: out.case_toml.clone(),
@@ -1195,6 +1217,7 @@ impl<'c, 'p> StepObserver<'c, 'p> {
                 element_history,
                 element_history_width: width,
                 contact_points,
+                contact_pattern,
                 ranks: comm.size() as usize,
                 log: crate::checkpoint::RunLog {
                     newton: self.newton,

@@ -423,3 +423,21 @@ fn an_interrupt_writes_a_checkpoint_of_the_last_step() {
     );
     assert!(d <= 1e-12, "difference {d:e}");
 }
+
+/// Cohesive contact between two deformable surfaces (material pairings, warm-start projections on
+/// a deformable partner, and the contact sparsity pattern, which a restart must rebuild as it was
+/// for the same round-off): the double cantilever beam, coarse, on 1 rank.
+#[test]
+fn cohesive_dcb_killed_and_restarted_equals_an_uninterrupted_run() {
+    let (_, d) = kill_and_restart(
+        "dcb-np1",
+        None,
+        "dcb_2d.toml",
+        &["stages.0.steps=200"],
+        1,
+        1,
+        "20",
+        true,
+    );
+    assert!(d <= 1e-12, "difference {d:e}");
+}

@@ -43,6 +43,16 @@ impl ContactSystem {
         out
     }
 
+    /// True when this rank integrates surface element `e` in half-pass `pass` (numbered over all
+    /// pairs' passes, as in [`crate::contact::Coupling`]).
+    pub fn integrates(&self, pass: u32, e: u32) -> bool {
+        self.pairs
+            .iter()
+            .flat_map(|p| &p.passes)
+            .nth(pass as usize)
+            .is_some_and(|p| p.elems.binary_search_by_key(&e, |o| o.e).is_ok())
+    }
+
     /// Sets the committed and trial state of this rank's points from the rows of all ranks
     /// ([`export_points`](Self::export_points) of each, in any order). Every point of this rank
     /// must have a row.
