@@ -13,7 +13,9 @@ use crate::petsc::{
     Scatter, Snes, Vector,
 };
 use crate::scene::{load_case, validate, Case, OutputField, SceneError};
-use crate::solver::{run_load_steps, AfterStep, SolverError, StepControl, StepRecord};
+use crate::solver::{
+    run_load_steps_from, AfterStep, LoadPosition, SolverError, StepControl, StepRecord,
+};
 use mpi::collective::SystemOperation;
 use mpi::datatype::PartitionMut;
 use mpi::topology::SimpleCommunicator;
@@ -63,6 +65,10 @@ pub struct RunOptions {
     pub matsetvalues: bool,
     /// Write into an output directory that exists and holds something other than an earlier run.
     pub overwrite: bool,
+    /// Write a checkpoint after every this many converged steps (and when a signal stops the run).
+    pub checkpoint_every: Option<usize>,
+    /// Continue from the last checkpoint in this run directory (the default output directory).
+    pub restart: Option<PathBuf>,
 }
 
 /// Everything that can stop a run.
@@ -108,6 +114,9 @@ pub enum Error {
     /// A combination of options or a set-up the run cannot do.
     #[error("{0}")]
     Usage(String),
+    /// A checkpoint cannot be written, read or continued.
+    #[error("{0}")]
+    Restart(String),
     /// Another rank failed and reported its error.
     #[error("stopped because another rank failed")]
     OtherRank,
@@ -369,6 +378,147 @@ fn gather_errors(world: &SimpleCommunicator, result: &Result<(), Error>) -> Vec<
         .collect()
 }
 
+/// The rows of every rank concatenated on rank 0 (empty elsewhere). Collective.
+fn gather_rows(comm: &SimpleCommunicator, rows: &[f64]) -> Vec<f64> {
+    let root = comm.process_at_rank(0);
+    let len = rows.len() as i32;
+    if comm.rank() != 0 {
+        root.gather_into(&len);
+        root.gather_varcount_into(rows);
+        return Vec::new();
+    }
+    let mut lens = vec![0i32; comm.size() as usize];
+    root.gather_into_root(&len, &mut lens[..]);
+    let displs: Vec<i32> = lens
+        .iter()
+        .scan(0, |acc, &l| {
+            let d = *acc;
+            *acc += l;
+            Some(d)
+        })
+        .collect();
+    let mut buf = vec![0.0; lens.iter().sum::<i32>() as usize];
+    {
+        let mut part = PartitionMut::new(&mut buf[..], &lens[..], &displs[..]);
+        root.gather_varcount_into_root(rows, &mut part);
+    }
+    buf
+}
+
+/// With `--restart DIR`: the last checkpoint in DIR and its state, after checking that the case
+/// may continue it. Every rank reads it. Collective.
+fn read_checkpoint(
+    petsc: &Petsc,
+    opts: &RunOptions,
+    case: &Case,
+) -> Result<Option<(PathBuf, crate::checkpoint::State)>, Error> {
+    let Some(dir) = &opts.restart else {
+        return Ok(None);
+    };
+    let read = || -> Result<(PathBuf, crate::checkpoint::State), Error> {
+        let ckpt = crate::checkpoint::latest(dir).map_err(Error::Restart)?;
+        let state = crate::checkpoint::read_state(&ckpt)?;
+        let started = crate::checkpoint::stages_started(&state.position);
+        crate::checkpoint::compare_cases(&state.case_toml, &case.to_toml_string()?, started)
+            .map_err(|m| {
+                Error::Restart(format!(
+                    "{}: cannot continue the checkpoint {}: {m}",
+                    case.file.display(),
+                    ckpt.display()
+                ))
+            })?;
+        Ok((ckpt, state))
+    };
+    let r = agree(petsc.comm(), read())?;
+    log(comm_rank(petsc), opts.verbosity, Verbosity::Normal, || {
+        format!(
+            "restart from {} (step {}, load {:.6}, written on {} rank{})",
+            r.0.display(),
+            r.1.position.step,
+            r.1.position.lambda,
+            r.1.ranks,
+            if r.1.ranks == 1 { "" } else { "s" }
+        )
+    });
+    Ok(Some(r))
+}
+
+/// Puts a checkpoint's state into the solver: displacement (owned unknowns, from the node values),
+/// element history (from the cell values), contact state (from the point rows). Collective.
+fn restore(
+    petsc: &Petsc,
+    model: &Model,
+    solver: &mut Solver,
+    state: &crate::checkpoint::State,
+) -> Result<(), Error> {
+    let dim = model.dim;
+    let mismatch = |what: &str, got: usize, expected: usize| {
+        Err(Error::Restart(format!(
+            "the checkpoint's {what} has {got} values, the model needs {expected}"
+        )))
+    };
+    if state.displacement.len() != model.n_nodes() * dim {
+        return mismatch(
+            "displacement",
+            state.displacement.len(),
+            model.n_nodes() * dim,
+        );
+    }
+    let w = state.element_history_width;
+    if state.element_history.len() != model.n_cells() * w {
+        return mismatch(
+            "element history",
+            state.element_history.len(),
+            model.n_cells() * w,
+        );
+    }
+    let dofs = &solver.asm.dofs;
+    let (lo, hi) = dofs.owned_range();
+    {
+        let mut xw = solver.x.write()?;
+        for n in 0..model.n_nodes() {
+            for c in 0..dim {
+                if let Some(g) = dofs.global(n as u32, c).filter(|g| (lo..hi).contains(&g.0)) {
+                    xw[(g.0 - lo) as usize] = state.displacement[n * dim + c];
+                }
+            }
+        }
+    }
+    let cell_offset: Vec<usize> = model.bodies.iter().map(|b| b.cell_offset).collect();
+    let mut local = Ok(());
+    for set in &mut solver.asm.sets {
+        let hw = set.history_width();
+        if hw == 0 {
+            continue;
+        }
+        if hw > w {
+            local = mismatch("element history per cell", w, hw);
+            break;
+        }
+        for e in 0..set.len() {
+            let (body, cell) = set.cell_id(e);
+            let g = cell_offset[body] + cell;
+            set.set_history(e, &state.element_history[g * w..g * w + hw]);
+        }
+    }
+    if !state.contact_pattern.is_empty() {
+        let all: Vec<crate::contact::Coupling> = state
+            .contact_pattern
+            .chunks_exact(3)
+            .map(|r| (r[0] as u32, r[1] as u32, r[2] as u32))
+            .collect();
+        solver.asm.preset_contact_pattern(&all);
+    }
+    if local.is_ok() {
+        if let Some(c) = solver.asm.contact_mut() {
+            local = c
+                .import_points(&state.contact_points)
+                .map_err(|m| Error::Restart(format!("the checkpoint's contact state: {m}")));
+        }
+    }
+    agree(petsc.comm(), local)
+}
+
 /// Makes a rank-local failure collective, so no rank waits forever in a collective call.
 fn agree<T>(comm: &SimpleCommunicator, r: Result<T, Error>) -> Result<T, Error> {
     let flag = i32::from(r.is_err());
@@ -394,8 +544,12 @@ fn log(rank: i32, v: Verbosity, at: Verbosity, msg: impl FnOnce() -> String) {
 pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
     let t_start = Instant::now();
     let (case, model, out_dir) = build_model(petsc, opts)?;
+    let restart = read_checkpoint(petsc, opts, &case)?;
     let numbered = number_and_partition(petsc, &case, &model)?;
     let mut solver = set_up_solver(petsc, opts, &case, &model, numbered)?;
+    if let Some((_, state)) = &restart {
+        restore(petsc, &model, &mut solver, state)?;
+    }
     let output = Output::new(
         petsc,
         &model,
@@ -403,10 +557,20 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
         &solver.asm.dofs,
         &out_dir,
         rank0(petsc),
+        restart.as_ref().map(|(dir, s)| (dir.as_path(), &s.log)),
     )?;
-    let mut observer = StepObserver::new(petsc, opts.verbosity, &case, output, t_start);
+    let mut observer = StepObserver::new(
+        petsc,
+        opts.verbosity,
+        &case,
+        output,
+        t_start,
+        opts.checkpoint_every,
+        restart.as_ref().map(|(_, s)| &s.log),
+    );
     let t_solve = Instant::now();
-    let result = solver.load_loop(&model, &mut observer);
+    let start = restart.as_ref().map(|(_, s)| s.position);
+    let result = solver.load_loop(&model, &mut observer, start);
     let solve_wall = t_solve.elapsed().as_secs_f64();
     let observer_signal = observer.interrupted;
     finish_and_report(petsc, &case, &model, &solver, observer, &result, solve_wall)?;
@@ -474,7 +638,12 @@ fn build_model(petsc: &Petsc, opts: &RunOptions) -> Result<(Case, Model, PathBuf
     let out_dir = opts
         .out
         .clone()
+        .or_else(|| opts.restart.clone())
         .unwrap_or_else(|| PathBuf::from("out").join(&case.case.name));
+    // a restart without a checkpoint is refused before the directory is claimed
+    if let Some(dir) = &opts.restart {
+        agree(comm, crate::checkpoint::latest(dir).map_err(Error::Restart))?;
+    }
     agree(
         comm,
         if rank == 0 {
@@ -820,8 +989,9 @@ impl<'p> Solver<'p> {
         &mut self,
         model: &Model,
         observer: &mut StepObserver<'_, 'p>,
+        start: Option<LoadPosition>,
     ) -> Result<Vec<StepRecord>, SolverError> {
-        let result = run_load_steps(
+        let result = run_load_steps_from(
             &mut self.asm,
             &mut self.snes,
             &mut self.x,
@@ -829,6 +999,7 @@ impl<'p> Solver<'p> {
             &model.bcs,
             &model.coords,
             &self.control,
+            start,
             &mut |rec, x, asm| observer.observe(model, rec, x, asm),
         );
         if let Some(b) = &observer.bar {
@@ -855,6 +1026,10 @@ struct StepObserver<'c, 'p> {
     t_output: f64,
     /// The signal that stopped the run, agreed by all ranks.
     interrupted: Option<i32>,
+    /// Checkpoint after every this many steps.
+    checkpoint_every: Option<usize>,
+    /// Wall time of the run before a restart (s).
+    wall_offset: f64,
 }
 
 impl<'c, 'p> StepObserver<'c, 'p> {
@@ -864,6 +1039,8 @@ impl<'c, 'p> StepObserver<'c, 'p> {
         case: &'c Case,
         output: Output<'p>,
         t_start: Instant,
+        checkpoint_every: Option<usize>,
+        resumed: Option<&crate::checkpoint::RunLog>,
     ) -> Self {
         let rank = comm_rank(petsc);
         let total_steps: usize = case.stages.iter().map(|s| s.steps).sum();
@@ -887,10 +1064,12 @@ impl<'c, 'p> StepObserver<'c, 'p> {
             t_start,
             n_stages: case.stages.len() as f64,
             total_steps,
-            newton: io::NewtonStats::default(),
-            step_log: Vec::new(),
+            newton: resumed.map(|l| l.newton).unwrap_or_default(),
+            step_log: resumed.map(|l| l.steps.clone()).unwrap_or_default(),
             t_output: 0.0,
             interrupted: None,
+            checkpoint_every,
+            wall_offset: resumed.map_or(0.0, |l| l.wall_time),
         }
     }
 
@@ -941,18 +1120,137 @@ impl<'c, 'p> StepObserver<'c, 'p> {
                 rec,
                 &reactions,
                 &extra_columns,
-                self.t_start.elapsed().as_secs_f64(),
+                self.wall_offset + self.t_start.elapsed().as_secs_f64(),
                 write,
                 x,
                 asm,
             )
             .map_err(|e| e.to_string())?;
+        if let Some(every) = self.checkpoint_every {
+            if rec.step.is_multiple_of(every) || self.interrupted.is_some() {
+                self.checkpoint(model, rec, x, asm)
+                    .map_err(|e| format!("checkpoint: {e}"))?;
+            }
+        }
         self.t_output += t0.elapsed().as_secs_f64();
         self.progress(rec);
         Ok(match self.interrupted {
             Some(_) => AfterStep::Stop,
             None => AfterStep::Continue,
         })
+    }
+
+    /// Writes a checkpoint of the converged step `rec`: the state gathered to rank 0 in global
+    /// numbering, written there with copies of the output so far. Collective.
+    fn checkpoint(
+        &mut self,
+        model: &Model,
+        rec: &StepRecord,
+        x: &Vector,
+        asm: &mut Assembler,
+    ) -> Result<(), Error> {
+        let t0 = Instant::now();
+        let root = self.rank == 0;
+        let out = &mut self.output;
+        out.gather.gather(x, &mut out.u_root)?;
+        let displacement = if root {
+            out.u_root.read()?.to_vec()
+        } else {
+            Vec::new()
+        };
+        let comm = asm.comm();
+        // element history per cell, each rank filling its own cells, summed on rank 0
+        let local_width = asm
+            .sets
+            .iter()
+            .map(|s| s.history_width())
+            .max()
+            .unwrap_or(0);
+        let mut width = 0usize;
+        comm.all_reduce_into(&local_width, &mut width, SystemOperation::max());
+        let n_cells = model.n_cells();
+        let mut history = vec![0.0; n_cells * width];
+        for set in &asm.sets {
+            let hw = set.history_width();
+            for e in 0..set.len() {
+                let (body, cell) = set.cell_id(e);
+                let g = out.cell_offset[body] + cell;
+                history[g * width..g * width + hw].copy_from_slice(set.history(e));
+            }
+        }
+        let mut element_history = vec![0.0; if root { history.len() } else { 0 }];
+        if width > 0 {
+            let r = comm.process_at_rank(0);
+            if root {
+                r.reduce_into_root(
+                    &history[..],
+                    &mut element_history[..],
+                    SystemOperation::sum(),
+                );
+            } else {
+                r.reduce_into(&history[..], SystemOperation::sum());
+            }
+        }
+        let contact_points = match asm.contact() {
+            Some(c) => gather_rows(comm, &c.export_points()),
+            None => Vec::new(),
+        };
+        // the contact sparsity pattern, if every rank has a current one
+        let pattern = asm.contact_pattern();
+        let (have, mut all) = (i32::from(pattern.is_some()), 0i32);
+        comm.all_reduce_into(&have, &mut all, SystemOperation::min());
+        let contact_pattern = if asm.contact().is_some() && all == 1 {
+            let rows: Vec<f64> = pattern
+                .unwrap_or_default()
+                .iter()
+                .flat_map(|&(p, e, l)| [p as f64, e as f64, l as f64])
+                .collect();
+            gather_rows(comm, &rows)
+        } else {
+            Vec::new()
+        };
+        let local = if root {
+            let state = crate::checkpoint::State {
+                case_toml: out.case_toml.clone(),
+                position: rec.position,
+                displacement,
+                element_history,
+                element_history_width: width,
+                contact_points,
+                contact_pattern,
+                ranks: comm.size() as usize,
+                log: crate::checkpoint::RunLog {
+                    newton: self.newton,
+                    steps: self.step_log.clone(),
+                    wall_time: self.wall_offset + self.t_start.elapsed().as_secs_f64(),
+                    results_layout: out.results.as_ref().map(|r| r.layout()).unwrap_or_default(),
+                },
+            };
+            let results = match &out.results {
+                Some(r) => {
+                    r.flush()?;
+                    Some(r.partial_file().to_path_buf())
+                }
+                None => None,
+            };
+            let history_file = out.out_dir.join("history.csv");
+            crate::checkpoint::write(&out.out_dir, &state, results.as_deref(), &history_file)
+                .map_err(Error::from)
+        } else {
+            Ok((PathBuf::new(), 0))
+        };
+        let (dir, bytes) = agree(comm, local)?;
+        let secs = t0.elapsed().as_secs_f64();
+        self.t_output += secs;
+        log(self.rank, self.v, Verbosity::Verbose, || {
+            format!(
+                "checkpoint after step {}: {} ({:.3} MB) in {secs:.3} s",
+                rec.step,
+                dir.display(),
+                bytes as f64 / 1e6
+            )
+        });
+        Ok(())
     }
 
     /// The progress bar, or without one (not a terminal, or -v) one plain line per step; with -v
@@ -1238,6 +1536,7 @@ impl<'p> Output<'p> {
         dofs: &DofMap,
         out_dir: &Path,
         root: bool,
+        resume: Option<(&Path, &crate::checkpoint::RunLog)>,
     ) -> Result<Self, Error> {
         let (dim, n_nodes) = (model.dim, model.n_nodes());
         // Rank 0 asks for every unknown in node order; nodes outside every cell read entry 0 and are
@@ -1277,7 +1576,7 @@ impl<'p> Output<'p> {
                 .collect(),
         };
         let created = if root {
-            out.create_files(model, case, out_dir)
+            out.create_files(model, case, out_dir, resume)
         } else {
             Ok(())
         };
@@ -1288,7 +1587,13 @@ impl<'p> Output<'p> {
 
     /// Rank 0: the output directory and writers; results of an earlier run there are removed first,
     /// so a rerun that dies cannot leave an old summary beside its new history.
-    fn create_files(&mut self, model: &Model, case: &Case, out_dir: &Path) -> Result<(), Error> {
+    fn create_files(
+        &mut self,
+        model: &Model,
+        case: &Case,
+        out_dir: &Path,
+        resume: Option<(&Path, &crate::checkpoint::RunLog)>,
+    ) -> Result<(), Error> {
         let dim = self.dim;
         let out = self;
         {
@@ -1329,19 +1634,28 @@ impl<'p> Output<'p> {
                 kind: g.kind,
                 connectivity: &g.connectivity,
             }));
-            out.results = Some(ResultsWriter::create(out_dir, &grids)?);
+            out.results = Some(match resume {
+                Some((ckpt, log)) => ResultsWriter::resume(
+                    out_dir,
+                    &ckpt.join("results.h5"),
+                    &grids,
+                    &log.results_layout,
+                )?,
+                None => ResultsWriter::create(out_dir, &grids)?,
+            });
             let labels: Vec<(&str, &str)> = case
                 .output
                 .reactions
                 .iter()
                 .map(|r| (r.body.as_str(), r.set.as_str()))
                 .collect();
-            out.history = Some(HistoryWriter::create(
-                out_dir,
-                dim,
-                &labels,
-                &history_extra_labels(model),
-            )?);
+            let extra = history_extra_labels(model);
+            out.history = Some(match resume {
+                Some((ckpt, _)) => {
+                    HistoryWriter::resume(out_dir, &ckpt.join("history.csv"), dim, &labels, &extra)?
+                }
+                None => HistoryWriter::create(out_dir, dim, &labels, &extra)?,
+            });
         }
         Ok(())
     }

@@ -28,6 +28,7 @@
 //!   tables and plots.
 
 pub mod assembly;
+pub mod checkpoint;
 pub mod contact;
 pub mod driver;
 pub mod fem;

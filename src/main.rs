@@ -46,6 +46,14 @@ enum Command {
         /// earlier nurbs-contact run (files of the same names are replaced, others are kept).
         #[arg(long)]
         overwrite: bool,
+        /// Write a checkpoint (DIR/checkpoints/step-N/) after every N converged load steps, and
+        /// when a signal stops the run; only the newest is kept.
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+        checkpoint_every: Option<u64>,
+        /// Continue the run in DIR from its last checkpoint (results go on in DIR unless --out):
+        /// refused if the case differs in anything but `output` and stages not yet started.
+        #[arg(long, value_name = "DIR")]
+        restart: Option<PathBuf>,
     },
     /// Validate a case (schema, references, meshes, sets, boundary conditions) without solving.
     Check {
@@ -120,6 +128,8 @@ fn main() -> ExitCode {
             quiet,
             matsetvalues,
             overwrite,
+            checkpoint_every,
+            restart,
         } => driver::run_main(RunOptions {
             case,
             out,
@@ -132,6 +142,8 @@ fn main() -> ExitCode {
             },
             matsetvalues,
             overwrite,
+            checkpoint_every: checkpoint_every.map(|n| n as usize),
+            restart,
         }),
         Command::Check { case, sets } => driver::check_main(&case, &sets, petsc_args),
         Command::Study {

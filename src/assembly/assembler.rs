@@ -63,6 +63,8 @@ struct ContactHook<'p> {
     stale: bool,
     /// Coupling blocks found outside the pattern (each stopped a solve for a rebuild).
     pub missing_blocks: usize,
+    /// Couplings the next pattern is built from instead of the current band (a restart).
+    preset: Option<Vec<Coupling>>,
 }
 
 /// Per element set: the element unknowns' local and global indices, flattened.
@@ -365,6 +367,7 @@ impl<'p> Assembler<'p> {
             ring,
             stale: false,
             missing_blocks: 0,
+            preset: None,
         });
         self.pattern_ready = false;
         Ok(())
@@ -426,6 +429,35 @@ impl<'p> Assembler<'p> {
     /// Contact pattern statistics of this rank: (ring, coupling blocks left out of Jacobians).
     pub fn contact_pattern_stats(&self) -> Option<(usize, usize)> {
         self.contact.as_ref().map(|c| (c.ring, c.missing_blocks))
+    }
+
+    /// The contact coupling blocks of the current sparsity pattern, if it is built and still
+    /// holds every coupling the last Jacobian needed (checkpoints: a restart rebuilds the same
+    /// pattern, so the matrix and its factorisation, and hence the round-off, are the same).
+    pub fn contact_pattern(&self) -> Option<&[Coupling]> {
+        let c = self.contact.as_ref()?;
+        (self.pattern_ready && !c.stale).then_some(&c.couplings[..])
+    }
+
+    /// The couplings the next contact pattern is built from (a restart: those of
+    /// [`contact_pattern`](Self::contact_pattern) on every rank; this rank keeps its own).
+    pub fn preset_contact_pattern(&mut self, all: &[Coupling]) {
+        if let Some(c) = &mut self.contact {
+            let mut own: Vec<Coupling> = all
+                .iter()
+                .copied()
+                .filter(|&(p, e, _)| c.sys.integrates(p, e))
+                .collect();
+            own.sort_unstable();
+            own.dedup();
+            c.preset = Some(own);
+            self.pattern_ready = false;
+        }
+    }
+
+    /// The contact system, to export or import its state (checkpoints).
+    pub fn contact_mut(&mut self) -> Option<&mut ContactSystem> {
+        self.contact.as_mut().map(|c| &mut c.sys)
     }
 
     /// Sets the load parameter (rigid contact partners move with it).
@@ -503,7 +535,10 @@ impl<'p> Assembler<'p> {
                 }
                 // Contact coupling blocks: rows of a surface element, columns of it and its partner.
                 if let Some(c) = &mut self.contact {
-                    c.couplings = c.sys.band_couplings(c.ring);
+                    c.couplings = match c.preset.take() {
+                        Some(p) => p,
+                        None => c.sys.band_couplings(c.ring),
+                    };
                     c.first_slot = self.coo_offsets.len() - 1;
                     for cp in &c.couplings {
                         let (rws, cls) = c.sys.block_dofs(cp);

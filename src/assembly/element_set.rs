@@ -42,6 +42,16 @@ pub trait ElementSet: Send {
     fn commit(&mut self) {}
     /// Called when a load step is cut back: return to the state of the last `commit`.
     fn rollback(&mut self) {}
+    /// Values of load-step history per element (e.g. 4 enhanced-strain parameters); 0: none.
+    fn history_width(&self) -> usize {
+        0
+    }
+    /// The committed history of element `e` [`history_width`](Self::history_width) (checkpoints).
+    fn history(&self, _e: usize) -> &[f64] {
+        &[]
+    }
+    /// Sets the history of element `e`, committed and current (a restart).
+    fn set_history(&mut self, _e: usize, _values: &[f64]) {}
     /// Body-local cell id of element `e` (for output and messages).
     fn cell_id(&self, e: usize) -> (usize /*body*/, usize /*cell*/);
 }

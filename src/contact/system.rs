@@ -23,6 +23,9 @@ use crate::contact::surface::{raw_normal, ContactSurface, MAX_FACE_NODES};
 use crate::fem::quadrature::tensor_rule;
 use std::collections::HashMap;
 
+mod checkpoint;
+pub use checkpoint::ROW as CHECKPOINT_ROW;
+
 /// A contact law with its parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Law {

@@ -184,7 +184,51 @@ impl ElementSet for Q1e4Set {
         self.alpha.copy_from_slice(&self.alpha_committed);
     }
 
+    fn history_width(&self) -> usize {
+        4
+    }
+
+    fn history(&self, e: usize) -> &[f64] {
+        &self.alpha_committed[e]
+    }
+
+    fn set_history(&mut self, e: usize, values: &[f64]) {
+        self.alpha_committed[e] = as_array(values);
+        self.alpha[e] = self.alpha_committed[e];
+    }
+
     fn cell_id(&self, e: usize) -> (usize, usize) {
         self.base.cell_id(e)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::material::NeoHookean;
+
+    /// What a checkpoint reads is the committed history, and what a restart sets is both the
+    /// committed and the current one (a cutback right after a restart returns to it).
+    #[test]
+    fn q1e4_history_is_the_committed_alpha_and_a_restart_sets_both() {
+        let mat: Material = NeoHookean::from_young_poisson(1.0, 0.3).unwrap().into();
+        let mut set = Q1e4Set::new(0, "b", mat);
+        let x = [0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0, 1.0];
+        set.push(0, &[0, 1, 2, 3], Q1e4Element::new(&x).unwrap());
+        assert_eq!(set.history_width(), 4);
+        let u = [0.0, 0.0, 0.1, 0.0, 0.12, -0.05, 0.0, -0.05];
+        let (mut r, mut k) = ([0.0; 8], [0.0; 64]);
+        set.evaluate(0, &u, &mut r, Some(&mut k)).unwrap();
+        // not committed yet: the history is still the start
+        assert_eq!(set.history(0), &[0.0; 4]);
+        set.commit();
+        let alpha = set.history(0).to_vec();
+        assert!(alpha.iter().any(|a| a.abs() > 1e-6), "{alpha:?}");
+        let mut other = Q1e4Set::new(0, "b", mat);
+        other.push(0, &[0, 1, 2, 3], Q1e4Element::new(&x).unwrap());
+        other.set_history(0, &alpha);
+        other.rollback();
+        assert_eq!(other.history(0), &alpha[..]);
+        assert_eq!(other.alpha[0].to_vec(), alpha);
     }
 }

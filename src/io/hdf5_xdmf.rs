@@ -12,6 +12,8 @@
 //! geometry and topology point at the shared datasets. A second grid is just a second [`GridDef`].
 
 use crate::io::atomic::{commit, partial_path};
+
+mod resume;
 use crate::io::IoError;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

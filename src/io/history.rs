@@ -63,28 +63,7 @@ impl HistoryWriter {
             op: "create",
             source,
         })?;
-        let mut header: Vec<String> = [
-            "step",
-            "stage",
-            "load_factor",
-            "newton_iterations",
-            "residual",
-            "cutbacks",
-        ]
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
-        for (body, set) in reactions {
-            for axis in &["x", "y", "z"][..dim] {
-                header.push(format!(
-                    "R_{}_{}_{axis}",
-                    column_safe(body),
-                    column_safe(set)
-                ));
-            }
-        }
-        header.extend(extra.iter().map(|c| column_safe(c)));
-        header.push("wall_time".to_string());
+        let header = header(dim, reactions, extra);
         let mut w = HistoryWriter {
             path,
             out: BufWriter::new(file),
@@ -129,6 +108,46 @@ impl HistoryWriter {
         &self.path
     }
 
+    /// Continues `dir/history.csv` from `copy` (a history a checkpoint kept, whose rows are the
+    /// steps up to the checkpoint): the copy replaces the file and the following rows are appended.
+    /// Its header must be the one [`create`](Self::create) writes for these columns.
+    pub fn resume(
+        dir: &Path,
+        copy: &Path,
+        dim: usize,
+        reactions: &[(&str, &str)],
+        extra: &[String],
+    ) -> Result<Self, IoError> {
+        let header = header(dim, reactions, extra).join(",");
+        let text = std::fs::read_to_string(copy).map_err(|source| IoError::File {
+            path: copy.to_path_buf(),
+            op: "read",
+            source,
+        })?;
+        if text.lines().next() != Some(header.as_str()) {
+            return Err(IoError::Invalid {
+                what: copy.display().to_string(),
+                message: "its columns are not the ones this run writes".to_string(),
+            });
+        }
+        let path = dir.join("history.csv");
+        crate::io::write_atomic(&path, text.as_bytes())?;
+        let file = std::fs::OpenOptions::new()
+            .append(true)
+            .open(&path)
+            .map_err(|source| IoError::File {
+                path: path.clone(),
+                op: "open to append",
+                source,
+            })?;
+        Ok(HistoryWriter {
+            path,
+            out: BufWriter::new(file),
+            n_reaction_values: reactions.len() * dim,
+            n_extra: extra.len(),
+        })
+    }
+
     fn line(&mut self, text: &str) -> Result<(), IoError> {
         writeln!(self.out, "{text}")
             .and_then(|_| self.out.flush())
@@ -138,6 +157,33 @@ impl HistoryWriter {
                 source,
             })
     }
+}
+
+/// The columns of `history.csv`.
+fn header(dim: usize, reactions: &[(&str, &str)], extra: &[String]) -> Vec<String> {
+    let mut header: Vec<String> = [
+        "step",
+        "stage",
+        "load_factor",
+        "newton_iterations",
+        "residual",
+        "cutbacks",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    for (body, set) in reactions {
+        for axis in &["x", "y", "z"][..dim] {
+            header.push(format!(
+                "R_{}_{}_{axis}",
+                column_safe(body),
+                column_safe(set)
+            ));
+        }
+    }
+    header.extend(extra.iter().map(|c| column_safe(c)));
+    header.push("wall_time".to_string());
+    header
 }
 
 /// Body and set names go into column names: keep CSV and plotting tools happy.

@@ -54,6 +54,21 @@ pub struct StepRecord {
     pub wall_time: f64,
     /// Damped pseudo-steps that carried this step to its equilibrium (0: a plain Newton solve).
     pub pseudo_steps: usize,
+    /// Where the load stepping stands after this step (what a checkpoint keeps).
+    pub position: LoadPosition,
+}
+
+/// Where the load stepping stands after a converged step: enough to continue it exactly (restart).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoadPosition {
+    /// Converged steps so far.
+    pub step: usize,
+    /// Stage of the next step (the number of stages when all are done).
+    pub stage: usize,
+    /// Load parameter reached.
+    pub lambda: f64,
+    /// Increment of the next attempt before clipping to the stage end.
+    pub dl: f64,
 }
 
 /// What the load stepping does after the observer has seen a converged step.
@@ -130,11 +145,38 @@ pub fn run_load_steps<'p>(
         &mut Assembler<'p>,
     ) -> Result<AfterStep, String>,
 ) -> Result<Vec<StepRecord>, SolverError> {
+    run_load_steps_from(asm, snes, x, jac, bcs, coords, control, None, observer)
+}
+
+/// [`run_load_steps`] continued from `start` (a restart: `x` and the element and contact history
+/// already hold that step's converged state), or from load 0 without it.
+///
+/// Collective.
+#[allow(clippy::too_many_arguments)]
+pub fn run_load_steps_from<'p>(
+    asm: &mut Assembler<'p>,
+    snes: &mut Snes<'p>,
+    x: &mut Vector<'p>,
+    jac: &mut Matrix<'p>,
+    bcs: &[DirichletBc],
+    coords: &[f64],
+    control: &StepControl,
+    start: Option<LoadPosition>,
+    observer: &mut dyn FnMut(
+        &StepRecord,
+        &Vector<'p>,
+        &mut Assembler<'p>,
+    ) -> Result<AfterStep, String>,
+) -> Result<Vec<StepRecord>, SolverError> {
     let mut x_conv = x.duplicate()?;
     x.copy_to(&mut x_conv)?;
     let mut records = Vec::new();
     let mut sizer = StepSizer::new(control);
     let mut step = 0usize;
+    if let Some(p) = start {
+        sizer.resume(&p);
+        step = p.step;
+    }
     while let Some(stage) = sizer.stage() {
         let t_step = Instant::now();
         let mut cutbacks = 0;
@@ -221,6 +263,7 @@ pub fn run_load_steps<'p>(
             failed_attempts,
             wall_time: t_step.elapsed().as_secs_f64(),
             pseudo_steps: pseudo,
+            position: sizer.position(step),
         };
         let after = observer(&rec, x, asm).map_err(SolverError::Observer)?;
         let load = rec.load;
@@ -386,6 +429,23 @@ impl StepSizer {
 
     fn stage_end(&self) -> f64 {
         (self.stage + 1) as f64
+    }
+
+    /// The position after `step` converged steps.
+    pub fn position(&self, step: usize) -> LoadPosition {
+        LoadPosition {
+            step,
+            stage: self.stage,
+            lambda: self.lambda,
+            dl: self.dl,
+        }
+    }
+
+    /// Continues from a position of [`position`](Self::position) (a restart).
+    pub fn resume(&mut self, p: &LoadPosition) {
+        self.stage = p.stage;
+        self.lambda = p.lambda;
+        self.dl = p.dl;
     }
 
     /// The stage of the next step, or `None` when all stages are done.

@@ -4,5 +4,6 @@
 pub mod load_stepping;
 
 pub use load_stepping::{
-    run_load_steps, AfterStep, SolverError, StepControl, StepRecord, StepSizer,
+    run_load_steps, run_load_steps_from, AfterStep, LoadPosition, SolverError, StepControl,
+    StepRecord, StepSizer,
 };

@@ -1,0 +1,486 @@
+//! Checkpoints of a run and what a restart needs from them (`run --checkpoint-every N`,
+//! `run CASE --restart DIR`).
+//!
+//! A checkpoint is a folder `DIR/checkpoints/step-NNNNNN/` written by rank 0 as
+//! `step-NNNNNN.partial/` and renamed when complete (the previous checkpoint is removed only then,
+//! so a valid one exists at every moment):
+//! - `state.h5`: the resolved case (TOML text) and its hash, the load-step position and step-size
+//!   state, the displacement per node (global node numbering, so the rank count may change), the
+//!   element history per cell (Q1E4 enhanced parameters; global cell numbering), the committed
+//!   contact state per quadrature point (keyed by pair, half-pass, surface element and point), and
+//!   the run's log so far (Newton statistics, steps of summary.json);
+//! - `results.h5`, `history.csv`: copies of the output as it stood after that step, which a restart
+//!   continues (so a restarted run's files equal an uninterrupted run's).
+
+use crate::io::{IoError, NewtonStats, StepLog};
+use crate::solver::LoadPosition;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// Version of the checkpoint layout; a restart refuses any other.
+const FORMAT: u32 = 1;
+
+/// Folder of a run's checkpoints inside its output directory.
+pub const CHECKPOINTS: &str = "checkpoints";
+
+/// The run's record so far, kept as JSON in `state.h5`.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct RunLog {
+    /// Newton statistics of the converged steps.
+    pub newton: NewtonStats,
+    /// The steps of summary.json.
+    pub steps: Vec<StepLog>,
+    /// Wall time of the run when the checkpoint was written (history.csv's clock continues).
+    pub wall_time: f64,
+    /// The results writer's description of results.h5 ([`crate::io::ResultsWriter::layout`]).
+    pub results_layout: String,
+}
+
+/// Meta data of `state.h5`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct Meta {
+    format: u32,
+    case_hash: String,
+    ranks: usize,
+    element_history_width: usize,
+    log: RunLog,
+}
+
+/// Everything a checkpoint holds, independent of the rank count.
+#[derive(Debug, Clone)]
+pub struct State {
+    /// The resolved case as TOML.
+    pub case_toml: String,
+    /// Where the load stepping stands.
+    pub position: LoadPosition,
+    /// Displacement per node and component [n_nodes][dim] (0 at nodes without unknowns).
+    pub displacement: Vec<f64>,
+    /// Element history per cell of the model [n_cells][width] (empty: width 0).
+    pub element_history: Vec<f64>,
+    /// Values per cell in `element_history`.
+    pub element_history_width: usize,
+    /// Contact state, [`crate::contact::system::CHECKPOINT_ROW`] values per point.
+    pub contact_points: Vec<f64>,
+    /// Coupling blocks of the contact sparsity pattern, (pass, element, partner) per block, all
+    /// ranks' (empty: none to keep, the restart builds its own).
+    pub contact_pattern: Vec<f64>,
+    /// Ranks that wrote the checkpoint (for information).
+    pub ranks: usize,
+    /// The log so far.
+    pub log: RunLog,
+}
+
+/// FNV-1a 64 of the resolved case's text: stable across builds and platforms.
+pub fn case_hash(text: &str) -> String {
+    let mut h: u64 = 0xcbf29ce484222325;
+    for b in text.bytes() {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x100000001b3);
+    }
+    format!("{h:016x}")
+}
+
+fn h5err(path: &Path, what: &str) -> impl FnOnce(hdf5::Error) -> IoError {
+    let path = path.to_path_buf();
+    let what = what.to_string();
+    move |source| IoError::Hdf5 { path, what, source }
+}
+
+fn file_err(path: &Path, op: &'static str) -> impl FnOnce(std::io::Error) -> IoError {
+    let path = path.to_path_buf();
+    move |source| IoError::File { path, op, source }
+}
+
+/// Writes `state.h5` at `path`.
+fn write_state(path: &Path, s: &State) -> Result<(), IoError> {
+    let f = hdf5::File::create(path).map_err(h5err(path, "the file"))?;
+    let meta = Meta {
+        format: FORMAT,
+        case_hash: case_hash(&s.case_toml),
+        ranks: s.ranks,
+        element_history_width: s.element_history_width,
+        log: s.log.clone(),
+    };
+    let json = serde_json::to_string(&meta).map_err(|e| IoError::Invalid {
+        what: path.display().to_string(),
+        message: e.to_string(),
+    })?;
+    let p = &s.position;
+    let position = [p.step as f64, p.stage as f64, p.lambda, p.dl];
+    let bytes: [(&str, &[u8]); 2] = [
+        ("case_toml", s.case_toml.as_bytes()),
+        ("meta", json.as_bytes()),
+    ];
+    for (name, b) in bytes {
+        f.new_dataset::<u8>()
+            .shape([b.len()])
+            .create(name)
+            .and_then(|d| d.write_raw(b))
+            .map_err(h5err(path, name))?;
+    }
+    let floats: [(&str, &[f64]); 5] = [
+        ("contact_pattern", &s.contact_pattern),
+        ("position", &position),
+        ("displacement", &s.displacement),
+        ("element_history", &s.element_history),
+        ("contact_points", &s.contact_points),
+    ];
+    for (name, v) in floats {
+        // an empty dataset is simply absent
+        if v.is_empty() {
+            continue;
+        }
+        f.new_dataset::<f64>()
+            .shape([v.len()])
+            .create(name)
+            .and_then(|d| d.write_raw(v))
+            .map_err(h5err(path, name))?;
+    }
+    f.close().map_err(h5err(path, "the file (close)"))?;
+    Ok(())
+}
+
+/// Reads a checkpoint's `state.h5`.
+pub fn read_state(checkpoint: &Path) -> Result<State, IoError> {
+    let path = checkpoint.join("state.h5");
+    let f = hdf5::File::open(&path).map_err(h5err(&path, "the file"))?;
+    let bytes = |name: &str| -> Result<Vec<u8>, IoError> {
+        f.dataset(name)
+            .and_then(|d| d.read_raw::<u8>())
+            .map_err(h5err(&path, name))
+    };
+    let floats = |name: &str| -> Result<Vec<f64>, IoError> {
+        if !f.link_exists(name) {
+            return Ok(Vec::new());
+        }
+        f.dataset(name)
+            .and_then(|d| d.read_raw::<f64>())
+            .map_err(h5err(&path, name))
+    };
+    let invalid = |message: String| IoError::Invalid {
+        what: path.display().to_string(),
+        message,
+    };
+    let case_toml = String::from_utf8(bytes("case_toml")?)
+        .map_err(|_| invalid("the case is not UTF-8".into()))?;
+    let meta: Meta =
+        serde_json::from_slice(&bytes("meta")?).map_err(|e| invalid(format!("meta data: {e}")))?;
+    if meta.format != FORMAT {
+        return Err(invalid(format!(
+            "checkpoint format {} (this build reads {FORMAT})",
+            meta.format
+        )));
+    }
+    if meta.case_hash != case_hash(&case_toml) {
+        return Err(invalid("the stored case does not match its hash".into()));
+    }
+    let p = floats("position")?;
+    if p.len() != 4 {
+        return Err(invalid(format!("position has {} values, not 4", p.len())));
+    }
+    Ok(State {
+        case_toml,
+        position: LoadPosition {
+            step: p[0] as usize,
+            stage: p[1] as usize,
+            lambda: p[2],
+            dl: p[3],
+        },
+        displacement: floats("displacement")?,
+        element_history: floats("element_history")?,
+        element_history_width: meta.element_history_width,
+        contact_points: floats("contact_points")?,
+        contact_pattern: floats("contact_pattern")?,
+        ranks: meta.ranks,
+        log: meta.log,
+    })
+}
+
+/// Rank 0: writes the checkpoint of `state` into `out_dir/checkpoints/step-NNNNNN/` with copies of
+/// `results` (flushed) and `history`, then removes the older checkpoints. Returns the folder and
+/// its size in bytes.
+pub fn write(
+    out_dir: &Path,
+    state: &State,
+    results: Option<&Path>,
+    history: &Path,
+) -> Result<(PathBuf, u64), IoError> {
+    let root = out_dir.join(CHECKPOINTS);
+    std::fs::create_dir_all(&root).map_err(file_err(&root, "create"))?;
+    let name = format!("step-{:06}", state.position.step);
+    let dir = root.join(&name);
+    let tmp = root.join(format!("{name}.partial"));
+    if tmp.exists() {
+        std::fs::remove_dir_all(&tmp).map_err(file_err(&tmp, "remove an unfinished checkpoint"))?;
+    }
+    std::fs::create_dir_all(&tmp).map_err(file_err(&tmp, "create"))?;
+    write_state(&tmp.join("state.h5"), state)?;
+    let mut copies = vec![(history, "history.csv")];
+    if let Some(r) = results {
+        copies.push((r, "results.h5"));
+    }
+    for (from, to) in copies {
+        std::fs::copy(from, tmp.join(to)).map_err(file_err(from, "copy into a checkpoint"))?;
+    }
+    let mut bytes = 0;
+    for entry in std::fs::read_dir(&tmp).map_err(file_err(&tmp, "list"))? {
+        let p = entry.map_err(file_err(&tmp, "list"))?.path();
+        let f = std::fs::File::open(&p).map_err(file_err(&p, "open"))?;
+        // on disk before the rename makes the checkpoint visible
+        f.sync_all().map_err(file_err(&p, "sync"))?;
+        bytes += f.metadata().map(|m| m.len()).unwrap_or(0);
+    }
+    if dir.exists() {
+        std::fs::remove_dir_all(&dir).map_err(file_err(&dir, "replace"))?;
+    }
+    std::fs::rename(&tmp, &dir).map_err(file_err(&dir, "rename the finished checkpoint onto"))?;
+    if let Ok(d) = std::fs::File::open(&root) {
+        let _ = d.sync_all();
+    }
+    for (step, old) in list(&root) {
+        if step != state.position.step {
+            std::fs::remove_dir_all(&old).map_err(file_err(&old, "remove an older checkpoint"))?;
+        }
+    }
+    Ok((dir, bytes))
+}
+
+/// Complete checkpoints in `root` (`step-NNNNNN`, not `.partial`), by step.
+fn list(root: &Path) -> Vec<(usize, PathBuf)> {
+    let mut out: Vec<(usize, PathBuf)> = std::fs::read_dir(root)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter_map(|e| {
+            let name = e.file_name().to_string_lossy().into_owned();
+            let step = name.strip_prefix("step-")?.parse().ok()?;
+            e.path().is_dir().then(|| (step, e.path()))
+        })
+        .collect();
+    out.sort();
+    out
+}
+
+/// The last complete checkpoint in the run directory `dir`.
+pub fn latest(dir: &Path) -> Result<PathBuf, String> {
+    if !dir.is_dir() {
+        return Err(format!("--restart {}: no such directory", dir.display()));
+    }
+    list(&dir.join(CHECKPOINTS))
+        .pop()
+        .map(|(_, p)| p)
+        .ok_or_else(|| {
+            format!(
+                "--restart {}: no checkpoint in it (a run writes them into {}/{CHECKPOINTS}/ with --checkpoint-every N)",
+                dir.display(),
+                dir.display()
+            )
+        })
+}
+
+/// Stages (from the first) the checkpoint has started: they must not change on a restart.
+pub fn stages_started(p: &LoadPosition) -> usize {
+    let in_progress = p.lambda > p.stage as f64 + 1e-12 * (p.stage as f64).max(1.0);
+    p.stage + usize::from(in_progress)
+}
+
+/// Why the case `now` cannot continue a checkpoint of `saved` (both resolved cases as TOML), or
+/// `Ok` when they differ only in output settings and in stages the checkpoint has not started
+/// (with the per-stage values of those stages in boundary conditions and contact pairs).
+pub fn compare_cases(saved: &str, now: &str, started: usize) -> Result<(), String> {
+    let parse = |t: &str| -> Result<toml::Value, String> {
+        toml::from_str(t).map_err(|e| format!("the case does not parse: {e}"))
+    };
+    let (mut a, mut b) = (parse(saved)?, parse(now)?);
+    for v in [&mut a, &mut b] {
+        trim(v, started);
+    }
+    match first_difference(&a, &b, "") {
+        None => Ok(()),
+        Some((key, was, is)) => Err(format!(
+            "`{key}` differs from the case the checkpoint was written for ({was} there, {is} now); only `output` and the stages after the first {started} (those the checkpoint has started) may change"
+        )),
+    }
+}
+
+/// Drops what a restart may change: `output`, stages from `started` on, and their per-stage values.
+fn trim(v: &mut toml::Value, started: usize) {
+    let Some(t) = v.as_table_mut() else {
+        return;
+    };
+    t.remove("output");
+    if let Some(toml::Value::Array(s)) = t.get_mut("stages") {
+        s.truncate(started);
+    }
+    let per_stage = [("bcs", "value"), ("contact", "friction_stages")];
+    for (list, key) in per_stage {
+        if let Some(toml::Value::Array(items)) = t.get_mut(list) {
+            for it in items {
+                if let Some(toml::Value::Array(vals)) = it.get_mut(key) {
+                    vals.truncate(started);
+                }
+            }
+        }
+    }
+}
+
+fn show(v: Option<&toml::Value>) -> String {
+    match v {
+        None => "absent".to_string(),
+        Some(v) => {
+            let s = v.to_string();
+            if s.len() > 60 {
+                format!("{}...", &s[..s.floor_char_boundary_compat(57)])
+            } else {
+                s
+            }
+        }
+    }
+}
+
+/// `str::floor_char_boundary` for older toolchains.
+trait FloorBoundary {
+    fn floor_char_boundary_compat(&self, i: usize) -> usize;
+}
+
+impl FloorBoundary for str {
+    fn floor_char_boundary_compat(&self, mut i: usize) -> usize {
+        while i > 0 && !self.is_char_boundary(i) {
+            i -= 1;
+        }
+        i
+    }
+}
+
+/// The first key (dotted path, array indices as numbers) whose values differ: (key, a's, b's).
+fn first_difference(
+    a: &toml::Value,
+    b: &toml::Value,
+    path: &str,
+) -> Option<(String, String, String)> {
+    let join = |k: &str| {
+        if path.is_empty() {
+            k.to_string()
+        } else {
+            format!("{path}.{k}")
+        }
+    };
+    match (a, b) {
+        (toml::Value::Table(x), toml::Value::Table(y)) => {
+            let mut keys: Vec<&String> = x.keys().chain(y.keys()).collect();
+            keys.sort();
+            keys.dedup();
+            keys.into_iter().find_map(|k| match (x.get(k), y.get(k)) {
+                (Some(u), Some(v)) => first_difference(u, v, &join(k)),
+                (u, v) => Some((join(k), show(u), show(v))),
+            })
+        }
+        (toml::Value::Array(x), toml::Value::Array(y)) => {
+            (0..x.len().max(y.len())).find_map(|i| match (x.get(i), y.get(i)) {
+                (Some(u), Some(v)) => first_difference(u, v, &join(&i.to_string())),
+                (u, v) => Some((join(&i.to_string()), show(u), show(v))),
+            })
+        }
+        _ if a == b => None,
+        _ => Some((path.to_string(), show(Some(a)), show(Some(b)))),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const CASE: &str = r#"
+[case]
+name = "c"
+[bodies.b.material]
+E = 1.0
+nu = 0.3
+[[bcs]]
+set = "top"
+value = [[0.1], [0.2]]
+[[stages]]
+steps = 4
+[[stages]]
+steps = 2
+[output]
+every = 1
+"#;
+
+    #[test]
+    fn output_and_later_stages_may_change_nothing_else() {
+        let later = CASE
+            .replace("every = 1", "every = 5")
+            .replace("steps = 2", "steps = 8")
+            .replace("[0.2]]", "[0.3]]");
+        assert_eq!(compare_cases(CASE, &later, 1), Ok(()));
+        let err = compare_cases(CASE, &later, 2).unwrap_err();
+        assert!(err.starts_with("`bcs.0.value.1.0` differs"), "{err}");
+        let e = CASE.replace("E = 1.0", "E = 2.0");
+        let err = compare_cases(CASE, &e, 1).unwrap_err();
+        assert!(err.contains("`bodies.b.material.E`"), "{err}");
+        assert!(err.contains("1.0 there, 2.0 now"), "{err}");
+        let more = format!("{CASE}\n[[stages]]\nsteps = 3\n");
+        let more = more.replace("[0.2]]", "[0.2], [0.4]]");
+        assert_eq!(compare_cases(CASE, &more, 2), Ok(()));
+        let err = compare_cases(&more, CASE, 3).unwrap_err();
+        assert!(err.contains("`bcs.0.value.2`"), "{err}");
+        assert!(err.contains("stages after the first 3"), "{err}");
+    }
+
+    #[test]
+    fn a_stage_is_started_once_the_load_passed_its_start() {
+        let p = |stage, lambda| LoadPosition {
+            step: 1,
+            stage,
+            lambda,
+            dl: 0.25,
+        };
+        assert_eq!(stages_started(&p(0, 0.25)), 1);
+        assert_eq!(stages_started(&p(1, 1.0)), 1);
+        assert_eq!(stages_started(&p(1, 1.5)), 2);
+    }
+
+    #[test]
+    fn state_round_trips_and_only_complete_checkpoints_count() {
+        let dir = std::env::temp_dir().join(format!("ckpt_rt_{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let history = dir.join("history.csv");
+        std::fs::write(&history, "step\n1\n").unwrap();
+        let mut s = State {
+            case_toml: CASE.to_string(),
+            position: LoadPosition {
+                step: 3,
+                stage: 0,
+                lambda: 0.1 + 0.2,
+                dl: 1.0 / 3.0,
+            },
+            displacement: vec![0.1, -2.5e-17, 3.0],
+            element_history: Vec::new(),
+            element_history_width: 0,
+            contact_points: vec![1.0; 16],
+            contact_pattern: vec![0.0, 3.0, 4.0],
+            ranks: 2,
+            log: RunLog::default(),
+        };
+        write(&dir, &s, None, &history).unwrap();
+        s.position.step = 6;
+        s.displacement[0] = 0.7;
+        let (latest_dir, bytes) = write(&dir, &s, None, &history).unwrap();
+        assert!(bytes > 0);
+        // an unfinished later checkpoint is ignored
+        std::fs::create_dir_all(dir.join("checkpoints/step-000009.partial")).unwrap();
+        assert_eq!(latest(&dir).unwrap(), latest_dir);
+        assert!(!dir.join("checkpoints/step-000003").exists());
+        let back = read_state(&latest_dir).unwrap();
+        assert_eq!(back.position, s.position);
+        assert_eq!(back.displacement, s.displacement);
+        assert_eq!(back.contact_points, s.contact_points);
+        assert_eq!(back.contact_pattern, s.contact_pattern);
+        assert!(back.element_history.is_empty());
+        assert_eq!(back.case_toml, CASE);
+        assert!(latest(&dir.join("nothing")).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

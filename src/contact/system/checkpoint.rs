@@ -1,0 +1,94 @@
+//! The committed per-point state of the contact system as plain rows, for checkpoints: each
+//! quadrature point is keyed by its pair, half-pass, surface element and index inside the element,
+//! which do not depend on the partition, so a checkpoint written on N ranks restarts on M.
+
+use super::{Anchor, ContactSystem};
+
+/// Values per point row: key (pair, pass, element, point), warm start (tag, element, xi),
+/// friction anchor (tag, 3 values), cohesive pairing (tag, element, xi).
+pub const ROW: usize = 16;
+
+fn opt2(v: Option<(u32, [f64; 2])>) -> [f64; 4] {
+    match v {
+        Some((e, xi)) => [1.0, e as f64, xi[0], xi[1]],
+        None => [0.0; 4],
+    }
+}
+
+fn get2(r: &[f64]) -> Option<(u32, [f64; 2])> {
+    (r[0] != 0.0).then(|| (r[1] as u32, [r[2], r[3]]))
+}
+
+impl ContactSystem {
+    /// The committed state of every point this rank integrates, [`ROW`] values per point.
+    pub fn export_points(&self) -> Vec<f64> {
+        let mut out = Vec::new();
+        for (pi, pair) in self.pairs.iter().enumerate() {
+            for (qi, pass) in pair.passes.iter().enumerate() {
+                for el in &pass.elems {
+                    for j in 0..el.n {
+                        let q = &pass.points[el.first + j];
+                        out.extend_from_slice(&[pi as f64, qi as f64, el.e as f64, j as f64]);
+                        out.extend_from_slice(&opt2(q.committed));
+                        out.extend_from_slice(&match q.anchor {
+                            None => [0.0; 4],
+                            Some(Anchor::Surface(e, xi)) => [1.0, e as f64, xi[0], xi[1]],
+                            Some(Anchor::Rigid(x)) => [2.0, x[0], x[1], x[2]],
+                        });
+                        out.extend_from_slice(&opt2(q.pairing));
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// True when this rank integrates surface element `e` in half-pass `pass` (numbered over all
+    /// pairs' passes, as in [`crate::contact::Coupling`]).
+    pub fn integrates(&self, pass: u32, e: u32) -> bool {
+        self.pairs
+            .iter()
+            .flat_map(|p| &p.passes)
+            .nth(pass as usize)
+            .is_some_and(|p| p.elems.binary_search_by_key(&e, |o| o.e).is_ok())
+    }
+
+    /// Sets the committed and trial state of this rank's points from the rows of all ranks
+    /// ([`export_points`](Self::export_points) of each, in any order). Every point of this rank
+    /// must have a row.
+    pub fn import_points(&mut self, rows: &[f64]) -> Result<(), String> {
+        let key = |r: &[f64]| (r[0] as usize, r[1] as usize, r[2] as u32, r[3] as usize);
+        let index: std::collections::HashMap<_, usize> = rows
+            .chunks_exact(ROW)
+            .enumerate()
+            .map(|(i, r)| (key(r), i))
+            .collect();
+        self.last_update = None;
+        for (pi, pair) in self.pairs.iter_mut().enumerate() {
+            for (qi, pass) in pair.passes.iter_mut().enumerate() {
+                for el in &pass.elems {
+                    for j in 0..el.n {
+                        let Some(&i) = index.get(&(pi, qi, el.e, j)) else {
+                            return Err(format!(
+                                "no state for contact pair {pi}, pass {qi}, surface element {}, point {j}",
+                                el.e
+                            ));
+                        };
+                        let r = &rows[i * ROW..(i + 1) * ROW];
+                        let q = &mut pass.points[el.first + j];
+                        q.committed = get2(&r[4..8]);
+                        q.warm = q.committed;
+                        q.anchor = match r[8] as u32 {
+                            1 => Some(Anchor::Surface(r[9] as u32, [r[10], r[11]])),
+                            2 => Some(Anchor::Rigid([r[9], r[10], r[11]])),
+                            _ => None,
+                        };
+                        q.anchor_trial = q.anchor;
+                        q.pairing = get2(&r[12..16]);
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,443 @@
+//! Checkpoint and restart (issue 9): a run killed with SIGKILL after a checkpoint and restarted
+//! with `--restart` ends with the same history.csv and results.h5 as a run that was never
+//! interrupted (to 1e-12), on 1 and 2 ranks, for a Q1E4 body (enhanced-strain history) and a
+//! frictional contact case (anchors, warm starts); a checkpoint written on 2 ranks continues on 1;
+//! a case that changed is refused with the key that differs.
+
+mod common;
+use common::*;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// A Q1E4 block sheared and compressed in many small steps (so that a kill lands mid-run), with
+/// output every 7 steps (the steps written before and after the restart interleave).
+const Q1E4: &str = r#"
+[case]
+name = "restart_q1e4"
+dim = 2
+
+[meshes.block]
+generator = "rectangle"
+origin = [0.0, 0.0]
+size = [1.0, 1.0]
+divisions = [4, 4]
+
+[bodies.block]
+mesh = "block"
+element = "Q1E4"
+[bodies.block.material]
+model = "neo_hookean"
+E = 1.0
+nu = 0.45
+
+[[bcs]]
+body = "block"
+set = "bottom"
+kind = "fixed"
+
+[[bcs]]
+body = "block"
+set = "top"
+kind = "displacement"
+value = [[0.15, -0.1]]
+
+[[stages]]
+name = "shear"
+steps = 120
+
+[output]
+every = 7
+reactions = [{ body = "block", set = "top" }]
+"#;
+
+/// The frictional block of cases/ in more steps: pressed (frictionless), then pushed sideways
+/// through stick into slip.
+const FRICTION: &[&str] = &["stages.0.steps=4", "stages.1.steps=60", "output.every=5"];
+
+/// Tolerance of the 2-rank contact comparisons. Two *uninterrupted* 2-rank runs of the frictional
+/// block are not bitwise equal (measured: up to 9.4e-11 relative in the penetration column, 6.9e-12
+/// in the contact force, Newton iteration counts differing by 1-2 in a few steps; with MUMPS and
+/// with SuperLU_DIST alike; 1-rank runs and the 2-rank Q1E4 run repeat exactly), so a restarted
+/// 2-rank contact run can only match to that spread: measured 2.8e-10 restarted vs uninterrupted.
+/// The bound is the Newton tolerance scale, and iteration counts are not compared there.
+const TWO_RANK_CONTACT: f64 = 1e-8;
+
+/// Writes the case text (or copies a shipped case) into `dir` and returns its path.
+fn case_file(dir: &Path, text: Option<&str>, shipped: &str) -> PathBuf {
+    match text {
+        Some(t) => {
+            let p = dir.join("case.toml");
+            std::fs::write(&p, t).unwrap();
+            p
+        }
+        None => case(shipped),
+    }
+}
+
+fn args<'a>(case: &'a Path, sets: &'a [&'a str], rest: &[&'a str]) -> Vec<&'a str> {
+    let mut a = vec!["run", case.to_str().unwrap(), "-q"];
+    for s in sets {
+        a.extend(["--set", s]);
+    }
+    a.extend_from_slice(rest);
+    a
+}
+
+/// Complete checkpoints in a run directory.
+fn checkpoints(out: &Path) -> Vec<String> {
+    std::fs::read_dir(out.join("checkpoints"))
+        .into_iter()
+        .flatten()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with("step-") && !n.ends_with(".partial"))
+        .collect()
+}
+
+/// Starts `case` on `np` ranks with `--checkpoint-every every` into `out`, waits for the first
+/// checkpoint and kills every process with SIGKILL; asserts the run had not finished.
+fn run_and_kill(np: usize, case: &Path, sets: &[&str], out: &Path, every: &str) {
+    let mut a = args(case, sets, &["--out", out.to_str().unwrap()]);
+    a.extend(["--checkpoint-every", every]);
+    let mut cmd = if np == 1 {
+        Command::new(bin())
+    } else {
+        let mut c = Command::new("mpirun");
+        c.args(["--oversubscribe", "-np", &np.to_string(), bin()]);
+        c
+    };
+    cmd.args(&a).stdout(Stdio::null()).stderr(Stdio::null());
+    mpi_env(&mut cmd);
+    let mut child = cmd.spawn().expect("start nurbs-contact");
+    let t0 = Instant::now();
+    while checkpoints(out).is_empty() {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the run ended before its first checkpoint"
+        );
+        assert!(t0.elapsed() < Duration::from_secs(120), "no checkpoint");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    // the ranks first (mpirun would otherwise pass on a clean signal), then mpirun itself
+    let mut pids: Vec<u32> = if np > 1 {
+        let o = Command::new("pgrep")
+            .args(["-P", &child.id().to_string()])
+            .output()
+            .unwrap();
+        String::from_utf8_lossy(&o.stdout)
+            .split_whitespace()
+            .map(|p| p.parse().unwrap())
+            .collect()
+    } else {
+        Vec::new()
+    };
+    pids.push(child.id());
+    for p in pids {
+        let _ = Command::new("kill")
+            .args(["-KILL", &p.to_string()])
+            .status();
+    }
+    let status = child.wait().unwrap();
+    assert!(!status.success(), "the run was not killed: {status:?}");
+    assert!(
+        !out.join("summary.json").exists(),
+        "the run finished before it was killed: make it longer"
+    );
+}
+
+/// Every dataset of every step of results.h5 (path, values) and the steps' load factors.
+fn all_results(dir: &Path) -> (Vec<f64>, Vec<(String, Vec<f64>)>) {
+    let f = hdf5::File::open(dir.join("results.h5")).expect("open results.h5");
+    let steps = f.group("steps").expect("steps");
+    let mut names = steps.member_names().unwrap();
+    names.sort();
+    let mut loads = Vec::new();
+    let mut data = Vec::new();
+    for s in &names {
+        let g = steps.group(s).unwrap();
+        loads.push(g.attr("load_factor").unwrap().read_scalar::<f64>().unwrap());
+        let mut grids = g.member_names().unwrap();
+        grids.sort();
+        for grid in grids {
+            let gg = g.group(&grid).unwrap();
+            let mut fields = gg.member_names().unwrap();
+            fields.sort();
+            for field in fields {
+                let v = gg.dataset(&field).unwrap().read_raw::<f64>().unwrap();
+                data.push((format!("{s}/{grid}/{field}"), v));
+            }
+        }
+    }
+    (loads, data)
+}
+
+/// The largest relative difference between two runs' history.csv (every column but wall_time) and
+/// results.h5 (every dataset); panics if their shapes differ. With `solver_exact`, the Newton
+/// iteration counts and final residual norms count too (a residual norm absolutely: they are
+/// round-off sized); without, only the solution and what is computed from it (see
+/// [`TWO_RANK_CONTACT`]).
+fn compare_runs(a: &Path, b: &Path, solver_exact: bool) -> f64 {
+    let (ha, hb) = (history(a), history(b));
+    let names = |h: &[(String, Vec<f64>)]| h.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
+    assert_eq!(names(&ha), names(&hb), "history columns");
+    let mut worst = 0.0f64;
+    for ((name, x), (_, y)) in ha.iter().zip(&hb) {
+        assert_eq!(x.len(), y.len(), "history rows of {name}");
+        let solver_column = name == "residual" || name == "newton_iterations";
+        if name == "wall_time" || (solver_column && !solver_exact) {
+            continue;
+        }
+        let d = if name == "residual" {
+            // converged residual norms: compared against the run's scale of 1
+            x.iter()
+                .zip(y)
+                .fold(0.0f64, |m, (p, q)| m.max((p - q).abs()))
+        } else {
+            rel_diff(x, y)
+        };
+        if d > worst {
+            eprintln!("history {name}: {d:.3e}");
+        }
+        worst = worst.max(d);
+    }
+    let steps = history_col(b, "step");
+    let expected: Vec<f64> = (1..=steps.len()).map(|s| s as f64).collect();
+    assert_eq!(steps, expected, "history steps are 1, 2, ... without gaps");
+    let (la, da) = all_results(a);
+    let (lb, db) = all_results(b);
+    assert_eq!(la, lb, "results.h5 output steps");
+    assert_eq!(da.len(), db.len(), "results.h5 datasets");
+    for ((na, x), (nb, y)) in da.iter().zip(&db) {
+        assert_eq!(na, nb);
+        // `rank` differs by design between rank counts; compared only for the same count
+        let d = rel_diff(x, y);
+        if d > worst {
+            eprintln!("results {na}: {d:.3e}");
+        }
+        worst = worst.max(d);
+    }
+    worst
+}
+
+/// Uninterrupted run, killed run, restart of the killed run (on `np_restart` ranks); returns the
+/// largest difference between the uninterrupted and the restarted run's output.
+#[allow(clippy::too_many_arguments)]
+fn kill_and_restart(
+    tag: &str,
+    text: Option<&str>,
+    shipped: &str,
+    sets: &[&str],
+    np: usize,
+    np_restart: usize,
+    every: &str,
+    solver_exact: bool,
+) -> (PathBuf, f64) {
+    let dir = scratch(&format!("restart/{tag}"));
+    let case = case_file(&dir, text, shipped);
+    let (whole, killed) = (dir.join("whole"), dir.join("killed"));
+    run_ok(np, &args(&case, sets, &["--out", whole.to_str().unwrap()]));
+    run_and_kill(np, &case, sets, &killed, every);
+    let out = run_ok(
+        np_restart,
+        &args(&case, sets, &["--restart", killed.to_str().unwrap()]),
+    );
+    assert_eq!(summary(&killed)["status"], "converged", "{}", stderr(&out));
+    assert!(!killed.join("results.h5.partial").exists());
+    let d = compare_runs(&whole, &killed, solver_exact);
+    eprintln!("{tag}: largest difference restarted vs uninterrupted {d:.3e}");
+    (killed, d)
+}
+
+/// The Q1E4 local solve converges from any warm start to round-off, so the end-to-end comparison
+/// cannot tell a lost enhanced-strain history (measured: identical results with the restore
+/// disabled); the checkpoint is checked to hold it, 4 values per cell, not all zero.
+#[test]
+fn q1e4_killed_and_restarted_equals_an_uninterrupted_run_on_1_rank() {
+    let (killed, d) = kill_and_restart("q1e4-np1", Some(Q1E4), "", &[], 1, 1, "10", true);
+    assert!(d <= 1e-12, "difference {d:e}");
+    let ckpt = killed.join("checkpoints").join(&checkpoints(&killed)[0]);
+    let f = hdf5::File::open(ckpt.join("state.h5")).unwrap();
+    let h = f
+        .dataset("element_history")
+        .unwrap()
+        .read_raw::<f64>()
+        .unwrap();
+    assert_eq!(h.len(), 16 * 4);
+    assert!(h.iter().any(|a| a.abs() > 1e-8), "{h:?}");
+}
+
+#[test]
+fn q1e4_killed_and_restarted_equals_an_uninterrupted_run_on_2_ranks() {
+    let (_, d) = kill_and_restart("q1e4-np2", Some(Q1E4), "", &[], 2, 2, "10", true);
+    assert!(d <= 1e-12, "difference {d:e}");
+}
+
+#[test]
+fn friction_killed_and_restarted_equals_an_uninterrupted_run_on_1_rank() {
+    let (_, d) = kill_and_restart(
+        "friction-np1",
+        None,
+        "friction_block_2d.toml",
+        FRICTION,
+        1,
+        1,
+        "8",
+        true,
+    );
+    assert!(d <= 1e-12, "difference {d:e}");
+}
+
+#[test]
+fn friction_killed_and_restarted_equals_an_uninterrupted_run_on_2_ranks() {
+    let (_, d) = kill_and_restart(
+        "friction-np2",
+        None,
+        "friction_block_2d.toml",
+        FRICTION,
+        2,
+        2,
+        "8",
+        false,
+    );
+    assert!(d <= TWO_RANK_CONTACT, "difference {d:e}");
+}
+
+/// The state is in global numbering: a checkpoint of 2 ranks continues on 1. Against the
+/// uninterrupted 2-rank run the answer agrees to the Newton tolerance (a different partition sums
+/// in a different order); the `rank` output field is left out of the comparison.
+#[test]
+fn a_checkpoint_written_on_2_ranks_restarts_on_1() {
+    let dir = scratch("restart/np2-to-np1");
+    let case = case_file(&dir, None, "friction_block_2d.toml");
+    let (whole, killed) = (dir.join("whole"), dir.join("killed"));
+    let sets: Vec<&str> = FRICTION
+        .iter()
+        .copied()
+        .chain(["output.fields=[\"displacement\"]"])
+        .collect();
+    run_ok(2, &args(&case, &sets, &["--out", whole.to_str().unwrap()]));
+    run_and_kill(2, &case, &sets, &killed, "8");
+    let out = run_ok(
+        1,
+        &args(&case, &sets, &["--restart", killed.to_str().unwrap()]),
+    );
+    assert!(
+        stderr(&out).is_empty() || !stderr(&out).contains("error"),
+        "{}",
+        stderr(&out)
+    );
+    let d = compare_runs(&whole, &killed, false);
+    eprintln!("np2 -> np1: largest difference {d:.3e}");
+    assert!(d <= TWO_RANK_CONTACT, "difference {d:e}");
+}
+
+/// A restart with a changed material value is refused, naming the key; the run directory is left
+/// as it was.
+#[test]
+fn a_restart_with_a_changed_material_is_refused_with_the_key() {
+    let dir = scratch("restart/changed");
+    let case = case_file(&dir, Some(Q1E4), "");
+    let killed = dir.join("killed");
+    run_and_kill(1, &case, &[], &killed, "10");
+    let before = std::fs::read(killed.join("history.csv")).unwrap();
+    let out = run(
+        1,
+        &args(
+            &case,
+            &["bodies.block.material.E=2.0"],
+            &["--restart", killed.to_str().unwrap()],
+        ),
+    );
+    let err = stderr(&out);
+    assert!(!out.status.success(), "{err}");
+    assert!(err.contains("`bodies.block.material.E` differs"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(std::fs::read(killed.join("history.csv")).unwrap(), before);
+    // output settings may change
+    let out = run_ok(
+        1,
+        &args(
+            &case,
+            &["output.every=3"],
+            &["--restart", killed.to_str().unwrap()],
+        ),
+    );
+    assert_eq!(summary(&killed)["status"], "converged", "{}", stderr(&out));
+    // and a directory without a checkpoint is refused
+    let out = run(1, &args(&case, &[], &["--restart", dir.to_str().unwrap()]));
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("no checkpoint"), "{}", stderr(&out));
+}
+
+/// With checkpointing on, a SIGINT writes a checkpoint of the last converged step (whatever the
+/// schedule says), and the restart from it ends like an uninterrupted run: the same history and
+/// final results (results.h5 keeps the extra output step the interrupt wrote).
+#[test]
+fn an_interrupt_writes_a_checkpoint_of_the_last_step() {
+    let dir = scratch("restart/sigint");
+    let case = case_file(&dir, Some(Q1E4), "");
+    let (whole, stopped) = (dir.join("whole"), dir.join("stopped"));
+    run_ok(1, &args(&case, &[], &["--out", whole.to_str().unwrap()]));
+    let mut a = args(&case, &[], &["--out", stopped.to_str().unwrap()]);
+    a.extend(["--checkpoint-every", "100000"]);
+    let mut cmd = Command::new(bin());
+    cmd.args(&a).stdout(Stdio::null()).stderr(Stdio::null());
+    let mut child = cmd.spawn().unwrap();
+    let t0 = Instant::now();
+    while std::fs::read_to_string(stopped.join("history.csv"))
+        .map(|t| t.lines().count() < 2)
+        .unwrap_or(true)
+    {
+        assert!(child.try_wait().unwrap().is_none(), "ended before step 1");
+        assert!(t0.elapsed() < Duration::from_secs(120), "no first step");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    let _ = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status();
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130));
+    let n = summary(&stopped)["converged_steps"].as_u64().unwrap();
+    assert_eq!(checkpoints(&stopped), vec![format!("step-{n:06}")]);
+    run_ok(
+        1,
+        &args(&case, &[], &["--restart", stopped.to_str().unwrap()]),
+    );
+    let (hw, hs) = (history(&whole), history(&stopped));
+    for ((name, x), (_, y)) in hw.iter().zip(&hs) {
+        if name != "wall_time" {
+            assert_eq!(x, y, "history column {name}");
+        }
+    }
+    let (lw, _) = all_results(&whole);
+    let (ls, _) = all_results(&stopped);
+    assert_eq!(
+        ls.len(),
+        lw.len() + 1,
+        "the interrupt's output step is kept"
+    );
+    let d = rel_diff(
+        &h5_last(&whole, "bulk", "displacement"),
+        &h5_last(&stopped, "bulk", "displacement"),
+    );
+    assert!(d <= 1e-12, "difference {d:e}");
+}
+
+/// Cohesive contact between two deformable surfaces (material pairings, warm-start projections on
+/// a deformable partner, and the contact sparsity pattern, which a restart must rebuild as it was
+/// for the same round-off): the double cantilever beam, coarse, on 1 rank.
+#[test]
+fn cohesive_dcb_killed_and_restarted_equals_an_uninterrupted_run() {
+    let (_, d) = kill_and_restart(
+        "dcb-np1",
+        None,
+        "dcb_2d.toml",
+        &["stages.0.steps=200"],
+        1,
+        1,
+        "20",
+        true,
+    );
+    assert!(d <= 1e-12, "difference {d:e}");
+}
