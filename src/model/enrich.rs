@@ -12,6 +12,11 @@
 //! as *display nodes*: no element uses them, so they carry no unknowns; their displacement is
 //! interpolated for output from the element that has them as a corner ([`Enrichment::display`]).
 //!
+//! Linear cells that touch the surface only at a replaced node (an unstructured mesh's cell
+//! between two enriched cells, or in 3D along an edge, never a face) are tied to the surface's
+//! interpolation there ([`TiedCell`]): the node follows the layer, `u_n = sum_A N_A(xi_n) u_A`, a
+//! constraint built once into the cell's node list, so assembly needs nothing special.
+//!
 //! Node sets ([`Enrichment::remap`]): a replaced surface node in a set is replaced by the
 //! position-type nodes (control points / mid nodes, never tangent pseudo-nodes) of every enriched
 //! element whose basis is nonzero at that node, and every enriched element whose whole linear face
@@ -160,6 +165,53 @@ impl EnrichedCell {
     }
 }
 
+/// A linear (non-enriched) cell that touches the enriched surface only at nodes the layer replaced
+/// by control points (a node, or in 3D an edge, but no face): each such node follows the surface,
+/// `u_n = sum_A N_A(xi_n) u_A` over the control points of the enriched cell that has `n` as a
+/// corner (the display interpolation of `n`), a constraint built once. The cell is the same linear
+/// element with its shape functions mapped, `N'_j = sum_a N_a T_aj`: the tied node's function is
+/// shared among the control points, so assembly needs nothing special, and its reference position
+/// is the surface point `sum_A N_A(xi_n) X_A` (the mesh node itself where the layer interpolates
+/// it; on a smooth fit the point of the fit, so the cell stays conforming with its enriched
+/// neighbours and an affine field is reproduced exactly). In 2D the tie is conforming (the cell
+/// meets its enriched neighbours along straight sides that end at the tied node); in 3D a cell
+/// touching the surface along an edge is tied at the edge's two nodes, and its straight edge
+/// follows the curved surface only there.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TiedCell {
+    /// Body-local cell id.
+    pub cell: usize,
+    /// Element nodes (body-local): the cell's nodes that keep their unknowns, then the control
+    /// points of its tied nodes, each once.
+    pub nodes: Vec<u32>,
+    /// For each node of the linear cell, in the cell's order: `(index into nodes, weight)`.
+    pub map: Vec<Vec<(usize, f64)>>,
+}
+
+impl TiedCell {
+    /// Maps a table of the linear cell's values at points, `[n_points][n_linear][k]`, to the
+    /// element's nodes, `[n_points][nodes.len()][k]` (e.g. `k = dim` for reference derivatives).
+    pub fn expand(&self, table: &[f64], k: usize) -> Vec<f64> {
+        let (nl, n) = (self.map.len(), self.nodes.len());
+        let n_points = table.len() / (nl * k);
+        let mut out = vec![0.0; n_points * n * k];
+        for q in 0..n_points {
+            for (a, row) in self.map.iter().enumerate() {
+                let src = &table[(q * nl + a) * k..(q * nl + a + 1) * k];
+                for &(j, w) in row {
+                    for (o, s) in out[(q * n + j) * k..(q * n + j + 1) * k]
+                        .iter_mut()
+                        .zip(src)
+                    {
+                        *o += w * s;
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
 /// The surface the enriched layer was built on: the exact one (refined to the family for Q1Np), or
 /// for `enriched_geometry = "smooth"` its smooth fit (elevated to the family).
 #[derive(Debug, Clone, PartialEq)]
@@ -197,9 +249,14 @@ pub struct Enrichment {
     /// the largest distance between the fit and the exact surface, sampled at 17 points per
     /// element and direction; `None` when the layer interpolates the exact surface.
     pub smooth_deviation: Option<f64>,
-    /// The face set's geometry was unknown (2D: neither a line nor a circle), so the layer was
-    /// fitted to the cubic interpolant of its nodes, the reference of `smooth_deviation`.
+    /// The face set's geometry was unknown (2D: neither a line nor a circle; 3D: neither a plane
+    /// nor a generator's exact surface), so the layer was fitted to the cubic interpolant of its
+    /// nodes, the reference of `smooth_deviation`.
     pub interpolated_reference: bool,
+    /// Linear cells tied to the layer: they touch the surface only at replaced nodes.
+    pub tied: Vec<TiedCell>,
+    /// Index into `tied` of each mesh cell. [n_cells]
+    pub tied_index: Vec<Option<usize>>,
 }
 
 impl Enrichment {
@@ -327,25 +384,90 @@ pub fn build_enrichment_with(
         2 => build_2d(mesh, set, &cells, family, smooth)?,
         _ => build_3d(mesh, set, &cells, family, smooth)?,
     };
-    check_replaced_not_shared(mesh, set, &layer)?;
+    let mut layer = layer;
+    tie_linear_cells(mesh, set, &mut layer)?;
     Ok(layer)
 }
 
-/// A replaced surface node used by a linear cell would leave that cell without its node.
-fn check_replaced_not_shared(mesh: &Mesh, set: &str, e: &Enrichment) -> Result<(), EnrichError> {
+/// Ties the linear cells that touch the enriched surface at replaced nodes (display nodes, which
+/// carry no unknowns) to the surface's interpolation there (see [`TiedCell`]). A linear cell with a
+/// whole face on the surface, or an enriched cell whose bulk side touches it, is an error.
+fn tie_linear_cells(mesh: &Mesh, set: &str, e: &mut Enrichment) -> Result<(), EnrichError> {
     let replaced: BTreeSet<u32> = e.replaced.iter().copied().collect();
+    if replaced.is_empty() {
+        return Ok(());
+    }
+    let surface: BTreeSet<u32> = e
+        .cells
+        .iter()
+        .flat_map(|c| c.corners.iter().copied())
+        .collect();
+    let display: BTreeMap<u32, &Vec<(u32, f64)>> = e.display.iter().map(|(n, w)| (*n, w)).collect();
+    for c in &e.cells {
+        if let Some(n) = c.nodes[c.n_position..]
+            .iter()
+            .find(|n| replaced.contains(n))
+        {
+            return Err(unsupported(
+                set,
+                format!(
+                    "the bulk side of enriched cell {} touches the surface at node {n} (a cell \
+                     with more than one side on the surface); refine the mesh there",
+                    c.cell
+                ),
+            ));
+        }
+    }
     for c in 0..mesh.n_cells() {
-        if e.cell_index[c].is_none() {
-            if let Some(n) = mesh.cell(c).iter().find(|n| replaced.contains(n)) {
-                return Err(unsupported(
+        if e.cell_index[c].is_some() {
+            continue;
+        }
+        let cn = mesh.cell(c);
+        if !cn.iter().any(|n| replaced.contains(n)) {
+            continue;
+        }
+        let kind = mesh.cell_kind[c];
+        for f in 0..kind.n_faces() as u8 {
+            let fnodes = mesh
+                .face_nodes(c, f)
+                .map_err(|err| faces_err(set, err.to_string()))?;
+            if fnodes.iter().all(|n| surface.contains(n)) {
+                return Err(faces_err(
                     set,
                     format!(
-                        "surface node {n} is shared with the non-enriched cell {c}; an enriched \
-                         surface may share only its ends/corners with linear cells"
+                        "cell {c} has its face {f} on the enriched surface but the face is not \
+                         in the set"
                     ),
                 ));
             }
         }
+        let mut nodes: Vec<u32> = cn
+            .iter()
+            .copied()
+            .filter(|n| !replaced.contains(n))
+            .collect();
+        let mut map = Vec::with_capacity(cn.len());
+        for n in cn {
+            let weights = match display.get(n) {
+                Some(w) => w.to_vec(),
+                None => vec![(*n, 1.0)],
+            };
+            let mut row = Vec::with_capacity(weights.len());
+            for (a, w) in weights {
+                let i = nodes.iter().position(|&b| b == a).unwrap_or_else(|| {
+                    nodes.push(a);
+                    nodes.len() - 1
+                });
+                row.push((i, w));
+            }
+            map.push(row);
+        }
+        e.tied_index[c] = Some(e.tied.len());
+        e.tied.push(TiedCell {
+            cell: c,
+            nodes,
+            map,
+        });
     }
     Ok(())
 }
@@ -847,6 +969,8 @@ fn finish(
         exact,
         smooth_deviation: None,
         interpolated_reference: false,
+        tied: Vec::new(),
+        tied_index: vec![None; mesh.n_cells()],
     })
 }
 

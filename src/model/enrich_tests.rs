@@ -983,3 +983,117 @@ fn a_curve_without_exact_geometry_is_enriched_by_a_smooth_fit_through_its_nodes(
         }
     }
 }
+
+/// The graded Gmsh half disk of `cases/meshes` (unstructured quads, radius 1, centre (0, 1)): one
+/// linear cell touches the arc only at a node.
+/// Linear elastic, so that the patch test's first Newton step (interior nodes at rest, boundary
+/// nodes at `H X`) cannot invert the small cells at the contact point.
+fn gmsh_half_disk(element: &str, geometry: &str) -> Model {
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/meshes/half_disk_graded.msh");
+    let mesh = format!("file = \"{}\"", file.display());
+    let text = case_text(2, &mesh, "b", element, "arc")
+        .replace(
+            "enriched_surface = \"arc\"",
+            &format!("enriched_surface = \"arc\"\nenriched_geometry = \"{geometry}\""),
+        )
+        .replace("neo_hookean", "linear_elastic");
+    build(&text)
+}
+
+/// Body-local cells tied to the enriched surface.
+fn tied_cells(m: &Model) -> Vec<usize> {
+    let e = m.bodies[0].enrichment.as_ref().unwrap();
+    e.tied.iter().map(|t| t.cell).collect()
+}
+
+#[test]
+fn linear_cells_touching_the_surface_at_a_node_follow_its_interpolation() {
+    for geometry in ["exact", "smooth"] {
+        let m = gmsh_half_disk("Q1N2", geometry);
+        let b = &m.bodies[0];
+        let e = b.enrichment.as_ref().unwrap();
+        assert!(
+            !e.tied.is_empty(),
+            "{geometry}: the mesh must have tied cells"
+        );
+        for t in &e.tied {
+            let cell = b.mesh.cell(t.cell);
+            assert_eq!(t.map.len(), cell.len());
+            // no element node is a replaced (display) node, and the cell's weights sum to one
+            assert!(t.nodes.iter().all(|n| e.replaced.binary_search(n).is_err()));
+            for (a, row) in t.map.iter().enumerate() {
+                let s: f64 = row.iter().map(|&(_, w)| w).sum();
+                assert!((s - 1.0).abs() < 1e-13, "{geometry}: weights sum to {s}");
+                // the tied node's reference position is the surface point: on the exact arc the
+                // mesh node itself
+                let x: Vec<f64> = (0..2)
+                    .map(|k| row.iter().map(|&(j, w)| w * b.node(t.nodes[j])[k]).sum())
+                    .collect();
+                let y = b.mesh.node(cell[a]);
+                let d = (x[0] - y[0]).hypot(x[1] - y[1]);
+                if geometry == "exact" {
+                    assert!(d < 1e-12, "tied node {} is {d:e} off", cell[a]);
+                } else {
+                    // measured: the fit passes within 1.2e-5 of the arc's nodes here
+                    assert!(d < 1e-4, "tied node {} is {d:e} off", cell[a]);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn tied_cells_pass_the_patch_test_and_match_fd_tangents() {
+    // polynomial (smooth) layer: exact quadrature, so the affine field is reproduced to round-off
+    // with the tied cell in the patch (its node's force reaches the control points)
+    let m = gmsh_half_disk("Q1N2", "smooth");
+    let H = [0.1, -0.05, 0.07, -0.12];
+    let (du, ds) = patch_test(&m, &["arc", "top"], &H);
+    assert!(
+        du < 1e-10 && ds < 1e-10,
+        "patch test with tied cells: {du} {ds}"
+    );
+    let tied = tied_cells(&m);
+    let dim = m.dim;
+    let mut rng = Lcg(5);
+    let mut n_checked = 0;
+    for mut s in sets(&m) {
+        for e in 0..s.len() {
+            if !tied.contains(&s.cell_id(e).1) {
+                continue;
+            }
+            n_checked += 1;
+            let nd = s.nodes(e).len() * dim;
+            assert!(nd > 8, "a tied quad lists control points");
+            let u: Vec<f64> = (0..nd).map(|_| 0.1 * (rng.next() - 0.5)).collect();
+            let (mut r, mut k) = (vec![0.0; nd], vec![0.0; nd * nd]);
+            s.evaluate(e, &u, &mut r, Some(&mut k)).unwrap();
+            let kfd = fd_tangent(nd, &u, 1e-6, |v, r| {
+                s.evaluate(e, v, r, None).unwrap();
+                Ok(())
+            });
+            let scale = k.iter().fold(0.0_f64, |a, x| a.max(x.abs()));
+            let err = k
+                .iter()
+                .zip(&kfd)
+                .fold(0.0_f64, |a, (x, y)| a.max((x - y).abs()));
+            assert!(err < 1e-6 * scale, "tied cell tangent: {err} of {scale}");
+        }
+    }
+    assert_eq!(n_checked, tied.len());
+}
+
+#[test]
+fn tied_cells_under_a_q1e4_bulk_are_reported() {
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/meshes/half_disk_graded.msh");
+    let mesh = format!("file = \"{}\"", file.display());
+    let text = case_text(2, &mesh, "b", "Q1N2", "arc").replace(
+        "enriched_surface = \"arc\"",
+        "enriched_surface = \"arc\"\nbulk = \"Q1E4\"",
+    );
+    let err = build_err(&text);
+    assert!(
+        err.contains("bodies.b.bulk") && err.contains("only at a node"),
+        "{err}"
+    );
+}
