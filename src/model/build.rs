@@ -414,7 +414,7 @@ fn smooth_note(body: &str, set: &str, family: ElementFamily, e: &Enrichment) -> 
     );
     match (family, e.smooth_deviation) {
         (ElementFamily::Q1N { p, .. }, Some(d)) if e.interpolated_reference => format!(
-            "{head}: no exact geometry known (neither a line nor a circle): smooth C^{} fit of \
+            "{head}: no exact geometry known (not a line, circle or plane): smooth C^{} fit of \
              the cubic interpolant of its nodes, largest distance from it {d:.3e}",
             p - 1
         ),
@@ -426,7 +426,7 @@ fn smooth_note(body: &str, set: &str, family: ElementFamily, e: &Enrichment) -> 
             format!("{head}: the exact surface has no C^0 joints (smooth already), kept exact")
         }
         _ if e.interpolated_reference => format!(
-            "{head}: no exact geometry known (neither a line nor a circle): {family} interpolates \
+            "{head}: no exact geometry known (not a line or circle): {family} interpolates \
              the cubic interpolant of its nodes"
         ),
         _ => format!(

@@ -995,10 +995,12 @@ struct FaceGrid {
     node_of: Vec<u32>,
     /// Absolute tolerance for "the same point".
     tol: f64,
+    /// No exact geometry: `base` is the bicubic interpolant of the nodes ([`free_grid`]).
+    free: bool,
 }
 
 fn build_3d(
-    mesh: &Mesh,
+    mesh: &mut Mesh,
     set: &str,
     cells: &[usize],
     family: ElementFamily,
@@ -1012,10 +1014,21 @@ fn build_3d(
             return Err(faces_err(set, format!("cell {c} is not a Hex8")));
         }
     }
-    let grid = match mesh.exact_surfaces.get(set) {
-        Some(patch) => exact_grid(mesh, set, cells, patch)?,
-        None => plane_grid(mesh, set, cells)?,
-    };
+    let grid =
+        match mesh.exact_surfaces.get(set) {
+            Some(patch) => exact_grid(mesh, set, cells, patch)?,
+            None => match plane_grid(mesh, set, cells)? {
+                Some(g) => g,
+                None if smooth => free_grid(mesh, set, cells)?,
+                None => return Err(unsupported(
+                    set,
+                    "the surface nodes are not on a plane (within 1e-10) and the mesh generator \
+                     gave no exact surface (e.g. `hemisphere_nurbs`); a curved face set on a \
+                     structured grid of faces can be enriched with enriched_geometry = \
+                     \"smooth\" (a smooth fit through its nodes)",
+                )),
+            },
+        };
     build_3d_on_grid(mesh, set, p as usize, t as usize, grid, smooth)
 }
 
@@ -1079,11 +1092,13 @@ fn exact_grid(
         face_of: cells.to_vec(),
         node_of: patch.nodes.clone(),
         tol,
+        free: false,
     })
 }
 
-/// The face grid of a planar rectangular patch, recognised from the nodes.
-fn plane_grid(mesh: &Mesh, set: &str, cells: &[usize]) -> Result<FaceGrid, EnrichError> {
+/// The face grid of a planar rectangular patch, recognised from the nodes; `None` when the nodes
+/// are not on a plane.
+fn plane_grid(mesh: &Mesh, set: &str, cells: &[usize]) -> Result<Option<FaceGrid>, EnrichError> {
     let geo = |source| EnrichError::Geometry {
         set: set.to_string(),
         source,
@@ -1120,11 +1135,7 @@ fn plane_grid(mesh: &Mesh, set: &str, cells: &[usize]) -> Result<FaceGrid, Enric
         .fold(0.0, f64::max);
     let tol = GEOMETRY_TOL * size.max(1.0);
     if surf.iter().any(|&n| dot(sub(x(n), o), nrm).abs() > tol) {
-        return Err(unsupported(
-            set,
-            "the surface nodes are not on a plane (within 1e-10); other curved 3D surfaces need \
-             their exact geometry from the mesh generator (e.g. `hemisphere_nurbs`)",
-        ));
+        return Ok(None);
     }
     let st = |n: u32| (dot(sub(x(n), o), e1), dot(sub(x(n), o), e2));
     let (mut su, mut sv): (Vec<f64>, Vec<f64>) = surf.iter().map(|&n| st(n)).unzip();
@@ -1181,7 +1192,7 @@ fn plane_grid(mesh: &Mesh, set: &str, cells: &[usize]) -> Result<FaceGrid, Enric
         o[2] + su[0] * e1[2] + sv[0] * e2[2],
     ];
     let base = plane_patch(origin, e1.map(|c| c * lu), e2.map(|c| c * lv)).map_err(geo)?;
-    Ok(FaceGrid {
+    Ok(Some(FaceGrid {
         base,
         nu,
         nv,
@@ -1190,6 +1201,241 @@ fn plane_grid(mesh: &Mesh, set: &str, cells: &[usize]) -> Result<FaceGrid, Enric
         face_of,
         node_of,
         tol,
+        free: false,
+    }))
+}
+
+/// The face grid of a curved face set without known geometry (`enriched_geometry = "smooth"`
+/// only), recovered from the faces' connectivity, and the bicubic interpolant of its nodes as the
+/// reference surface the layer is fitted to.
+///
+/// Supported topology: a structured grid of `nu x nv` quadrilateral faces (`nu, nv >= 2`) forming
+/// one open patch: exactly four nodes lie in one face only (the corners), every boundary node in
+/// two, every interior node in four, and walking across shared edges from a corner reaches every
+/// face at a distinct grid position. Closed surfaces (a full cylinder), collapsed edges and
+/// unstructured face sets are reported. Each cell is turned about its surface face so that its
+/// local node 0 is the face's grid corner `(i, j)` (see [`Mesh::rotate_about_face0`]).
+///
+/// The interpolant: grid parameters by chord length averaged over the rows (columns), each row
+/// interpolated by the C^2 cubic of [`interpolate_cubic`], then each column of the rows' control
+/// points: a tensor-product bicubic B-spline through every node.
+fn free_grid(mesh: &mut Mesh, set: &str, cells: &[usize]) -> Result<FaceGrid, EnrichError> {
+    let geo = |source| EnrichError::Geometry {
+        set: set.to_string(),
+        source,
+    };
+    let topo = |msg: String| {
+        unsupported(
+            set,
+            format!(
+                "no exact geometry known and {msg}: a smooth fit needs a structured grid of \
+                 faces (one open four-sided patch, four faces at every interior node)"
+            ),
+        )
+    };
+    let quad = |mesh: &Mesh, c: usize| -> [u32; 4] {
+        let n = mesh.cell(c);
+        [n[0], n[1], n[2], n[3]]
+    };
+    let mut valence: BTreeMap<u32, usize> = BTreeMap::new();
+    let mut edges: BTreeMap<(u32, u32), Vec<usize>> = BTreeMap::new();
+    for (f, &c) in cells.iter().enumerate() {
+        let q = quad(mesh, c);
+        for k in 0..4 {
+            *valence.entry(q[k]).or_default() += 1;
+            let (a, b) = (q[k], q[(k + 1) % 4]);
+            edges.entry((a.min(b), a.max(b))).or_default().push(f);
+        }
+    }
+    let corners: Vec<u32> = valence
+        .iter()
+        .filter(|&(_, &v)| v == 1)
+        .map(|(&n, _)| n)
+        .collect();
+    if corners.len() != 4 {
+        return Err(topo(format!(
+            "{} of its nodes lie in one face only (a four-sided patch has 4 corners)",
+            corners.len()
+        )));
+    }
+    if let Some((n, v)) = valence.iter().find(|&(_, &v)| v > 4) {
+        return Err(topo(format!("node {n} lies in {v} faces")));
+    }
+    let other = |f: usize, a: u32, b: u32| -> Option<usize> {
+        edges[&(a.min(b), a.max(b))]
+            .iter()
+            .copied()
+            .find(|&g| g != f)
+    };
+    // grid node (i, j) -> mesh node, face (i, j) -> (face index, quarter turns), faces placed
+    #[derive(Default)]
+    struct Walk {
+        node_at: BTreeMap<(usize, usize), u32>,
+        placed: BTreeMap<(usize, usize), (usize, usize)>,
+        used: BTreeSet<usize>,
+    }
+    let mut w = Walk::default();
+    let place =
+        |w: &mut Walk, f: usize, i: usize, j: usize, corner: u32| -> Result<(), EnrichError> {
+            let q = quad(mesh, cells[f]);
+            let k = q
+                .iter()
+                .position(|&n| n == corner)
+                .ok_or_else(|| topo(format!("cell {} does not continue the grid", cells[f])))?;
+            if !w.used.insert(f) {
+                return Err(topo(format!(
+                    "cell {} is reached twice (a closed surface?)",
+                    cells[f]
+                )));
+            }
+            for (d, (di, dj)) in [(0, 0), (1, 0), (1, 1), (0, 1)].into_iter().enumerate() {
+                let n = q[(k + d) % 4];
+                match w.node_at.insert((i + di, j + dj), n) {
+                    Some(m) if m != n => {
+                        return Err(topo(format!(
+                            "cell {} does not fit the grid at ({}, {})",
+                            cells[f],
+                            i + di,
+                            j + dj
+                        )))
+                    }
+                    _ => {}
+                }
+            }
+            w.placed.insert((i, j), (f, k));
+            Ok(())
+        };
+    let c0 = corners[0];
+    let f0 = (0..cells.len())
+        .find(|&f| quad(mesh, cells[f]).contains(&c0))
+        .ok_or_else(|| topo("no face holds a corner".into()))?;
+    place(&mut w, f0, 0, 0, c0)?;
+    // first row along u, then each next row from the row below
+    let mut nu = 1;
+    loop {
+        let (a, b) = (w.node_at[&(nu, 0)], w.node_at[&(nu, 1)]);
+        let f = w.placed[&(nu - 1, 0)].0;
+        match other(f, a, b) {
+            Some(g) => {
+                place(&mut w, g, nu, 0, a)?;
+                nu += 1;
+            }
+            None => break,
+        }
+    }
+    let mut nv = 1;
+    loop {
+        let mut found = 0;
+        for i in 0..nu {
+            let (a, b) = (w.node_at[&(i, nv)], w.node_at[&(i + 1, nv)]);
+            let f = w.placed[&(i, nv - 1)].0;
+            if let Some(g) = other(f, a, b) {
+                place(&mut w, g, i, nv, a)?;
+                found += 1;
+            }
+        }
+        if found == 0 {
+            break;
+        }
+        if found != nu {
+            return Err(topo(format!("row {nv} of the grid is incomplete")));
+        }
+        nv += 1;
+    }
+    if nu * nv != cells.len() {
+        return Err(topo(format!(
+            "a grid of {nu} x {nv} faces from a corner, but the set has {} faces",
+            cells.len()
+        )));
+    }
+    if nu < 2 || nv < 2 {
+        return Err(topo(format!(
+            "a grid of {nu} x {nv} faces (the cubic interpolant needs at least 2 per direction)"
+        )));
+    }
+    let mut seen = BTreeSet::new();
+    if let Some(n) = w.node_at.values().find(|&&n| !seen.insert(n)) {
+        return Err(topo(format!(
+            "node {n} sits at two grid points (a closed surface?)"
+        )));
+    }
+    let mut face_of = vec![0usize; nu * nv];
+    for (&(i, j), &(f, k)) in &w.placed {
+        mesh.rotate_about_face0(cells[f], k)
+            .map_err(|e| faces_err(set, e.to_string()))?;
+        face_of[i + nu * j] = cells[f];
+    }
+    let node_of: Vec<u32> = (0..=nv)
+        .flat_map(|j| (0..=nu).map(move |i| (i, j)))
+        .map(|ij| w.node_at[&ij])
+        .collect();
+    let x = |i: usize, j: usize| -> [f64; 3] {
+        let v = mesh.node(node_of[i + (nu + 1) * j]);
+        [v[0], v[1], v[2]]
+    };
+    // chord-length parameters averaged over the rows (columns)
+    let params = |n: usize, m: usize, at: &dyn Fn(usize, usize) -> [f64; 3]| -> Vec<f64> {
+        let mut t = vec![0.0; n + 1];
+        for r in 0..=m {
+            let mut cum = vec![0.0];
+            for k in 0..n {
+                cum.push(cum[k] + dist(&at(k, r), &at(k + 1, r)));
+            }
+            for k in 0..=n {
+                t[k] += cum[k] / cum[n] / (m + 1) as f64;
+            }
+        }
+        (t[0], t[n]) = (0.0, 1.0);
+        t
+    };
+    let tu = params(nu, nv, &|k, r| x(k, r));
+    let tv = params(nv, nu, &|k, r| x(r, k));
+    if tu.windows(2).chain(tv.windows(2)).any(|w| w[1] <= w[0]) {
+        return Err(faces_err(set, "faces of zero length along the grid"));
+    }
+    let rows: Vec<NurbsCurve> = (0..=nv)
+        .map(|j| {
+            let q: Vec<[f64; 3]> = (0..=nu).map(|i| x(i, j)).collect();
+            interpolate_cubic(&q, &tu, 3)
+        })
+        .collect::<Result<_, _>>()
+        .map_err(geo)?;
+    let ncu = rows[0].n_ctrl();
+    let mut ctrl = Vec::new();
+    let mut kv = None;
+    let mut cols = Vec::with_capacity(ncu);
+    for a in 0..ncu {
+        let q: Vec<[f64; 3]> = rows
+            .iter()
+            .map(|r| [r.ctrl[3 * a], r.ctrl[3 * a + 1], r.ctrl[3 * a + 2]])
+            .collect();
+        let c = interpolate_cubic(&q, &tv, 3).map_err(geo)?;
+        kv.get_or_insert_with(|| c.knots.clone());
+        cols.push(c);
+    }
+    let ncv = cols[0].n_ctrl();
+    for b in 0..ncv {
+        for c in &cols {
+            ctrl.extend_from_slice(&c.ctrl[3 * b..3 * b + 3]);
+        }
+    }
+    let ku = rows[0].knots.clone();
+    let kv = kv.ok_or_else(|| faces_err(set, "empty grid"))?;
+    let base = NurbsSurface::new(ku, kv, ctrl, vec![1.0; ncu * ncv]).map_err(geo)?;
+    let size = node_of
+        .iter()
+        .map(|&n| dist(mesh.node(n), mesh.node(node_of[0])))
+        .fold(0.0, f64::max);
+    Ok(FaceGrid {
+        base,
+        nu,
+        nv,
+        xu: tu[1..nu].to_vec(),
+        xv: tv[1..nv].to_vec(),
+        face_of,
+        node_of,
+        tol: GEOMETRY_TOL * size.max(1.0),
+        free: true,
     })
 }
 
@@ -1213,7 +1459,14 @@ fn build_3d_on_grid(
     };
     let (nu, nv) = (g.nu, g.nv);
     let (du, dv) = (g.base.knots_u.degree(), g.base.knots_v.degree());
-    if p < du.max(dv) {
+    let fit = smooth && (g.base.knots_u.n_elements() > 1 || g.base.knots_v.n_elements() > 1);
+    if fit && p < 2 {
+        return Err(unsupported(
+            set,
+            "enriched_geometry = \"smooth\" needs an order p >= 2 (Q1N1 is C^0)",
+        ));
+    }
+    if !fit && p < du.max(dv) {
         return Err(unsupported(
             set,
             format!(
@@ -1230,7 +1483,7 @@ fn build_3d_on_grid(
             .collect()
     };
     let mut deviation = None;
-    let s = if smooth && (g.base.knots_u.n_elements() > 1 || g.base.knots_v.n_elements() > 1) {
+    let s = if fit {
         let (fit, d) = smooth_surface(&g, p).map_err(geo)?;
         deviation = Some(d);
         fit.elevate(Direction::U, t)
@@ -1334,6 +1587,7 @@ fn build_3d_on_grid(
     )
     .map(|e| Enrichment {
         smooth_deviation: deviation,
+        interpolated_reference: g.free,
         ..e
     })
 }
