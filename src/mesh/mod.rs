@@ -516,6 +516,48 @@ impl Mesh {
         Ok(())
     }
 
+    /// Turns hex `cell` about the normal of its local face 0 by `k` quarter turns, so that its
+    /// local node `k` becomes node 0 (`new[i] = old[(i + k) % 4]` on both faces 0 and 1), and
+    /// renames the faces of this cell in every face set accordingly. A proper rotation: the
+    /// Jacobian sign is unchanged. Quads have no such freedom (their face 0 is an edge); `k = 0`
+    /// is a no-op.
+    pub fn rotate_about_face0(&mut self, cell: usize, k: usize) -> Result<(), MeshError> {
+        if cell >= self.n_cells() {
+            return Err(MeshError::CellOutOfRange {
+                cell,
+                n_cells: self.n_cells(),
+            });
+        }
+        let k = k % 4;
+        if k == 0 || self.cell_kind[cell] != CellKind::Hex8 {
+            return Ok(());
+        }
+        let old = self.cell(cell).to_vec();
+        let face_set_of = |nodes: &[u32], f: u8| -> Vec<u32> {
+            let mut v: Vec<u32> = CellKind::Hex8
+                .face_local_nodes(f)
+                .map(|l| l.iter().map(|&a| nodes[a]).collect())
+                .unwrap_or_default();
+            v.sort_unstable();
+            v
+        };
+        let start = self.cell_offsets[cell];
+        for i in 0..4 {
+            self.cell_nodes[start + i] = old[(i + k) % 4];
+            self.cell_nodes[start + 4 + i] = old[4 + (i + k) % 4];
+        }
+        let new = self.cell(cell).to_vec();
+        for faces in self.face_sets.values_mut() {
+            for entry in faces.iter_mut().filter(|e| e.0 as usize == cell) {
+                let set = face_set_of(&old, entry.1);
+                if let Some(h) = (0..6u8).find(|&h| face_set_of(&new, h) == set) {
+                    entry.1 = h;
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// Cell-to-cell adjacency in CSR form `(xadj [n_cells + 1], adjncy)`: two cells are
     /// neighbours if they share at least `min_shared_nodes` nodes (2 in 2D, 4 in 3D for face
     /// neighbours). Neighbour lists are sorted; a cell is never its own neighbour.

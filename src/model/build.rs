@@ -1,6 +1,6 @@
 //! Building a [`Model`] from a validated [`Case`].
 
-use super::enrich::{build_enrichment_with, EnrichedCell, Enrichment};
+use super::enrich::{build_enrichment_with, EnrichedCell, Enrichment, TiedCell};
 use crate::assembly::{DirichletBc, ElementSet, Prescription, RigidCoupling};
 use crate::fem::kernel::TlElement;
 use crate::fem::q1e4::Q1e4Element;
@@ -133,12 +133,20 @@ impl Body {
         self.mesh.n_nodes() + self.enrichment.as_ref().map_or(0, |e| e.n_extra())
     }
 
-    /// Body-local element node list of cell `c`: the enriched node list or the linear cell.
+    /// Body-local element node list of cell `c`: the enriched node list, the node list of a
+    /// linear cell tied to the enriched surface, or the linear cell.
     pub fn element_nodes(&self, c: usize) -> &[u32] {
-        match self.enriched_cell(c) {
-            Some(e) => &e.nodes,
-            None => self.mesh.cell(c),
+        match (self.enriched_cell(c), self.tied_cell(c)) {
+            (Some(e), _) => &e.nodes,
+            (None, Some(t)) => &t.nodes,
+            (None, None) => self.mesh.cell(c),
         }
+    }
+
+    /// The tie of linear cell `c` to the enriched surface, if it touches it at a replaced node.
+    pub fn tied_cell(&self, c: usize) -> Option<&TiedCell> {
+        let en = self.enrichment.as_ref()?;
+        en.tied_index[c].map(|i| &en.tied[i])
     }
 
     /// The enriched cell of mesh cell `c`, if any.
@@ -281,6 +289,26 @@ pub fn enriched_tl_element(
     TlElement::new(dim, &X, &dN_ref, &rule.weights)
 }
 
+/// The total-Lagrangian kernel data of a linear cell tied to the enriched surface: the linear
+/// cell's 2-point Gauss rule and reference derivatives, mapped to its node list (see
+/// [`TiedCell`]), with the nodes' reference coordinates (a tied node's position is the surface
+/// point, the weighted sum of its control points).
+#[allow(non_snake_case)]
+pub fn tied_tl_element(body: &Body, tc: &TiedCell) -> Result<TlElement, crate::fem::ElementError> {
+    let dim = body.mesh.dim;
+    let rule = tensor_rule(&vec![2; dim])?;
+    let table = match body.mesh.cell_kind[tc.cell] {
+        CellKind::Quad4 => quad4::derivative_table(&rule.points),
+        CellKind::Hex8 => hex8::derivative_table(&rule.points),
+    };
+    let X: Vec<f64> = tc
+        .nodes
+        .iter()
+        .flat_map(|&a| body.node(a).to_vec())
+        .collect();
+    TlElement::new(dim, &X, &tc.expand(&table, dim), &rule.weights)
+}
+
 /// The Q1E4 element of linear quad `c` of body `b` and its global nodes.
 #[allow(non_snake_case)]
 fn q1e4_element(b: &Body, c: usize) -> Result<(Q1e4Element, Vec<u32>), String> {
@@ -386,7 +414,7 @@ fn smooth_note(body: &str, set: &str, family: ElementFamily, e: &Enrichment) -> 
     );
     match (family, e.smooth_deviation) {
         (ElementFamily::Q1N { p, .. }, Some(d)) if e.interpolated_reference => format!(
-            "{head}: no exact geometry known (neither a line nor a circle): smooth C^{} fit of \
+            "{head}: no exact geometry known (not a line, circle or plane): smooth C^{} fit of \
              the cubic interpolant of its nodes, largest distance from it {d:.3e}",
             p - 1
         ),
@@ -398,7 +426,7 @@ fn smooth_note(body: &str, set: &str, family: ElementFamily, e: &Enrichment) -> 
             format!("{head}: the exact surface has no C^0 joints (smooth already), kept exact")
         }
         _ if e.interpolated_reference => format!(
-            "{head}: no exact geometry known (neither a line nor a circle): {family} interpolates \
+            "{head}: no exact geometry known (not a line or circle): {family} interpolates \
              the cubic interpolant of its nodes"
         ),
         _ => format!(
@@ -477,6 +505,26 @@ impl Model {
                 )?;
                 if geometry == EnrichedGeometry::Smooth {
                     notes.push(smooth_note(&b.name, set, b.family, &e));
+                }
+                if let (true, Some(t)) = (b.bulk_q1e4, e.tied.first()) {
+                    return Err(ModelError::Unsupported {
+                        file: case.file.clone(),
+                        key: format!("bodies.{}.bulk", b.name),
+                        msg: format!(
+                            "cell {} touches the enriched surface `{set}` only at a node and is \
+                             tied to it, which Q1E4 bulk cells do not support yet; use the \
+                             default Q1C1 bulk",
+                            t.cell
+                        ),
+                    });
+                }
+                if !e.tied.is_empty() {
+                    notes.push(format!(
+                        "bodies.{}: {} linear cells touch the enriched surface `{set}` only at \
+                         nodes; those nodes follow the surface's interpolation",
+                        b.name,
+                        e.tied.len()
+                    ));
                 }
                 b.enrichment = Some(e);
             }
@@ -818,9 +866,10 @@ impl Model {
                             q.push(c, &g, el);
                             continue;
                         }
-                        let el = match b.enriched_cell(c) {
-                            Some(ec) => enriched_tl_element(b, ec),
-                            None => {
+                        let el = match (b.enriched_cell(c), b.tied_cell(c)) {
+                            (Some(ec), _) => enriched_tl_element(b, ec),
+                            (None, Some(tc)) => tied_tl_element(b, tc),
+                            (None, None) => {
                                 let X: Vec<f64> = b
                                     .mesh
                                     .cell(c)

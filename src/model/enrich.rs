@@ -12,6 +12,11 @@
 //! as *display nodes*: no element uses them, so they carry no unknowns; their displacement is
 //! interpolated for output from the element that has them as a corner ([`Enrichment::display`]).
 //!
+//! Linear cells that touch the surface only at a replaced node (an unstructured mesh's cell
+//! between two enriched cells, or in 3D along an edge, never a face) are tied to the surface's
+//! interpolation there ([`TiedCell`]): the node follows the layer, `u_n = sum_A N_A(xi_n) u_A`, a
+//! constraint built once into the cell's node list, so assembly needs nothing special.
+//!
 //! Node sets ([`Enrichment::remap`]): a replaced surface node in a set is replaced by the
 //! position-type nodes (control points / mid nodes, never tangent pseudo-nodes) of every enriched
 //! element whose basis is nonzero at that node, and every enriched element whose whole linear face
@@ -160,6 +165,53 @@ impl EnrichedCell {
     }
 }
 
+/// A linear (non-enriched) cell that touches the enriched surface only at nodes the layer replaced
+/// by control points (a node, or in 3D an edge, but no face): each such node follows the surface,
+/// `u_n = sum_A N_A(xi_n) u_A` over the control points of the enriched cell that has `n` as a
+/// corner (the display interpolation of `n`), a constraint built once. The cell is the same linear
+/// element with its shape functions mapped, `N'_j = sum_a N_a T_aj`: the tied node's function is
+/// shared among the control points, so assembly needs nothing special, and its reference position
+/// is the surface point `sum_A N_A(xi_n) X_A` (the mesh node itself where the layer interpolates
+/// it; on a smooth fit the point of the fit, so the cell stays conforming with its enriched
+/// neighbours and an affine field is reproduced exactly). In 2D the tie is conforming (the cell
+/// meets its enriched neighbours along straight sides that end at the tied node); in 3D a cell
+/// touching the surface along an edge is tied at the edge's two nodes, and its straight edge
+/// follows the curved surface only there.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TiedCell {
+    /// Body-local cell id.
+    pub cell: usize,
+    /// Element nodes (body-local): the cell's nodes that keep their unknowns, then the control
+    /// points of its tied nodes, each once.
+    pub nodes: Vec<u32>,
+    /// For each node of the linear cell, in the cell's order: `(index into nodes, weight)`.
+    pub map: Vec<Vec<(usize, f64)>>,
+}
+
+impl TiedCell {
+    /// Maps a table of the linear cell's values at points, `[n_points][n_linear][k]`, to the
+    /// element's nodes, `[n_points][nodes.len()][k]` (e.g. `k = dim` for reference derivatives).
+    pub fn expand(&self, table: &[f64], k: usize) -> Vec<f64> {
+        let (nl, n) = (self.map.len(), self.nodes.len());
+        let n_points = table.len() / (nl * k);
+        let mut out = vec![0.0; n_points * n * k];
+        for q in 0..n_points {
+            for (a, row) in self.map.iter().enumerate() {
+                let src = &table[(q * nl + a) * k..(q * nl + a + 1) * k];
+                for &(j, w) in row {
+                    for (o, s) in out[(q * n + j) * k..(q * n + j + 1) * k]
+                        .iter_mut()
+                        .zip(src)
+                    {
+                        *o += w * s;
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
 /// The surface the enriched layer was built on: the exact one (refined to the family for Q1Np), or
 /// for `enriched_geometry = "smooth"` its smooth fit (elevated to the family).
 #[derive(Debug, Clone, PartialEq)]
@@ -197,9 +249,14 @@ pub struct Enrichment {
     /// the largest distance between the fit and the exact surface, sampled at 17 points per
     /// element and direction; `None` when the layer interpolates the exact surface.
     pub smooth_deviation: Option<f64>,
-    /// The face set's geometry was unknown (2D: neither a line nor a circle), so the layer was
-    /// fitted to the cubic interpolant of its nodes, the reference of `smooth_deviation`.
+    /// The face set's geometry was unknown (2D: neither a line nor a circle; 3D: neither a plane
+    /// nor a generator's exact surface), so the layer was fitted to the cubic interpolant of its
+    /// nodes, the reference of `smooth_deviation`.
     pub interpolated_reference: bool,
+    /// Linear cells tied to the layer: they touch the surface only at replaced nodes.
+    pub tied: Vec<TiedCell>,
+    /// Index into `tied` of each mesh cell. [n_cells]
+    pub tied_index: Vec<Option<usize>>,
 }
 
 impl Enrichment {
@@ -327,25 +384,90 @@ pub fn build_enrichment_with(
         2 => build_2d(mesh, set, &cells, family, smooth)?,
         _ => build_3d(mesh, set, &cells, family, smooth)?,
     };
-    check_replaced_not_shared(mesh, set, &layer)?;
+    let mut layer = layer;
+    tie_linear_cells(mesh, set, &mut layer)?;
     Ok(layer)
 }
 
-/// A replaced surface node used by a linear cell would leave that cell without its node.
-fn check_replaced_not_shared(mesh: &Mesh, set: &str, e: &Enrichment) -> Result<(), EnrichError> {
+/// Ties the linear cells that touch the enriched surface at replaced nodes (display nodes, which
+/// carry no unknowns) to the surface's interpolation there (see [`TiedCell`]). A linear cell with a
+/// whole face on the surface, or an enriched cell whose bulk side touches it, is an error.
+fn tie_linear_cells(mesh: &Mesh, set: &str, e: &mut Enrichment) -> Result<(), EnrichError> {
     let replaced: BTreeSet<u32> = e.replaced.iter().copied().collect();
+    if replaced.is_empty() {
+        return Ok(());
+    }
+    let surface: BTreeSet<u32> = e
+        .cells
+        .iter()
+        .flat_map(|c| c.corners.iter().copied())
+        .collect();
+    let display: BTreeMap<u32, &Vec<(u32, f64)>> = e.display.iter().map(|(n, w)| (*n, w)).collect();
+    for c in &e.cells {
+        if let Some(n) = c.nodes[c.n_position..]
+            .iter()
+            .find(|n| replaced.contains(n))
+        {
+            return Err(unsupported(
+                set,
+                format!(
+                    "the bulk side of enriched cell {} touches the surface at node {n} (a cell \
+                     with more than one side on the surface); refine the mesh there",
+                    c.cell
+                ),
+            ));
+        }
+    }
     for c in 0..mesh.n_cells() {
-        if e.cell_index[c].is_none() {
-            if let Some(n) = mesh.cell(c).iter().find(|n| replaced.contains(n)) {
-                return Err(unsupported(
+        if e.cell_index[c].is_some() {
+            continue;
+        }
+        let cn = mesh.cell(c);
+        if !cn.iter().any(|n| replaced.contains(n)) {
+            continue;
+        }
+        let kind = mesh.cell_kind[c];
+        for f in 0..kind.n_faces() as u8 {
+            let fnodes = mesh
+                .face_nodes(c, f)
+                .map_err(|err| faces_err(set, err.to_string()))?;
+            if fnodes.iter().all(|n| surface.contains(n)) {
+                return Err(faces_err(
                     set,
                     format!(
-                        "surface node {n} is shared with the non-enriched cell {c}; an enriched \
-                         surface may share only its ends/corners with linear cells"
+                        "cell {c} has its face {f} on the enriched surface but the face is not \
+                         in the set"
                     ),
                 ));
             }
         }
+        let mut nodes: Vec<u32> = cn
+            .iter()
+            .copied()
+            .filter(|n| !replaced.contains(n))
+            .collect();
+        let mut map = Vec::with_capacity(cn.len());
+        for n in cn {
+            let weights = match display.get(n) {
+                Some(w) => w.to_vec(),
+                None => vec![(*n, 1.0)],
+            };
+            let mut row = Vec::with_capacity(weights.len());
+            for (a, w) in weights {
+                let i = nodes.iter().position(|&b| b == a).unwrap_or_else(|| {
+                    nodes.push(a);
+                    nodes.len() - 1
+                });
+                row.push((i, w));
+            }
+            map.push(row);
+        }
+        e.tied_index[c] = Some(e.tied.len());
+        e.tied.push(TiedCell {
+            cell: c,
+            nodes,
+            map,
+        });
     }
     Ok(())
 }
@@ -847,6 +969,8 @@ fn finish(
         exact,
         smooth_deviation: None,
         interpolated_reference: false,
+        tied: Vec::new(),
+        tied_index: vec![None; mesh.n_cells()],
     })
 }
 
@@ -871,10 +995,12 @@ struct FaceGrid {
     node_of: Vec<u32>,
     /// Absolute tolerance for "the same point".
     tol: f64,
+    /// No exact geometry: `base` is the bicubic interpolant of the nodes ([`free_grid`]).
+    free: bool,
 }
 
 fn build_3d(
-    mesh: &Mesh,
+    mesh: &mut Mesh,
     set: &str,
     cells: &[usize],
     family: ElementFamily,
@@ -888,10 +1014,21 @@ fn build_3d(
             return Err(faces_err(set, format!("cell {c} is not a Hex8")));
         }
     }
-    let grid = match mesh.exact_surfaces.get(set) {
-        Some(patch) => exact_grid(mesh, set, cells, patch)?,
-        None => plane_grid(mesh, set, cells)?,
-    };
+    let grid =
+        match mesh.exact_surfaces.get(set) {
+            Some(patch) => exact_grid(mesh, set, cells, patch)?,
+            None => match plane_grid(mesh, set, cells)? {
+                Some(g) => g,
+                None if smooth => free_grid(mesh, set, cells)?,
+                None => return Err(unsupported(
+                    set,
+                    "the surface nodes are not on a plane (within 1e-10) and the mesh generator \
+                     gave no exact surface (e.g. `hemisphere_nurbs`); a curved face set on a \
+                     structured grid of faces can be enriched with enriched_geometry = \
+                     \"smooth\" (a smooth fit through its nodes)",
+                )),
+            },
+        };
     build_3d_on_grid(mesh, set, p as usize, t as usize, grid, smooth)
 }
 
@@ -955,11 +1092,13 @@ fn exact_grid(
         face_of: cells.to_vec(),
         node_of: patch.nodes.clone(),
         tol,
+        free: false,
     })
 }
 
-/// The face grid of a planar rectangular patch, recognised from the nodes.
-fn plane_grid(mesh: &Mesh, set: &str, cells: &[usize]) -> Result<FaceGrid, EnrichError> {
+/// The face grid of a planar rectangular patch, recognised from the nodes; `None` when the nodes
+/// are not on a plane.
+fn plane_grid(mesh: &Mesh, set: &str, cells: &[usize]) -> Result<Option<FaceGrid>, EnrichError> {
     let geo = |source| EnrichError::Geometry {
         set: set.to_string(),
         source,
@@ -996,11 +1135,7 @@ fn plane_grid(mesh: &Mesh, set: &str, cells: &[usize]) -> Result<FaceGrid, Enric
         .fold(0.0, f64::max);
     let tol = GEOMETRY_TOL * size.max(1.0);
     if surf.iter().any(|&n| dot(sub(x(n), o), nrm).abs() > tol) {
-        return Err(unsupported(
-            set,
-            "the surface nodes are not on a plane (within 1e-10); other curved 3D surfaces need \
-             their exact geometry from the mesh generator (e.g. `hemisphere_nurbs`)",
-        ));
+        return Ok(None);
     }
     let st = |n: u32| (dot(sub(x(n), o), e1), dot(sub(x(n), o), e2));
     let (mut su, mut sv): (Vec<f64>, Vec<f64>) = surf.iter().map(|&n| st(n)).unzip();
@@ -1057,7 +1192,7 @@ fn plane_grid(mesh: &Mesh, set: &str, cells: &[usize]) -> Result<FaceGrid, Enric
         o[2] + su[0] * e1[2] + sv[0] * e2[2],
     ];
     let base = plane_patch(origin, e1.map(|c| c * lu), e2.map(|c| c * lv)).map_err(geo)?;
-    Ok(FaceGrid {
+    Ok(Some(FaceGrid {
         base,
         nu,
         nv,
@@ -1066,6 +1201,241 @@ fn plane_grid(mesh: &Mesh, set: &str, cells: &[usize]) -> Result<FaceGrid, Enric
         face_of,
         node_of,
         tol,
+        free: false,
+    }))
+}
+
+/// The face grid of a curved face set without known geometry (`enriched_geometry = "smooth"`
+/// only), recovered from the faces' connectivity, and the bicubic interpolant of its nodes as the
+/// reference surface the layer is fitted to.
+///
+/// Supported topology: a structured grid of `nu x nv` quadrilateral faces (`nu, nv >= 2`) forming
+/// one open patch: exactly four nodes lie in one face only (the corners), every boundary node in
+/// two, every interior node in four, and walking across shared edges from a corner reaches every
+/// face at a distinct grid position. Closed surfaces (a full cylinder), collapsed edges and
+/// unstructured face sets are reported. Each cell is turned about its surface face so that its
+/// local node 0 is the face's grid corner `(i, j)` (see [`Mesh::rotate_about_face0`]).
+///
+/// The interpolant: grid parameters by chord length averaged over the rows (columns), each row
+/// interpolated by the C^2 cubic of [`interpolate_cubic`], then each column of the rows' control
+/// points: a tensor-product bicubic B-spline through every node.
+fn free_grid(mesh: &mut Mesh, set: &str, cells: &[usize]) -> Result<FaceGrid, EnrichError> {
+    let geo = |source| EnrichError::Geometry {
+        set: set.to_string(),
+        source,
+    };
+    let topo = |msg: String| {
+        unsupported(
+            set,
+            format!(
+                "no exact geometry known and {msg}: a smooth fit needs a structured grid of \
+                 faces (one open four-sided patch, four faces at every interior node)"
+            ),
+        )
+    };
+    let quad = |mesh: &Mesh, c: usize| -> [u32; 4] {
+        let n = mesh.cell(c);
+        [n[0], n[1], n[2], n[3]]
+    };
+    let mut valence: BTreeMap<u32, usize> = BTreeMap::new();
+    let mut edges: BTreeMap<(u32, u32), Vec<usize>> = BTreeMap::new();
+    for (f, &c) in cells.iter().enumerate() {
+        let q = quad(mesh, c);
+        for k in 0..4 {
+            *valence.entry(q[k]).or_default() += 1;
+            let (a, b) = (q[k], q[(k + 1) % 4]);
+            edges.entry((a.min(b), a.max(b))).or_default().push(f);
+        }
+    }
+    let corners: Vec<u32> = valence
+        .iter()
+        .filter(|&(_, &v)| v == 1)
+        .map(|(&n, _)| n)
+        .collect();
+    if corners.len() != 4 {
+        return Err(topo(format!(
+            "{} of its nodes lie in one face only (a four-sided patch has 4 corners)",
+            corners.len()
+        )));
+    }
+    if let Some((n, v)) = valence.iter().find(|&(_, &v)| v > 4) {
+        return Err(topo(format!("node {n} lies in {v} faces")));
+    }
+    let other = |f: usize, a: u32, b: u32| -> Option<usize> {
+        edges[&(a.min(b), a.max(b))]
+            .iter()
+            .copied()
+            .find(|&g| g != f)
+    };
+    // grid node (i, j) -> mesh node, face (i, j) -> (face index, quarter turns), faces placed
+    #[derive(Default)]
+    struct Walk {
+        node_at: BTreeMap<(usize, usize), u32>,
+        placed: BTreeMap<(usize, usize), (usize, usize)>,
+        used: BTreeSet<usize>,
+    }
+    let mut w = Walk::default();
+    let place =
+        |w: &mut Walk, f: usize, i: usize, j: usize, corner: u32| -> Result<(), EnrichError> {
+            let q = quad(mesh, cells[f]);
+            let k = q
+                .iter()
+                .position(|&n| n == corner)
+                .ok_or_else(|| topo(format!("cell {} does not continue the grid", cells[f])))?;
+            if !w.used.insert(f) {
+                return Err(topo(format!(
+                    "cell {} is reached twice (a closed surface?)",
+                    cells[f]
+                )));
+            }
+            for (d, (di, dj)) in [(0, 0), (1, 0), (1, 1), (0, 1)].into_iter().enumerate() {
+                let n = q[(k + d) % 4];
+                match w.node_at.insert((i + di, j + dj), n) {
+                    Some(m) if m != n => {
+                        return Err(topo(format!(
+                            "cell {} does not fit the grid at ({}, {})",
+                            cells[f],
+                            i + di,
+                            j + dj
+                        )))
+                    }
+                    _ => {}
+                }
+            }
+            w.placed.insert((i, j), (f, k));
+            Ok(())
+        };
+    let c0 = corners[0];
+    let f0 = (0..cells.len())
+        .find(|&f| quad(mesh, cells[f]).contains(&c0))
+        .ok_or_else(|| topo("no face holds a corner".into()))?;
+    place(&mut w, f0, 0, 0, c0)?;
+    // first row along u, then each next row from the row below
+    let mut nu = 1;
+    loop {
+        let (a, b) = (w.node_at[&(nu, 0)], w.node_at[&(nu, 1)]);
+        let f = w.placed[&(nu - 1, 0)].0;
+        match other(f, a, b) {
+            Some(g) => {
+                place(&mut w, g, nu, 0, a)?;
+                nu += 1;
+            }
+            None => break,
+        }
+    }
+    let mut nv = 1;
+    loop {
+        let mut found = 0;
+        for i in 0..nu {
+            let (a, b) = (w.node_at[&(i, nv)], w.node_at[&(i + 1, nv)]);
+            let f = w.placed[&(i, nv - 1)].0;
+            if let Some(g) = other(f, a, b) {
+                place(&mut w, g, i, nv, a)?;
+                found += 1;
+            }
+        }
+        if found == 0 {
+            break;
+        }
+        if found != nu {
+            return Err(topo(format!("row {nv} of the grid is incomplete")));
+        }
+        nv += 1;
+    }
+    if nu * nv != cells.len() {
+        return Err(topo(format!(
+            "a grid of {nu} x {nv} faces from a corner, but the set has {} faces",
+            cells.len()
+        )));
+    }
+    if nu < 2 || nv < 2 {
+        return Err(topo(format!(
+            "a grid of {nu} x {nv} faces (the cubic interpolant needs at least 2 per direction)"
+        )));
+    }
+    let mut seen = BTreeSet::new();
+    if let Some(n) = w.node_at.values().find(|&&n| !seen.insert(n)) {
+        return Err(topo(format!(
+            "node {n} sits at two grid points (a closed surface?)"
+        )));
+    }
+    let mut face_of = vec![0usize; nu * nv];
+    for (&(i, j), &(f, k)) in &w.placed {
+        mesh.rotate_about_face0(cells[f], k)
+            .map_err(|e| faces_err(set, e.to_string()))?;
+        face_of[i + nu * j] = cells[f];
+    }
+    let node_of: Vec<u32> = (0..=nv)
+        .flat_map(|j| (0..=nu).map(move |i| (i, j)))
+        .map(|ij| w.node_at[&ij])
+        .collect();
+    let x = |i: usize, j: usize| -> [f64; 3] {
+        let v = mesh.node(node_of[i + (nu + 1) * j]);
+        [v[0], v[1], v[2]]
+    };
+    // chord-length parameters averaged over the rows (columns)
+    let params = |n: usize, m: usize, at: &dyn Fn(usize, usize) -> [f64; 3]| -> Vec<f64> {
+        let mut t = vec![0.0; n + 1];
+        for r in 0..=m {
+            let mut cum = vec![0.0];
+            for k in 0..n {
+                cum.push(cum[k] + dist(&at(k, r), &at(k + 1, r)));
+            }
+            for k in 0..=n {
+                t[k] += cum[k] / cum[n] / (m + 1) as f64;
+            }
+        }
+        (t[0], t[n]) = (0.0, 1.0);
+        t
+    };
+    let tu = params(nu, nv, &|k, r| x(k, r));
+    let tv = params(nv, nu, &|k, r| x(r, k));
+    if tu.windows(2).chain(tv.windows(2)).any(|w| w[1] <= w[0]) {
+        return Err(faces_err(set, "faces of zero length along the grid"));
+    }
+    let rows: Vec<NurbsCurve> = (0..=nv)
+        .map(|j| {
+            let q: Vec<[f64; 3]> = (0..=nu).map(|i| x(i, j)).collect();
+            interpolate_cubic(&q, &tu, 3)
+        })
+        .collect::<Result<_, _>>()
+        .map_err(geo)?;
+    let ncu = rows[0].n_ctrl();
+    let mut ctrl = Vec::new();
+    let mut kv = None;
+    let mut cols = Vec::with_capacity(ncu);
+    for a in 0..ncu {
+        let q: Vec<[f64; 3]> = rows
+            .iter()
+            .map(|r| [r.ctrl[3 * a], r.ctrl[3 * a + 1], r.ctrl[3 * a + 2]])
+            .collect();
+        let c = interpolate_cubic(&q, &tv, 3).map_err(geo)?;
+        kv.get_or_insert_with(|| c.knots.clone());
+        cols.push(c);
+    }
+    let ncv = cols[0].n_ctrl();
+    for b in 0..ncv {
+        for c in &cols {
+            ctrl.extend_from_slice(&c.ctrl[3 * b..3 * b + 3]);
+        }
+    }
+    let ku = rows[0].knots.clone();
+    let kv = kv.ok_or_else(|| faces_err(set, "empty grid"))?;
+    let base = NurbsSurface::new(ku, kv, ctrl, vec![1.0; ncu * ncv]).map_err(geo)?;
+    let size = node_of
+        .iter()
+        .map(|&n| dist(mesh.node(n), mesh.node(node_of[0])))
+        .fold(0.0, f64::max);
+    Ok(FaceGrid {
+        base,
+        nu,
+        nv,
+        xu: tu[1..nu].to_vec(),
+        xv: tv[1..nv].to_vec(),
+        face_of,
+        node_of,
+        tol: GEOMETRY_TOL * size.max(1.0),
+        free: true,
     })
 }
 
@@ -1089,7 +1459,14 @@ fn build_3d_on_grid(
     };
     let (nu, nv) = (g.nu, g.nv);
     let (du, dv) = (g.base.knots_u.degree(), g.base.knots_v.degree());
-    if p < du.max(dv) {
+    let fit = smooth && (g.base.knots_u.n_elements() > 1 || g.base.knots_v.n_elements() > 1);
+    if fit && p < 2 {
+        return Err(unsupported(
+            set,
+            "enriched_geometry = \"smooth\" needs an order p >= 2 (Q1N1 is C^0)",
+        ));
+    }
+    if !fit && p < du.max(dv) {
         return Err(unsupported(
             set,
             format!(
@@ -1106,7 +1483,7 @@ fn build_3d_on_grid(
             .collect()
     };
     let mut deviation = None;
-    let s = if smooth && (g.base.knots_u.n_elements() > 1 || g.base.knots_v.n_elements() > 1) {
+    let s = if fit {
         let (fit, d) = smooth_surface(&g, p).map_err(geo)?;
         deviation = Some(d);
         fit.elevate(Direction::U, t)
@@ -1210,6 +1587,7 @@ fn build_3d_on_grid(
     )
     .map(|e| Enrichment {
         smooth_deviation: deviation,
+        interpolated_reference: g.free,
         ..e
     })
 }

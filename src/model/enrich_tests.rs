@@ -983,3 +983,257 @@ fn a_curve_without_exact_geometry_is_enriched_by_a_smooth_fit_through_its_nodes(
         }
     }
 }
+
+/// The graded Gmsh half disk of `cases/meshes` (unstructured quads, radius 1, centre (0, 1)): one
+/// linear cell touches the arc only at a node.
+/// Linear elastic, so that the patch test's first Newton step (interior nodes at rest, boundary
+/// nodes at `H X`) cannot invert the small cells at the contact point.
+fn gmsh_half_disk(element: &str, geometry: &str) -> Model {
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/meshes/half_disk_graded.msh");
+    let mesh = format!("file = \"{}\"", file.display());
+    let text = case_text(2, &mesh, "b", element, "arc")
+        .replace(
+            "enriched_surface = \"arc\"",
+            &format!("enriched_surface = \"arc\"\nenriched_geometry = \"{geometry}\""),
+        )
+        .replace("neo_hookean", "linear_elastic");
+    build(&text)
+}
+
+/// Body-local cells tied to the enriched surface.
+fn tied_cells(m: &Model) -> Vec<usize> {
+    let e = m.bodies[0].enrichment.as_ref().unwrap();
+    e.tied.iter().map(|t| t.cell).collect()
+}
+
+#[test]
+fn linear_cells_touching_the_surface_at_a_node_follow_its_interpolation() {
+    for geometry in ["exact", "smooth"] {
+        let m = gmsh_half_disk("Q1N2", geometry);
+        let b = &m.bodies[0];
+        let e = b.enrichment.as_ref().unwrap();
+        assert!(
+            !e.tied.is_empty(),
+            "{geometry}: the mesh must have tied cells"
+        );
+        for t in &e.tied {
+            let cell = b.mesh.cell(t.cell);
+            assert_eq!(t.map.len(), cell.len());
+            // no element node is a replaced (display) node, and the cell's weights sum to one
+            assert!(t.nodes.iter().all(|n| e.replaced.binary_search(n).is_err()));
+            for (a, row) in t.map.iter().enumerate() {
+                let s: f64 = row.iter().map(|&(_, w)| w).sum();
+                assert!((s - 1.0).abs() < 1e-13, "{geometry}: weights sum to {s}");
+                // the tied node's reference position is the surface point: on the exact arc the
+                // mesh node itself
+                let x: Vec<f64> = (0..2)
+                    .map(|k| row.iter().map(|&(j, w)| w * b.node(t.nodes[j])[k]).sum())
+                    .collect();
+                let y = b.mesh.node(cell[a]);
+                let d = (x[0] - y[0]).hypot(x[1] - y[1]);
+                if geometry == "exact" {
+                    assert!(d < 1e-12, "tied node {} is {d:e} off", cell[a]);
+                } else {
+                    // measured: the fit passes within 1.2e-5 of the arc's nodes here
+                    assert!(d < 1e-4, "tied node {} is {d:e} off", cell[a]);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn tied_cells_pass_the_patch_test_and_match_fd_tangents() {
+    // polynomial (smooth) layer: exact quadrature, so the affine field is reproduced to round-off
+    // with the tied cell in the patch (its node's force reaches the control points)
+    let m = gmsh_half_disk("Q1N2", "smooth");
+    let H = [0.1, -0.05, 0.07, -0.12];
+    let (du, ds) = patch_test(&m, &["arc", "top"], &H);
+    assert!(
+        du < 1e-10 && ds < 1e-10,
+        "patch test with tied cells: {du} {ds}"
+    );
+    let tied = tied_cells(&m);
+    let dim = m.dim;
+    let mut rng = Lcg(5);
+    let mut n_checked = 0;
+    for mut s in sets(&m) {
+        for e in 0..s.len() {
+            if !tied.contains(&s.cell_id(e).1) {
+                continue;
+            }
+            n_checked += 1;
+            let nd = s.nodes(e).len() * dim;
+            assert!(nd > 8, "a tied quad lists control points");
+            let u: Vec<f64> = (0..nd).map(|_| 0.1 * (rng.next() - 0.5)).collect();
+            let (mut r, mut k) = (vec![0.0; nd], vec![0.0; nd * nd]);
+            s.evaluate(e, &u, &mut r, Some(&mut k)).unwrap();
+            let kfd = fd_tangent(nd, &u, 1e-6, |v, r| {
+                s.evaluate(e, v, r, None).unwrap();
+                Ok(())
+            });
+            let scale = k.iter().fold(0.0_f64, |a, x| a.max(x.abs()));
+            let err = k
+                .iter()
+                .zip(&kfd)
+                .fold(0.0_f64, |a, (x, y)| a.max((x - y).abs()));
+            assert!(err < 1e-6 * scale, "tied cell tangent: {err} of {scale}");
+        }
+    }
+    assert_eq!(n_checked, tied.len());
+}
+
+#[test]
+fn tied_cells_under_a_q1e4_bulk_are_reported() {
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/meshes/half_disk_graded.msh");
+    let mesh = format!("file = \"{}\"", file.display());
+    let text = case_text(2, &mesh, "b", "Q1N2", "arc").replace(
+        "enriched_surface = \"arc\"",
+        "enriched_surface = \"arc\"\nbulk = \"Q1E4\"",
+    );
+    let err = build_err(&text);
+    assert!(
+        err.contains("bodies.b.bulk") && err.contains("only at a node"),
+        "{err}"
+    );
+}
+
+/// A box `[0,1]^2 x [0,1]` of `n x n x 2` hexes whose top `zmax` is bent into the bump
+/// `z = 1 + 0.2 sin(pi x) sin(pi y)` (each node lifted in proportion to its height): a curved
+/// face set on a structured grid with no exact geometry the layer recognises. Every cell is then
+/// turned about its vertical axis by `turns(cell)` quarter turns (the grid walk must undo them).
+fn bumped_box(n: usize, turns: &dyn Fn(usize) -> usize) -> crate::mesh::Mesh {
+    use std::f64::consts::PI;
+    let mut mesh = crate::mesh::box3d::box3d([0.0; 3], [1.0, 1.0, 1.0], [n, n, 2]).unwrap();
+    for x in mesh.coords.chunks_mut(3) {
+        x[2] *= 1.0 + 0.2 * (PI * x[0]).sin() * (PI * x[1]).sin();
+    }
+    for c in 0..mesh.n_cells() {
+        mesh.rotate_about_face0(c, turns(c)).unwrap();
+    }
+    mesh.validate().unwrap();
+    mesh
+}
+
+#[test]
+fn a_curved_face_grid_without_exact_geometry_is_enriched_by_a_smooth_fit_through_its_nodes() {
+    use super::enrich::{build_enrichment, build_enrichment_with};
+    use crate::scene::{ElementFamily, EnrichedGeometry};
+    use std::f64::consts::PI;
+    let bump = |x: [f64; 3]| (x[2] - 1.0 - 0.2 * (PI * x[0]).sin() * (PI * x[1]).sin()).abs();
+    let q1n2 = ElementFamily::Q1N { p: 2, t: 0 };
+    let err = build_enrichment(&mut bumped_box(4, &|_| 0), "zmax", q1n2).unwrap_err();
+    assert!(
+        err.to_string().contains("not on a plane")
+            && err.to_string().contains("enriched_geometry = \"smooth\""),
+        "{err}"
+    );
+    let mut errs = Vec::new();
+    for n in [4, 8, 16] {
+        let layer = |turns: &dyn Fn(usize) -> usize| {
+            let mut mesh = bumped_box(n, turns);
+            build_enrichment_with(&mut mesh, "zmax", q1n2, EnrichedGeometry::Smooth).unwrap()
+        };
+        let e = layer(&|_| 0);
+        assert!(e.interpolated_reference);
+        let ExactSurface::Surface(s) = &e.exact else {
+            panic!("3D layer without a surface")
+        };
+        assert_eq!(
+            (s.knots_u.n_elements(), s.knots_v.n_elements()),
+            (n, n),
+            "a span per face"
+        );
+        assert_eq!(s.knots_u.min_interior_continuity(), 1);
+        assert_eq!(s.knots_v.min_interior_continuity(), 1);
+        // cells turned every which way give the same layer
+        let f = layer(&|c| (c * 7 + c / 3) % 4);
+        let ExactSurface::Surface(s2) = &f.exact else {
+            panic!("3D layer without a surface")
+        };
+        let d = s
+            .ctrl
+            .iter()
+            .zip(&s2.ctrl)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(d < 1e-14, "n={n}: turned cells change the surface by {d:e}");
+        assert_eq!(e.cells.len(), f.cells.len());
+        // distance from the bump, sampled
+        let worst = (0..=60)
+            .flat_map(|i| (0..=60).map(move |j| (i as f64 / 60.0, j as f64 / 60.0)))
+            .map(|(u, v)| bump(s.point(u, v)))
+            .fold(0.0, f64::max);
+        let dev = e.smooth_deviation.unwrap();
+        assert!(
+            dev > 0.0 && dev < 5e-3,
+            "n={n}: deviation from the interpolant {dev:e}"
+        );
+        errs.push(worst);
+    }
+    // measured: 2.6e-3, 2.6e-4, 2.5e-5 (rates 3.3, 3.4) from the bump
+    for w in errs.windows(2) {
+        let r = (w[0] / w[1]).log2();
+        assert!(r > 2.8, "rate {r} ({errs:?})");
+    }
+}
+
+#[test]
+fn face_sets_that_are_no_structured_grid_are_reported() {
+    use super::enrich::build_enrichment_with;
+    use crate::scene::{ElementFamily, EnrichedGeometry};
+    let q1n2 = ElementFamily::Q1N { p: 2, t: 0 };
+    // the bumped top without one corner face: a five-cornered patch
+    let mut mesh = bumped_box(3, &|_| 0);
+    mesh.face_sets.get_mut("zmax").unwrap().remove(0);
+    let err = build_enrichment_with(&mut mesh, "zmax", q1n2, EnrichedGeometry::Smooth)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("structured grid of faces") && err.contains("5 of its nodes"),
+        "{err}"
+    );
+    // the bumped top and one side face of the box: an L-shaped set with six corners
+    let mut mesh = bumped_box(2, &|_| 0);
+    let side = mesh.face_sets["xmax"][0];
+    mesh.face_sets.get_mut("zmax").unwrap().push(side);
+    let err = build_enrichment_with(&mut mesh, "zmax", q1n2, EnrichedGeometry::Smooth)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("structured grid of faces"), "{err}");
+}
+
+/// The Gmsh block with a spherical cap of `cases/meshes`, cap enriched by the smooth fit.
+fn gmsh_cap_block(element: &str) -> Model {
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/meshes/cap_block.msh");
+    let mesh = format!("file = \"{}\"", file.display());
+    let text = case_text(3, &mesh, "b", element, "cap").replace(
+        "enriched_surface = \"cap\"",
+        "enriched_surface = \"cap\"\nenriched_geometry = \"smooth\"",
+    );
+    build(&text)
+}
+
+#[test]
+fn gmsh_cap_fit_lies_near_the_sphere_passes_the_patch_test_and_matches_fd_tangents() {
+    let m = gmsh_cap_block("Q1N2");
+    let e = m.bodies[0].enrichment.as_ref().unwrap();
+    assert!(e.interpolated_reference && e.cells.len() == 64);
+    // measured: the fit lies within 1.15e-4 of the sphere the nodes were placed on (4.3e-5 from
+    // the bicubic interpolant of the nodes, which itself leaves the sphere near the patch edges)
+    let g = m.surface_grid(4).unwrap();
+    let worst = g
+        .coords
+        .chunks(3)
+        .map(|x| (dist_to(x, [0.0, 0.0, 1.0]) - 1.0).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        worst > 0.0 && worst < 2e-4,
+        "fit off the sphere by {worst:e}"
+    );
+    let err = tangent_error(&m, 0.05);
+    assert!(err < 1e-6, "Q1N2 on the Gmsh cap: {err}");
+    let H = [0.1, -0.05, 0.02, 0.07, -0.12, 0.03, -0.04, 0.05, 0.08].map(|h| 0.3 * h);
+    let (du, ds) = patch_test(&m, &["cap", "top", "sides"], &H);
+    assert!(du < 1e-10 && ds < 1e-10, "patch test: {du} {ds}");
+}

@@ -15,7 +15,7 @@ mod enrich_tests;
 mod holds;
 mod sampling;
 
-pub use build::{enriched_tl_element, Body, Model, ModelError};
-pub use enrich::{EnrichError, EnrichedBasis, EnrichedCell, Enrichment, ExactSurface};
+pub use build::{enriched_tl_element, tied_tl_element, Body, Model, ModelError};
+pub use enrich::{EnrichError, EnrichedBasis, EnrichedCell, Enrichment, ExactSurface, TiedCell};
 pub use holds::{holds, HoldReport};
 pub use sampling::{apply_display, SampledGrid};
