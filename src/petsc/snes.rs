@@ -65,6 +65,8 @@ struct Context<'a> {
     jac: *mut c_void,
     domain: Option<String>,
     fatal: Option<String>,
+    /// The Jacobian evaluation raised a domain error: the convergence test stops the solve.
+    jacobian_domain: bool,
 }
 
 /// PETSc's code for "error in user callback" (PETSC_ERR_USER in petscerror.h).
@@ -109,8 +111,33 @@ unsafe extern "C" fn residual_trampoline(
     }
 }
 
-unsafe extern "C" fn jacobian_trampoline(
+/// SNES convergence test: PETSc's default, except that a Jacobian domain error stops the solve
+/// (`DIVERGED_JACOBIAN_DOMAIN`), so that the caller can, e.g., rebuild the sparsity pattern.
+unsafe extern "C" fn converged_trampoline(
     snes: sys::SNES,
+    it: PetscInt,
+    xnorm: f64,
+    gnorm: f64,
+    fnorm: f64,
+    reason: *mut sys::SNESConvergedReason,
+    ctx: *mut c_void,
+) -> sys::PetscErrorCode {
+    // SAFETY: ctx is the &mut Context installed by `solve`, alive for the whole SNESSolve; reason
+    // is SNES's own output slot.
+    let ctx = unsafe { &mut *(ctx as *mut Context) };
+    if ctx.jacobian_domain {
+        // SAFETY: as above.
+        unsafe { *reason = sys::SNESConvergedReason::SNES_DIVERGED_JACOBIAN_DOMAIN };
+        return 0;
+    }
+    // SAFETY: the live solver and its arguments, passed through; the default test takes no context.
+    unsafe {
+        sys::SNESConvergedDefault(snes, it, xnorm, gnorm, fnorm, reason, std::ptr::null_mut())
+    }
+}
+
+unsafe extern "C" fn jacobian_trampoline(
+    _snes: sys::SNES,
     x: sys::Vec,
     j: sys::Mat,
     _p: sys::Mat,
@@ -133,9 +160,13 @@ unsafe extern "C" fn jacobian_trampoline(
     match catch_unwind(AssertUnwindSafe(|| ctx.problem.jacobian(&xv, jm))) {
         Ok(Ok(())) => 0,
         Ok(Err(ProblemError::Domain(msg))) => {
+            // Not `SNESSetJacobianDomainError`: PETSc 3.18 ignores it unless told to check, and
+            // then never clears it, so every later solve of this SNES would stop at once. The
+            // convergence test ([`converged_trampoline`]) stops this solve instead; the Newton step
+            // already under way uses the previous matrix.
             ctx.domain = Some(msg);
-            // SAFETY: snes is the live solver calling us.
-            unsafe { sys::SNESSetJacobianDomainError(snes) }
+            ctx.jacobian_domain = true;
+            0
         }
         Ok(Err(ProblemError::Fatal(msg))) => {
             ctx.fatal = Some(msg);
@@ -240,6 +271,7 @@ impl<'p> Snes<'p> {
             jac: jac as *mut Matrix as *mut c_void,
             domain: None,
             fatal: None,
+            jacobian_domain: false,
         };
         let ctx_ptr = &mut ctx as *mut Context as *mut c_void;
         // SAFETY: ctx outlives SNESSolve (it is on this stack frame); the callbacks are re-registered
@@ -257,6 +289,12 @@ impl<'p> Snes<'p> {
                 jac_raw,
                 Some(jacobian_trampoline),
                 ctx_ptr
+            ))?;
+            call!(SNESSetConvergenceTest(
+                self.raw,
+                Some(converged_trampoline),
+                ctx_ptr,
+                None
             ))?;
             call!(SNESSolve(self.raw, std::ptr::null_mut(), x.as_raw()))
         };
