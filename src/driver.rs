@@ -4,6 +4,7 @@
 use crate::assembly::{
     constrained_flags, prescribed_values, Assembler, DofMap, DofMapError, GlobalDof, NodeOffsets,
 };
+use crate::contact::system::POINT_RECORD;
 use crate::contact::ContactSystem;
 use crate::io::{self, FieldData, GridDef, HistoryRow, HistoryWriter, ResultsWriter, Summary};
 use crate::model::{Model, ModelError};
@@ -550,6 +551,7 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
     if let Some((_, state)) = &restart {
         restore(petsc, &model, &mut solver, state)?;
     }
+    let points = gather_points(&solver.asm);
     let output = Output::new(
         petsc,
         &model,
@@ -558,6 +560,7 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
         &out_dir,
         rank0(petsc),
         restart.as_ref().map(|(dir, s)| (dir.as_path(), &s.log)),
+        points.as_deref(),
     )?;
     let mut observer = StepObserver::new(
         petsc,
@@ -1500,6 +1503,48 @@ fn contact_fields(asm: &Assembler, n_nodes: usize, root: bool) -> Option<[Vec<f6
     Some([p, pn, g])
 }
 
+/// The contact quadrature points of all ranks on rank 0, [`POINT_RECORD`] values each (see
+/// [`ContactSystem::point_records`]), sorted by their key so that the order does not depend on the
+/// partition; `None` on the other ranks and without contact.
+///
+/// Collective.
+fn gather_points(asm: &Assembler) -> Option<Vec<f64>> {
+    let c = asm.contact()?;
+    let comm = asm.comm();
+    // a leading entry keeps every contribution non-empty (Open MPI rejects an all-empty Gatherv)
+    let mut buf = vec![0.0];
+    buf.extend(c.point_records());
+    let root = comm.process_at_rank(0);
+    let len = buf.len() as i32;
+    if comm.rank() != 0 {
+        root.gather_into(&len);
+        root.gather_varcount_into(&buf[..]);
+        return None;
+    }
+    let mut lens = vec![0i32; comm.size() as usize];
+    root.gather_into_root(&len, &mut lens[..]);
+    let displs: Vec<i32> = lens
+        .iter()
+        .scan(0, |acc, &l| {
+            let d = *acc;
+            *acc += l;
+            Some(d)
+        })
+        .collect();
+    let mut all = vec![0.0; lens.iter().sum::<i32>() as usize];
+    {
+        let mut part = PartitionMut::new(&mut all[..], &lens[..], &displs[..]);
+        root.gather_varcount_into_root(&buf[..], &mut part);
+    }
+    let mut recs: Vec<&[f64]> = Vec::new();
+    for (d, l) in displs.iter().zip(&lens) {
+        let (a, b) = (*d as usize + 1, (*d + *l) as usize);
+        recs.extend(all[a..b].chunks_exact(POINT_RECORD));
+    }
+    recs.sort_by(|a, b| a[..3].partial_cmp(&b[..3]).expect("integer keys"));
+    Some(recs.concat())
+}
+
 /// Results of a run on rank 0 (the other ranks only take part in the gathers).
 /// Sample points per enriched element edge in the "surface" output grid.
 const SURFACE_SAMPLES: usize = 8;
@@ -1526,6 +1571,9 @@ struct Output<'p> {
     display: Vec<(u32, Vec<(u32, f64)>)>,
     /// Enriched-surface grids ("surface", "control_net") written beside "bulk".
     sampled: Vec<crate::model::SampledGrid>,
+    /// Reference positions of the contact quadrature points ("contact_points" grid, rank 0;
+    /// empty without contact) [n][dim].
+    point_ref: Vec<f64>,
 }
 
 impl<'p> Output<'p> {
@@ -1537,8 +1585,14 @@ impl<'p> Output<'p> {
         out_dir: &Path,
         root: bool,
         resume: Option<(&Path, &crate::checkpoint::RunLog)>,
+        points: Option<&[f64]>,
     ) -> Result<Self, Error> {
         let (dim, n_nodes) = (model.dim, model.n_nodes());
+        let point_ref: Vec<f64> = points
+            .unwrap_or_default()
+            .chunks_exact(POINT_RECORD)
+            .flat_map(|r| r[3..3 + dim].to_vec())
+            .collect();
         // Rank 0 asks for every unknown in node order; nodes outside every cell read entry 0 and are
         // zeroed after the gather.
         let without_unknowns: Vec<bool> = (0..n_nodes as u32)
@@ -1574,6 +1628,7 @@ impl<'p> Output<'p> {
                 .into_iter()
                 .flatten()
                 .collect(),
+            point_ref,
         };
         let created = if root {
             out.create_files(model, case, out_dir, resume)
@@ -1634,6 +1689,17 @@ impl<'p> Output<'p> {
                 kind: g.kind,
                 connectivity: &g.connectivity,
             }));
+            let n_points = out.point_ref.len() / dim;
+            let point_conn: Vec<usize> = (0..n_points).collect();
+            if n_points > 0 {
+                grids.push(GridDef {
+                    name: "contact_points",
+                    dim,
+                    coords: &out.point_ref,
+                    kind: io::CellKind::Polyvertex,
+                    connectivity: &point_conn,
+                });
+            }
             out.results = Some(match resume {
                 Some((ckpt, log)) => ResultsWriter::resume(
                     out_dir,
@@ -1705,11 +1771,18 @@ impl<'p> Output<'p> {
             }
             let root_proc = comm.process_at_rank(0);
             let contact = contact_fields(asm, self.n_nodes, self.root);
+            let points = gather_points(asm);
             if self.root {
                 let mut global = vec![0.0; 3 * self.n_cells];
                 root_proc.reduce_into_root(&cells[..], &mut global[..], SystemOperation::sum());
                 if local.is_ok() {
-                    local = self.write_results(rec.load, &global, contact.as_ref(), asm.offsets());
+                    local = self.write_results(
+                        rec.load,
+                        &global,
+                        contact.as_ref(),
+                        points.as_deref(),
+                        asm.offsets(),
+                    );
                 }
             } else {
                 root_proc.reduce_into(&cells[..], SystemOperation::sum());
@@ -1724,6 +1797,7 @@ impl<'p> Output<'p> {
         load: f64,
         cell_measures: &[f64],
         contact: Option<&[Vec<f64>; 3]>,
+        points: Option<&[f64]>,
         offsets: &NodeOffsets,
     ) -> Result<(), Error> {
         let mut u = self.u_root.read()?.to_vec();
@@ -1780,6 +1854,41 @@ impl<'p> Output<'p> {
             for (g, sv) in self.sampled.iter().zip(sampled) {
                 fields.push(FieldData::node_vector(g.name, name, 1, sv));
             }
+        }
+        // the contact quadrature points: displacement from the reference position, pressure, gap,
+        // half-pass, and with friction the state (0 none, 1 stick, 2 slip), tangential traction
+        // and tangential gap to the anchor
+        let dim = self.dim;
+        let recs: Vec<&[f64]> = points
+            .unwrap_or_default()
+            .chunks_exact(POINT_RECORD)
+            .collect();
+        let pf = |f: &dyn Fn(&[f64]) -> Vec<f64>| -> Vec<f64> {
+            recs.iter().flat_map(|r| f(r)).collect()
+        };
+        let point_fields: Vec<(&str, usize, Vec<f64>)> = if recs.is_empty() {
+            Vec::new()
+        } else {
+            vec![
+                (
+                    "displacement",
+                    dim,
+                    pf(&|r| (0..dim).map(|c| r[6 + c] - r[3 + c]).collect()),
+                ),
+                ("half_pass", 1, pf(&|r| vec![r[0]])),
+                ("contact_pressure", 1, pf(&|r| vec![r[9]])),
+                ("contact_gap", 1, pf(&|r| vec![r[10]])),
+                ("friction_state", 1, pf(&|r| vec![r[11]])),
+                (
+                    "tangential_traction",
+                    dim,
+                    pf(&|r| r[12..12 + dim].to_vec()),
+                ),
+                ("tangential_gap", dim, pf(&|r| r[15..15 + dim].to_vec())),
+            ]
+        };
+        for (name, w, v) in &point_fields {
+            fields.push(FieldData::node_vector("contact_points", name, *w, v));
         }
         debug_assert_eq!(u.len(), self.n_nodes * self.dim);
         if let Some(r) = &mut self.results {

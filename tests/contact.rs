@@ -125,7 +125,14 @@ fn newton_converges_fast_while_contact_points_cross_element_boundaries() {
         // the best rate over consecutive triples above round-off: about 2 once the active set has
         // settled (a wrong tangent converges linearly, order ~1, everywhere). Round-off: below the
         // solver's relative tolerance (1e-10 h[0]) the residual stalls near 1e-13 here, which a
-        // quadratic step reaches from 4e-8 (order 1.35 measured against the floor, not the rate)
+        // quadratic step reaches from 4e-8 (order 1.35 measured against the floor, not the rate).
+        // A solve stopped for a new contact sparsity pattern and resumed reports the resumed
+        // solve's history only: not counted here.
+        let its = st["iterations"].as_u64().unwrap() as usize;
+        assert!(its <= 16, "{its} Newton iterations in one step: {h:?}");
+        if its + 1 != h.len() {
+            continue;
+        }
         let best = h[1..]
             .windows(3)
             .filter(|w| w[2] > 1e-10 * h[0] && w[1] < w[0])

@@ -102,10 +102,20 @@ fn a_pushed_block_sticks_below_mu_n_then_slides_at_mu_n_with_quadratic_newton() 
                 checked += 1;
             }
         }
+        // most steps converge too fast to measure a rate (the sliding ones in one iteration:
+        // with every point on the cone against a flat, the residual is linear in the unknowns)
         assert!(
-            checked >= 8,
+            checked >= 2,
             "{fam}: too few steps with a measurable rate ({checked})"
         );
+        let its = history_col(&d, "newton_iterations");
+        for (i, &it) in its.iter().enumerate().skip(stage.len() - 5) {
+            assert!(
+                it <= 2.0,
+                "{fam} step {}: {it} Newton iterations while sliding",
+                i + 1
+            );
+        }
     }
 }
 
@@ -137,6 +147,16 @@ fn friction_is_rank_invariant() {
             "{col}: 1 vs 2 ranks"
         );
     }
+    // the contact points in results.h5: the same order and state on any number of ranks
+    assert_eq!(
+        h5_last(&d1, "contact_points", "friction_state"),
+        h5_last(&d2, "contact_points", "friction_state")
+    );
+    let e = rel_diff(
+        &h5_last(&d1, "contact_points", "displacement"),
+        &h5_last(&d2, "contact_points", "displacement"),
+    );
+    assert!(e < 1e-10, "contact points: 1 vs 2 ranks differ by {e:e}");
     // some frictional steps mix stick and slip
     let stick = history_col(&d2, "stick_fric_block_bottom");
     assert!(stick.iter().any(|&v| v > 0.0));
@@ -178,13 +198,44 @@ fn cattaneo_mindlin_stick_zone_of_the_hertz_half_disk() {
         active[n],
         "every active point sticks or slips"
     );
-    // c/a from the points: the contact points are (nearly) evenly spaced across the contact
-    let c_a = stick[n] / active[n];
+    // c/a from the points' positions (results.h5, grid contact_points, last step): on each side
+    // a midway between the last active and the first inactive point, c midway between the last
+    // sticking and the first slipping point; both sides averaged
+    let f = hdf5::File::open(d.join("results.h5")).expect("open results.h5");
+    let x0 = f
+        .dataset("grids/contact_points/coordinates")
+        .unwrap()
+        .read_raw::<f64>()
+        .unwrap();
+    let u = h5_last(&d, "contact_points", "displacement");
+    let p_pt = h5_last(&d, "contact_points", "contact_pressure");
+    let state = h5_last(&d, "contact_points", "friction_state");
+    let mut pts: Vec<(f64, f64, f64)> = (0..state.len())
+        .map(|i| (x0[3 * i] + u[3 * i], p_pt[i], state[i]))
+        .collect();
+    pts.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap());
+    let half_width = |inside: &dyn Fn(&(f64, f64, f64)) -> bool| {
+        let lo = pts.iter().position(inside).expect("a point inside");
+        let hi = pts.len() - 1 - pts.iter().rev().position(inside).unwrap();
+        assert!(
+            lo > 0 && hi + 1 < pts.len(),
+            "the zone reaches the end of the points"
+        );
+        0.25 * (pts[hi].0 + pts[hi + 1].0 - pts[lo].0 - pts[lo - 1].0)
+    };
+    let a = half_width(&|q| q.1 > 0.0);
+    let c = half_width(&|q| q.2 == 1.0);
+    assert_eq!(
+        pts.iter().filter(|q| q.2 == 1.0).count() as f64,
+        stick[n],
+        "points vs history"
+    );
+    let c_a = c / a;
     let cm = (1.0 - ratio).sqrt();
     let err = c_a / cm - 1.0;
-    // measured -8.7 % (BENCHMARKS.md): the estimator resolves one point of 22 (4.5 %) and the
-    // rigid flat against nu = 0.3 couples normal and tangential loads (Cattaneo-Mindlin assumes
-    // it does not); the 5 % is not met here
+    // measured -9.7 % (BENCHMARKS.md; the counts stick/active give -8.7 %): half a point spacing
+    // is 5 % of a here, and with eps_t = eps_n / 10 the same mesh gives +5.4 %: the 5 % is
+    // not met at this mesh and penalty
     assert!(
         err.abs() < 0.12,
         "c/a = {c_a:.4} against Cattaneo-Mindlin {cm:.4} ({:+.1} %)",
@@ -224,5 +275,144 @@ fn bad_friction_keys_are_named() {
             err.contains(want) && err.contains("friction_block_2d.toml"),
             "{set}: message does not name the key and file:\n{err}"
         );
+    }
+}
+
+/// One dataset of output step `k` (0-based) of `results.h5`, flattened.
+fn h5_step(dir: &std::path::Path, k: usize, grid: &str, field: &str) -> Vec<f64> {
+    let f = hdf5::File::open(dir.join("results.h5")).expect("open results.h5");
+    let ds = f
+        .dataset(&format!("steps/{k:06}/{grid}/{field}"))
+        .unwrap_or_else(|e| panic!("dataset {k:06}/{grid}/{field}: {e}"));
+    ds.read_raw::<f64>().expect("read dataset")
+}
+
+#[test]
+fn contact_points_in_results_carry_the_stick_slip_state_and_the_tangential_traction() {
+    // the pushed block, Q1N2: stick, mixed and slip steps; every step is written
+    let d = run_block(
+        "friction-points-q1n2",
+        1,
+        &["bodies.block.element=Q1N2", "contact.0.eps_t=50.0"],
+    );
+    let (eps_t, mu) = (50.0, MU);
+    let stick = history_col(&d, "stick_fric_block_bottom");
+    let slip = history_col(&d, "slip_fric_block_bottom");
+    let active = history_col(&d, "active_fric_block_bottom");
+    let pt = history_col(&d, "Pt_fric_block_bottom_x");
+    assert_eq!(h5_steps(&d), stick.len(), "one output step per load step");
+    let xdmf = std::fs::read_to_string(d.join("results.xdmf")).unwrap();
+    assert!(xdmf.contains("Grid Name=\"contact_points\"") && xdmf.contains("friction_state"));
+    let mut mixed = 0;
+    for k in 0..stick.len() {
+        let state = h5_step(&d, k, "contact_points", "friction_state");
+        let p = h5_step(&d, k, "contact_points", "contact_pressure");
+        let tt = h5_step(&d, k, "contact_points", "tangential_traction");
+        let gt = h5_step(&d, k, "contact_points", "tangential_gap");
+        let n = state.len();
+        assert!(n >= active[k] as usize && tt.len() == 3 * n && gt.len() == 3 * n);
+        let count = |s: f64| state.iter().filter(|&&v| v == s).count() as f64;
+        assert_eq!(
+            count(1.0),
+            stick[k],
+            "step {k}: sticking points vs history.csv"
+        );
+        assert_eq!(
+            count(2.0),
+            slip[k],
+            "step {k}: slipping points vs history.csv"
+        );
+        mixed += (stick[k] > 0.0 && slip[k] > 0.0) as usize;
+        let mut sum_sign = 0.0;
+        for i in 0..n {
+            let t = &tt[3 * i..3 * i + 3];
+            let g = &gt[3 * i..3 * i + 3];
+            let tl = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
+            match state[i] as i32 {
+                0 => assert_eq!(tl, 0.0, "step {k} point {i}: traction without friction"),
+                1 => {
+                    // stick: t_T = -eps_t g_T, inside the cone
+                    for c in 0..3 {
+                        assert!((t[c] + eps_t * g[c]).abs() <= 1e-12 * (1.0 + tl));
+                    }
+                    assert!(
+                        tl <= mu * p[i] * (1.0 + 1e-9),
+                        "step {k} point {i}: outside the cone"
+                    );
+                }
+                2 => {
+                    // slip: on the cone, against the tangential gap
+                    assert!(
+                        (tl - mu * p[i]).abs() <= 1e-9 * mu * p[i],
+                        "step {k} point {i}"
+                    );
+                    let gl = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+                    assert!(eps_t * gl >= mu * p[i] * (1.0 - 1e-8));
+                    assert!(t[0] * g[0] + t[1] * g[1] + t[2] * g[2] < 0.0);
+                }
+                s => panic!("step {k} point {i}: state {s}"),
+            }
+            sum_sign += t[0];
+        }
+        // the pointwise traction opposes the push as the resultant does
+        if pt[k] != 0.0 {
+            assert!(
+                sum_sign * pt[k] > 0.0,
+                "step {k}: {sum_sign} vs P_t {}",
+                pt[k]
+            );
+        }
+    }
+    assert!(mixed >= 1, "no step with both stick and slip");
+}
+
+#[test]
+fn frictional_sliding_of_two_deformable_blocks_converges_without_cutbacks_at_mu_n() {
+    // cases/sliding_flat_2d.toml with mu = 0.3 from the start: the upper block slides 0.75 over
+    // the lower one in 15 steps, every point of its surface slipping
+    for fam in ["Q1C1", "Q1N2"] {
+        let d = run_case(
+            &format!("friction-sliding-{fam}"),
+            "sliding_flat_2d.toml",
+            1,
+            &[
+                "contact.0.mu=0.3",
+                &format!("bodies.upper.element={fam}"),
+                &format!("bodies.lower.element={fam}"),
+            ],
+        );
+        let stage = history_col(&d, "stage");
+        let its = history_col(&d, "newton_iterations");
+        let cut = history_col(&d, "cutbacks");
+        let pt = history_col(&d, "Pt_slide_upper_bottom_x");
+        let py = history_col(&d, "P_slide_upper_bottom_y");
+        let slip = history_col(&d, "slip_slide_upper_bottom");
+        let active = history_col(&d, "active_slide_upper_bottom");
+        assert_eq!(stage.len(), 17, "{fam}: 2 + 15 steps, none cut back");
+        assert!(cut.iter().all(|&c| c == 0.0), "{fam}: cutbacks {cut:?}");
+        let s = summary(&d);
+        for st in s["steps"].as_array().unwrap() {
+            assert_eq!(st["cutbacks"].as_u64(), Some(0), "{fam}: {st}");
+        }
+        // the first slide step turns the stuck contact into sliding; then a few iterations a
+        // step (measured 3 to 5 once a Jacobian domain error stops SNES: before, up to 33)
+        for (i, &it) in its.iter().enumerate().skip(3) {
+            assert!(it <= 6.0, "{fam} step {}: {it} Newton iterations", i + 1);
+        }
+        for i in 3..stage.len() {
+            assert_eq!(
+                slip[i],
+                active[i],
+                "{fam} step {}: every point slips",
+                i + 1
+            );
+            assert!(
+                (pt[i] + 0.3 * py[i]).abs() < 1e-9 * py[i],
+                "{fam} step {}: P_t {} vs -mu P_n {}",
+                i + 1,
+                pt[i],
+                -0.3 * py[i]
+            );
+        }
     }
 }

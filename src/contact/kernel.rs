@@ -105,6 +105,8 @@ pub struct FrictionOut {
     /// tangential gap that the returned traction corresponds to (`t_T = -eps_t g_T'`); not on the
     /// partner surface when it is curved (the caller projects it).
     pub slip_target: [f64; 3],
+    /// Tangential gap to the anchor, `g_T = (I - n n)(x_k - x_a)` (trial) [3].
+    pub g_t: [f64; 3],
 }
 
 /// What a point computed, for forces, moments and output.
@@ -122,6 +124,8 @@ pub struct PointResult {
     pub active: bool,
     /// Friction at the point (state `None` without friction).
     pub friction: FrictionOut,
+    /// Normal pressure of the law's traction, `t_N . n`.
+    pub p_n: f64,
 }
 
 /// Reusable buffers (nothing allocates per quadrature point once they have grown).
@@ -275,7 +279,11 @@ pub fn contact_point_pass(
         let nd = dot(&n, &d);
         let gt = [0, 1, 2].map(|k| d[k] - n[k] * nd);
         let gl = dot(&gt, &gt).sqrt();
-        if f.eps_t * gl <= f.mu * p_n {
+        fr.g_t = gt;
+        // On the cone (within round-off; where a point that slipped in the last step starts the
+        // next one), the slip branch: the traction is the same on both, and its tangent is the
+        // one that holds while the point keeps sliding.
+        if f.eps_t * gl < f.mu * p_n * (1.0 - 1e-8) {
             fr.state = SlipState::Stick;
             fr.t_t = gt.map(|c| -f.eps_t * c);
             for i in 0..3 {
@@ -314,6 +322,7 @@ pub fn contact_point_pass(
         force: t_tot.map(|c| c * J * own.w),
         active: !tr.is_zero(),
         friction: fr,
+        p_n,
     };
     // `active` means "contributes to the residual or the tangent"; resultants count only points
     // that carry traction (a touching point with zero traction contributes stiffness only)

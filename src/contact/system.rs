@@ -85,6 +85,9 @@ pub enum Partner {
     Rigid(RigidShape, RigidMotion),
 }
 
+/// Values per point of [`ContactSystem::point_records`].
+pub const POINT_RECORD: usize = 18;
+
 /// A declared contact pair, resolved against the model.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PairDef {
@@ -135,6 +138,14 @@ struct QPoint {
     anchor_trial: Option<Anchor>,
     /// Friction: stick or slip at the last evaluation.
     slip: SlipState,
+    /// Friction: tangential traction and tangential gap to the anchor at the last evaluation
+    /// (output only).
+    t_t: [f64; 3],
+    g_t: [f64; 3],
+    /// Reference position (output only).
+    X: [f64; 3],
+    /// Normal pressure at the last evaluation (output only).
+    p_n: f64,
 }
 
 /// A surface element this rank integrates.
@@ -384,6 +395,7 @@ impl ContactSystem {
                             xi: x2,
                             w: rule.weights[q],
                             J0,
+                            X: xr,
                             ..Default::default()
                         });
                     }
@@ -909,6 +921,7 @@ impl ContactSystem {
                         let mut gap = None;
                         let mut anchor_trial = None;
                         let mut slip = SlipState::None;
+                        let (mut t_t, mut g_t, mut p_n) = ([0.0; 3], [0.0; 3], 0.0);
                         for (le, pp, area, cohesive) in contributions.into_iter().flatten() {
                             let on_edge = matches!(&pp, PartnerPoint::Projected { free, .. } if !free[..m].iter().all(|&f| f));
                             let nl = match &pp {
@@ -1000,6 +1013,7 @@ impl ContactSystem {
                             if !cohesive {
                                 gap =
                                     Some(pr.g[0] * pr.n[0] + pr.g[1] * pr.n[1] + pr.g[2] * pr.n[2]);
+                                p_n = pr.p_n;
                             }
                             // friction: the anchor's block, the state and the anchor this
                             // evaluation leads to
@@ -1026,6 +1040,7 @@ impl ContactSystem {
                             }
                             if has_friction && !cohesive && pr.active {
                                 slip = fo.state;
+                                (t_t, g_t) = (fo.t_t, fo.g_t);
                                 res.n_stick += (fo.state == SlipState::Stick) as usize;
                                 res.n_slip += (fo.state == SlipState::Slip) as usize;
                                 let Jw = point_area(dim, &own) * qp.w;
@@ -1095,6 +1110,9 @@ impl ContactSystem {
                         pass.points[q].gap = gap;
                         pass.points[q].anchor_trial = anchor_trial;
                         pass.points[q].slip = slip;
+                        pass.points[q].t_t = t_t;
+                        pass.points[q].g_t = g_t;
+                        pass.points[q].p_n = p_n;
                     }
                     for (i, &li) in oe.local.iter().enumerate() {
                         if li != u32::MAX {
@@ -1140,6 +1158,45 @@ impl ContactSystem {
                 )
             })
             .collect()
+    }
+
+    /// This rank's quadrature points for output, [`POINT_RECORD`] values each: the point's key
+    /// (half-pass number over all pairs, surface element, index of the point in the element: the
+    /// same on any number of ranks), its reference position [3], current position [3], normal
+    /// pressure of the contact law (penalty-type contributions), normal gap (`NaN` without a partner in reach), friction state (0 none, 1 stick,
+    /// 2 slip), tangential traction [3] and tangential gap to the anchor [3] at the last evaluation.
+    pub fn point_records(&self) -> Vec<f64> {
+        let dim = self.dim;
+        let mut out = Vec::new();
+        let mut pass_id = 0usize;
+        for pair in &self.pairs {
+            for pass in &pair.passes {
+                let k = pass.k;
+                for oe in &pass.elems {
+                    let e = oe.e as usize;
+                    let el = &self.surfaces[k].elements[e];
+                    for q in oe.first..oe.first + oe.n {
+                        let qp = &pass.points[q];
+                        let (x, _, _) =
+                            crate::contact::surface::frame(el, dim, self.pos[k].of(e), &qp.xi);
+                        let p = qp.p_n;
+                        let state = match qp.slip {
+                            SlipState::None => 0.0,
+                            SlipState::Stick => 1.0,
+                            SlipState::Slip => 2.0,
+                        };
+                        out.extend([pass_id as f64, oe.e as f64, (q - oe.first) as f64]);
+                        out.extend(qp.X);
+                        out.extend(x);
+                        out.extend([p, qp.gap.unwrap_or(f64::NAN), state]);
+                        out.extend(qp.t_t);
+                        out.extend(qp.g_t);
+                    }
+                }
+                pass_id += 1;
+            }
+        }
+        out
     }
 
     /// Per pair: true when it has Coulomb friction (its results carry tangential forces and

@@ -29,6 +29,8 @@ pub enum CellKind {
     Polyline { nodes_per_cell: usize },
     /// Polygon of `nodes_per_cell` points (sampled 3D contact surface patches).
     Polygon { nodes_per_cell: usize },
+    /// Single points (the contact quadrature points).
+    Polyvertex,
 }
 
 impl CellKind {
@@ -36,6 +38,7 @@ impl CellKind {
         match self {
             CellKind::Quadrilateral => 4,
             CellKind::Hexahedron => 8,
+            CellKind::Polyvertex => 1,
             CellKind::Polyline { nodes_per_cell } | CellKind::Polygon { nodes_per_cell } => {
                 nodes_per_cell
             }
@@ -47,6 +50,7 @@ impl CellKind {
         match self {
             CellKind::Quadrilateral => "TopologyType=\"Quadrilateral\"".to_string(),
             CellKind::Hexahedron => "TopologyType=\"Hexahedron\"".to_string(),
+            CellKind::Polyvertex => "TopologyType=\"Polyvertex\" NodesPerElement=\"1\"".to_string(),
             CellKind::Polyline { nodes_per_cell } => {
                 format!("TopologyType=\"Polyline\" NodesPerElement=\"{nodes_per_cell}\"")
             }
