@@ -1577,6 +1577,7 @@ struct Output<'p> {
 }
 
 impl<'p> Output<'p> {
+    #[allow(clippy::too_many_arguments)]
     fn new(
         petsc: &'p Petsc,
         model: &Model,
