@@ -11,7 +11,7 @@
 
 use super::ElementError;
 use crate::material::neo_hookean::trace_and_von_mises;
-use crate::material::Material;
+use crate::material::{ConstitutiveLaw, Material};
 
 /// One element's precomputed geometry for the total Lagrangian kernel.
 #[derive(Debug, Clone, PartialEq)]

@@ -16,7 +16,7 @@
 //! Tensors are flat row-major as in [`super::neo_hookean`]: `F`, `P`: `[D][D]`, `A`: `[D][D][D][D]`.
 
 use super::neo_hookean::NeoHookean;
-use super::MaterialError;
+use super::{ConstitutiveLaw, MaterialError};
 
 /// Isotropic Hooke law with Lame parameters `mu` (shear modulus) and `lambda`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -63,42 +63,31 @@ impl LinearElastic {
         Ok(0.5 * self.lambda * tr * tr + self.mu * ee)
     }
 
-    /// Stress `P = sigma(eps(F))`; `F`, `P`: `[dim][dim]`.
+    /// Cauchy stress `sigma = lambda tr(eps) I + 2 mu eps` (equal to `P`), always 3x3 row-major; in plane strain
+    /// `sigma_33 = lambda tr(eps)` and the out-of-plane shears are zero.
     #[allow(non_snake_case)]
-    pub fn pk1(&self, dim: usize, F: &[f64], P: &mut [f64]) -> Result<(), MaterialError> {
+    pub fn cauchy(&self, dim: usize, F: &[f64], sigma: &mut [f64; 9]) -> Result<(), MaterialError> {
         NeoHookean::check(dim, "F", F.len(), 2)?;
-        NeoHookean::check(dim, "P", P.len(), 2)?;
+        let mut F3 = [0.0; 9];
         if dim == 2 {
-            self.pk1_impl::<2>(F, P, None)
+            F3[0] = F[0];
+            F3[1] = F[1];
+            F3[3] = F[2];
+            F3[4] = F[3];
+            F3[8] = 1.0;
         } else {
-            self.pk1_impl::<3>(F, P, None)
+            F3.copy_from_slice(F);
         }
+        self.pk1_impl::<3>(&F3, sigma, None)
     }
+}
 
-    /// `P(F)` and its constant tangent `A_iJkL = dP_iJ/dF_kL`; `F`, `P`: `[dim][dim]`, `A`: `[dim][dim][dim][dim]`.
-    #[allow(non_snake_case)]
-    pub fn pk1_tangent(
-        &self,
-        dim: usize,
-        F: &[f64],
-        P: &mut [f64],
-        A: &mut [f64],
-    ) -> Result<(), MaterialError> {
-        NeoHookean::check(dim, "F", F.len(), 2)?;
-        NeoHookean::check(dim, "P", P.len(), 2)?;
-        NeoHookean::check(dim, "A", A.len(), 4)?;
-        if dim == 2 {
-            self.pk1_impl::<2>(F, P, Some(A))
-        } else {
-            self.pk1_impl::<3>(F, P, Some(A))
-        }
-    }
-
+impl ConstitutiveLaw for LinearElastic {
     /// Specialised stress (and tangent) evaluation; slices have exactly the sizes checked by the callers.
     /// Never fails; the `Result` matches [`NeoHookean`]'s signature.
     #[allow(non_snake_case)]
     #[inline(always)]
-    pub(crate) fn pk1_impl<const D: usize>(
+    fn pk1_impl<const D: usize>(
         &self,
         F: &[f64],
         P: &mut [f64],
@@ -128,24 +117,6 @@ impl LinearElastic {
         }
         Ok(())
     }
-
-    /// Cauchy stress `sigma = lambda tr(eps) I + 2 mu eps` (equal to `P`), always 3x3 row-major; in plane strain
-    /// `sigma_33 = lambda tr(eps)` and the out-of-plane shears are zero.
-    #[allow(non_snake_case)]
-    pub fn cauchy(&self, dim: usize, F: &[f64], sigma: &mut [f64; 9]) -> Result<(), MaterialError> {
-        NeoHookean::check(dim, "F", F.len(), 2)?;
-        let mut F3 = [0.0; 9];
-        if dim == 2 {
-            F3[0] = F[0];
-            F3[1] = F[1];
-            F3[3] = F[2];
-            F3[4] = F[3];
-            F3[8] = 1.0;
-        } else {
-            F3.copy_from_slice(F);
-        }
-        self.pk1_impl::<3>(&F3, sigma, None)
-    }
 }
 
 #[cfg(test)]
@@ -153,29 +124,10 @@ impl LinearElastic {
 mod tests {
     use super::*;
 
-    struct Lcg(u64);
-    impl Lcg {
-        fn next(&mut self) -> f64 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((self.0 >> 11) as f64) / ((1u64 << 53) as f64) * 2.0 - 1.0
-        }
-    }
+    use crate::material::test_support::{check_stress_and_tangent, max_abs};
 
     fn mat() -> LinearElastic {
         LinearElastic::from_young_poisson(3.0, 0.3).unwrap()
-    }
-
-    fn random_F(dim: usize, rng: &mut Lcg) -> Vec<f64> {
-        (0..dim * dim)
-            .map(|p| if p % (dim + 1) == 0 { 1.0 } else { 0.0 } + 0.3 * rng.next())
-            .collect()
-    }
-
-    fn max_abs(v: &[f64]) -> f64 {
-        v.iter().fold(0.0f64, |m, x| m.max(x.abs()))
     }
 
     /// Hooke's law written out for a symmetric 3x3 strain.
@@ -204,50 +156,14 @@ mod tests {
 
     #[test]
     fn pk1_is_energy_derivative_and_tangent_is_pk1_derivative() {
-        let m = mat();
-        let mut rng = Lcg(7);
-        for dim in [2usize, 3] {
-            for _ in 0..5 {
-                let F = random_F(dim, &mut rng);
-                let n = dim * dim;
-                let mut P = vec![0.0; n];
-                let mut A = vec![0.0; n * n];
-                m.pk1_tangent(dim, &F, &mut P, &mut A).unwrap();
-                let h = 1e-6;
-                let mut P_fd = vec![0.0; n];
-                let mut A_fd = vec![0.0; n * n];
+        let checked = check_stress_and_tangent(&mat(), |m, d, F| m.energy(d, F).unwrap(), 7);
+        assert_eq!(checked.len(), 10);
+        // the kernel fills only half of K: A must have major symmetry
+        for (dim, A) in checked {
+            let n = dim * dim;
+            for ij in 0..n {
                 for kl in 0..n {
-                    let mut Fp = F.clone();
-                    let mut Fm = F.clone();
-                    Fp[kl] += h;
-                    Fm[kl] -= h;
-                    P_fd[kl] =
-                        (m.energy(dim, &Fp).unwrap() - m.energy(dim, &Fm).unwrap()) / (2.0 * h);
-                    let mut Pp = vec![0.0; n];
-                    let mut Pm = vec![0.0; n];
-                    m.pk1(dim, &Fp, &mut Pp).unwrap();
-                    m.pk1(dim, &Fm, &mut Pm).unwrap();
-                    for ij in 0..n {
-                        A_fd[ij * n + kl] = (Pp[ij] - Pm[ij]) / (2.0 * h);
-                    }
-                }
-                let eP: Vec<f64> = P.iter().zip(&P_fd).map(|(a, b)| a - b).collect();
-                let eA: Vec<f64> = A.iter().zip(&A_fd).map(|(a, b)| a - b).collect();
-                assert!(
-                    max_abs(&eP) < 1e-6 * max_abs(&P),
-                    "dim {dim}: P error {}",
-                    max_abs(&eP)
-                );
-                assert!(
-                    max_abs(&eA) < 1e-6 * max_abs(&A),
-                    "dim {dim}: A error {}",
-                    max_abs(&eA)
-                );
-                // the kernel fills only half of K: A must have major symmetry
-                for ij in 0..n {
-                    for kl in 0..n {
-                        assert_eq!(A[ij * n + kl], A[kl * n + ij]);
-                    }
+                    assert_eq!(A[ij * n + kl], A[kl * n + ij]);
                 }
             }
         }

@@ -11,6 +11,8 @@
 mod error;
 pub mod linear_elastic;
 pub mod neo_hookean;
+#[cfg(test)]
+mod test_support;
 
 pub use error::MaterialError;
 pub use linear_elastic::LinearElastic;
@@ -61,31 +63,62 @@ impl Material {
         }
     }
 
-    /// First Piola-Kirchhoff stress `P(F)`; `F`, `P`: `[dim][dim]`.
-    pub fn pk1(&self, dim: usize, F: &[f64], P: &mut [f64]) -> Result<(), MaterialError> {
+    /// Cauchy stress, always 3x3 row-major (plane strain includes `sigma_33`).
+    pub fn cauchy(&self, dim: usize, F: &[f64], sigma: &mut [f64; 9]) -> Result<(), MaterialError> {
         match self {
-            Material::NeoHookean(m) => m.pk1(dim, F, P),
-            Material::LinearElastic(m) => m.pk1(dim, F, P),
+            Material::NeoHookean(m) => m.cauchy(dim, F, sigma),
+            Material::LinearElastic(m) => m.cauchy(dim, F, sigma),
+        }
+    }
+}
+
+/// The stress of a law: each law implements the specialised [`ConstitutiveLaw::pk1_impl`]; the checked
+/// entry points [`ConstitutiveLaw::pk1`] and [`ConstitutiveLaw::pk1_tangent`] (sizes validated, dimension
+/// dispatched) are shared.
+#[allow(non_snake_case)]
+pub trait ConstitutiveLaw {
+    /// Unchecked `P` (and `A` when given) for dimension `D`; the slices have exactly the sizes of `D`.
+    fn pk1_impl<const D: usize>(
+        &self,
+        F: &[f64],
+        P: &mut [f64],
+        A: Option<&mut [f64]>,
+    ) -> Result<(), MaterialError>;
+
+    /// First Piola-Kirchhoff stress `P(F)`; `F`, `P`: `[dim][dim]`.
+    fn pk1(&self, dim: usize, F: &[f64], P: &mut [f64]) -> Result<(), MaterialError> {
+        NeoHookean::check(dim, "F", F.len(), 2)?;
+        NeoHookean::check(dim, "P", P.len(), 2)?;
+        if dim == 2 {
+            self.pk1_impl::<2>(F, P, None)
+        } else {
+            self.pk1_impl::<3>(F, P, None)
         }
     }
 
-    /// `P(F)` and its tangent `A_iJkL = dP_iJ/dF_kL`; `A`: `[dim][dim][dim][dim]`.
-    pub fn pk1_tangent(
+    /// `P(F)` and its tangent `A_iJkL = dP_iJ/dF_kL`; `F`, `P`: `[dim][dim]`, `A`: `[dim][dim][dim][dim]`.
+    fn pk1_tangent(
         &self,
         dim: usize,
         F: &[f64],
         P: &mut [f64],
         A: &mut [f64],
     ) -> Result<(), MaterialError> {
-        match self {
-            Material::NeoHookean(m) => m.pk1_tangent(dim, F, P, A),
-            Material::LinearElastic(m) => m.pk1_tangent(dim, F, P, A),
+        NeoHookean::check(dim, "F", F.len(), 2)?;
+        NeoHookean::check(dim, "P", P.len(), 2)?;
+        NeoHookean::check(dim, "A", A.len(), 4)?;
+        if dim == 2 {
+            self.pk1_impl::<2>(F, P, Some(A))
+        } else {
+            self.pk1_impl::<3>(F, P, Some(A))
         }
     }
+}
 
-    /// Unchecked `P` (and `A`) for the kernels; slices have exactly the sizes of dimension `D`.
+#[allow(non_snake_case)]
+impl ConstitutiveLaw for Material {
     #[inline(always)]
-    pub(crate) fn pk1_impl<const D: usize>(
+    fn pk1_impl<const D: usize>(
         &self,
         F: &[f64],
         P: &mut [f64],
@@ -94,14 +127,6 @@ impl Material {
         match self {
             Material::NeoHookean(m) => m.pk1_impl::<D>(F, P, A),
             Material::LinearElastic(m) => m.pk1_impl::<D>(F, P, A),
-        }
-    }
-
-    /// Cauchy stress, always 3x3 row-major (plane strain includes `sigma_33`).
-    pub fn cauchy(&self, dim: usize, F: &[f64], sigma: &mut [f64; 9]) -> Result<(), MaterialError> {
-        match self {
-            Material::NeoHookean(m) => m.cauchy(dim, F, sigma),
-            Material::LinearElastic(m) => m.cauchy(dim, F, sigma),
         }
     }
 }

@@ -9,7 +9,7 @@
 //! Tensors are flat row-major: `F`, `P`: `[D][D]` (`F[i*D+J] = F_iJ`); the tangent
 //! `A[(i*D+J)*D*D + k*D+L] = dP_iJ/dF_kL`: `[D][D][D][D]`.
 
-use super::MaterialError;
+use super::{ConstitutiveLaw, MaterialError};
 
 /// Compressible Neo-Hookean law with Lame parameters `mu` (shear modulus) and `lambda` (`Lambda` of eq. 21).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -106,42 +106,44 @@ impl NeoHookean {
         Ok(0.5 * self.mu * (trC - 3.0 - 2.0 * lnJ) + 0.5 * self.lambda * lnJ * lnJ)
     }
 
-    /// First Piola-Kirchhoff stress `P = mu (F - F^-T) + Lambda ln J F^-T`; `F`, `P`: `[dim][dim]`.
+    /// Cauchy stress of eq. (21), always 3x3 row-major; in plane strain `sigma_33 = Lambda/J ln J` and the
+    /// out-of-plane shears are zero.
     #[allow(non_snake_case)]
-    pub fn pk1(&self, dim: usize, F: &[f64], P: &mut [f64]) -> Result<(), MaterialError> {
+    pub fn cauchy(&self, dim: usize, F: &[f64], sigma: &mut [f64; 9]) -> Result<(), MaterialError> {
         Self::check(dim, "F", F.len(), 2)?;
-        Self::check(dim, "P", P.len(), 2)?;
+        let mut F3 = [0.0; 9];
         if dim == 2 {
-            self.pk1_impl::<2>(F, P, None)
+            F3[0] = F[0];
+            F3[1] = F[1];
+            F3[3] = F[2];
+            F3[4] = F[3];
+            F3[8] = 1.0;
         } else {
-            self.pk1_impl::<3>(F, P, None)
+            F3.copy_from_slice(F);
         }
-    }
-
-    /// `P(F)` and its tangent `A_iJkL = dP_iJ/dF_kL`; `F`, `P`: `[dim][dim]`, `A`: `[dim][dim][dim][dim]`.
-    /// Fails with [`MaterialError::NonPositiveJacobian`] when `det F <= 0`.
-    #[allow(non_snake_case)]
-    pub fn pk1_tangent(
-        &self,
-        dim: usize,
-        F: &[f64],
-        P: &mut [f64],
-        A: &mut [f64],
-    ) -> Result<(), MaterialError> {
-        Self::check(dim, "F", F.len(), 2)?;
-        Self::check(dim, "P", P.len(), 2)?;
-        Self::check(dim, "A", A.len(), 4)?;
-        if dim == 2 {
-            self.pk1_impl::<2>(F, P, Some(A))
-        } else {
-            self.pk1_impl::<3>(F, P, Some(A))
+        let (J, _) = det_inv::<3>(&F3);
+        if J.is_nan() || J <= 0.0 {
+            return Err(MaterialError::NonPositiveJacobian { J });
         }
+        let vol = self.lambda * J.ln() / J;
+        let s = self.mu / J;
+        for i in 0..3 {
+            for j in 0..3 {
+                let b_ij: f64 = (0..3).map(|k| F3[i * 3 + k] * F3[j * 3 + k]).sum();
+                let d = if i == j { 1.0 } else { 0.0 };
+                sigma[i * 3 + j] = vol * d + s * (b_ij - d);
+            }
+        }
+        Ok(())
     }
+}
 
-    /// Specialised stress (and tangent) evaluation; slices have exactly the sizes checked by the callers.
+impl ConstitutiveLaw for NeoHookean {
+    /// `P = mu (F - F^-T) + Lambda ln J F^-T` and its tangent; fails with
+    /// [`MaterialError::NonPositiveJacobian`] when `det F <= 0`.
     #[allow(non_snake_case)]
     #[inline(always)]
-    pub(crate) fn pk1_impl<const D: usize>(
+    fn pk1_impl<const D: usize>(
         &self,
         F: &[f64],
         P: &mut [f64],
@@ -178,37 +180,6 @@ impl NeoHookean {
         }
         Ok(())
     }
-
-    /// Cauchy stress of eq. (21), always 3x3 row-major; in plane strain `sigma_33 = Lambda/J ln J` and the
-    /// out-of-plane shears are zero.
-    #[allow(non_snake_case)]
-    pub fn cauchy(&self, dim: usize, F: &[f64], sigma: &mut [f64; 9]) -> Result<(), MaterialError> {
-        Self::check(dim, "F", F.len(), 2)?;
-        let mut F3 = [0.0; 9];
-        if dim == 2 {
-            F3[0] = F[0];
-            F3[1] = F[1];
-            F3[3] = F[2];
-            F3[4] = F[3];
-            F3[8] = 1.0;
-        } else {
-            F3.copy_from_slice(F);
-        }
-        let (J, _) = det_inv::<3>(&F3);
-        if J.is_nan() || J <= 0.0 {
-            return Err(MaterialError::NonPositiveJacobian { J });
-        }
-        let vol = self.lambda * J.ln() / J;
-        let s = self.mu / J;
-        for i in 0..3 {
-            for j in 0..3 {
-                let b_ij: f64 = (0..3).map(|k| F3[i * 3 + k] * F3[j * 3 + k]).sum();
-                let d = if i == j { 1.0 } else { 0.0 };
-                sigma[i * 3 + j] = vol * d + s * (b_ij - d);
-            }
-        }
-        Ok(())
-    }
 }
 
 /// Trace and von Mises equivalent of a 3x3 row-major Cauchy stress.
@@ -227,79 +198,16 @@ pub fn trace_and_von_mises(sigma: &[f64; 9]) -> (f64, f64) {
 mod tests {
     use super::*;
 
-    /// Small deterministic generator so the tests are reproducible without extra crates.
-    struct Lcg(u64);
-    impl Lcg {
-        fn next(&mut self) -> f64 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((self.0 >> 11) as f64) / ((1u64 << 53) as f64) * 2.0 - 1.0
-        }
-    }
+    use crate::material::test_support::{check_stress_and_tangent, max_abs, random_F, Lcg};
 
     fn mat() -> NeoHookean {
         NeoHookean::from_young_poisson(3.0, 0.3).unwrap()
     }
 
-    fn random_F(dim: usize, rng: &mut Lcg) -> Vec<f64> {
-        let mut F = vec![0.0; dim * dim];
-        for i in 0..dim {
-            for j in 0..dim {
-                F[i * dim + j] = if i == j { 1.0 } else { 0.0 } + 0.3 * rng.next();
-            }
-        }
-        F
-    }
-
-    fn max_abs(v: &[f64]) -> f64 {
-        v.iter().fold(0.0f64, |m, x| m.max(x.abs()))
-    }
-
     #[test]
     fn pk1_is_energy_derivative_and_tangent_is_pk1_derivative() {
-        let m = mat();
-        let mut rng = Lcg(7);
-        for dim in [2usize, 3] {
-            for _ in 0..5 {
-                let F = random_F(dim, &mut rng);
-                let n = dim * dim;
-                let mut P = vec![0.0; n];
-                let mut A = vec![0.0; n * n];
-                m.pk1_tangent(dim, &F, &mut P, &mut A).unwrap();
-                let h = 1e-6;
-                let mut P_fd = vec![0.0; n];
-                let mut A_fd = vec![0.0; n * n];
-                for kl in 0..n {
-                    let mut Fp = F.clone();
-                    let mut Fm = F.clone();
-                    Fp[kl] += h;
-                    Fm[kl] -= h;
-                    P_fd[kl] =
-                        (m.energy(dim, &Fp).unwrap() - m.energy(dim, &Fm).unwrap()) / (2.0 * h);
-                    let mut Pp = vec![0.0; n];
-                    let mut Pm = vec![0.0; n];
-                    m.pk1(dim, &Fp, &mut Pp).unwrap();
-                    m.pk1(dim, &Fm, &mut Pm).unwrap();
-                    for ij in 0..n {
-                        A_fd[ij * n + kl] = (Pp[ij] - Pm[ij]) / (2.0 * h);
-                    }
-                }
-                let eP: Vec<f64> = P.iter().zip(&P_fd).map(|(a, b)| a - b).collect();
-                let eA: Vec<f64> = A.iter().zip(&A_fd).map(|(a, b)| a - b).collect();
-                assert!(
-                    max_abs(&eP) < 1e-6 * max_abs(&P),
-                    "dim {dim}: P error {}",
-                    max_abs(&eP)
-                );
-                assert!(
-                    max_abs(&eA) < 1e-6 * max_abs(&A),
-                    "dim {dim}: A error {}",
-                    max_abs(&eA)
-                );
-            }
-        }
+        let checked = check_stress_and_tangent(&mat(), |m, d, F| m.energy(d, F).unwrap(), 7);
+        assert_eq!(checked.len(), 10);
     }
 
     #[test]
