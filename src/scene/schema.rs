@@ -508,7 +508,7 @@ pub struct SolverOptions {
     pub contact_pattern_ring: usize,
     /// Contact, Newton at the kink of the penalty law: after this many Newton iterations of a step
     /// attempt, a frictionless penalty contact point whose active/inactive status has changed at
-    /// least twice keeps its status until the solve converges; the converged state is accepted
+    /// least three times keeps its status until the solve converges; the converged state is accepted
     /// only when every such point has the status the law gives it there, else those points are
     /// updated and Newton resumes (REPRODUCTION.md 4.1). 0 disables it. Default: 0.
     #[serde(default)]

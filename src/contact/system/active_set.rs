@@ -6,7 +6,7 @@
 //! forth (REPRODUCTION.md 4.1). The remedy is an active-set strategy on top of Newton:
 //!
 //! - after `freeze_after` Newton iterates (Jacobian evaluations) of a step attempt, a point whose
-//!   status (active: `g_n <= touch`, the law's own test) has changed at least twice between iterates
+//!   status (active: `g_n <= touch`, the law's own test) has changed at least three times between iterates
 //!   keeps its status at that iterate, for the residual and the tangent alike, until the solve ends:
 //!   the system Newton then solves is smooth near those points;
 //! - when that solve converges, every frozen status is compared with the one the law gives at the
@@ -23,6 +23,10 @@ use super::{ContactSystem, Law, TOUCH};
 
 /// Active-set updates of one step attempt before every point is released.
 pub const MAX_ROUNDS: usize = 4;
+
+/// Status changes between Newton iterates after which a point is frozen: in, out and in again
+/// (a point entering or leaving the contact zone once, or overshooting once, is left alone).
+const MIN_FLIPS: u8 = 3;
 
 /// The state of one quadrature point during a step attempt.
 #[derive(Debug, Clone, Copy, Default)]
@@ -142,7 +146,7 @@ impl ContactSystem {
                     t.flips = t.flips.saturating_add(1);
                 }
                 t.last = Some(now);
-                if t.frozen.is_none() && t.flips >= 2 && a.iterates >= a.freeze_after {
+                if t.frozen.is_none() && t.flips >= MIN_FLIPS && a.iterates >= a.freeze_after {
                     // the status at this iterate: the residual just evaluated here is unchanged
                     t.frozen = Some(now);
                     if std::env::var_os("NURBS_CONTACT_DEBUG_ACTIVE_SET").is_some() {
@@ -279,12 +283,12 @@ mod tests {
         let (mut h, g0) = scene(3);
         let (ua, ub) = (at_gap(&h, g0, -1e-7), at_gap(&h, g0, 1e-7));
         let (plain_b, _) = h.eval(&ub, false);
-        // Newton iterates alternating across the kink: active, inactive, active
-        for (i, u) in [&ua, &ub, &ua].into_iter().enumerate() {
+        // Newton iterates alternating across the kink: inactive, active, inactive, active
+        for (i, u) in [&ub, &ua, &ub, &ua].into_iter().enumerate() {
             assert_eq!(h.sys.frozen_points(), 0, "frozen before iterate {}", i + 1);
             h.eval(u, true);
         }
-        // third iterate, second change: the lowest points are held active
+        // fourth iterate, third change: the lowest points are held active
         let frozen = h.sys.frozen_points();
         assert!(frozen >= 1, "nothing frozen after a 2-cycle");
         // at the inactive side the held points now pull (the linear branch continued): the
@@ -319,7 +323,7 @@ mod tests {
 
     #[test]
     fn alternating_points_are_left_alone_before_the_iterate_limit_and_without_the_option() {
-        for (freeze_after, iterates) in [(0, 8), (6, 5)] {
+        for (freeze_after, iterates) in [(0, 8), (6, 5), (1, 3)] {
             let (mut h, g0) = scene(freeze_after);
             let (ua, ub) = (at_gap(&h, g0, -1e-7), at_gap(&h, g0, 1e-7));
             for i in 0..iterates {
@@ -341,7 +345,7 @@ mod tests {
         let (mut h, g0) = scene(2);
         let (ua, ub) = (at_gap(&h, g0, -1e-7), at_gap(&h, g0, 1e-7));
         let cycle = |h: &mut Harness| {
-            for u in [&ua, &ub, &ua] {
+            for u in [&ub, &ua, &ub, &ua] {
                 h.eval(u, true);
             }
         };
