@@ -1145,6 +1145,10 @@ impl Assembler<'_> {
     ///
     /// Collective.
     pub fn settle_active_set(&mut self, x: &Vector) -> crate::contact::Settle {
+        // the same setting on every rank: no communication when it is off
+        if self.contact.as_ref().is_none_or(|c| c.sys.freeze_after() == 0) {
+            return crate::contact::Settle::Free;
+        }
         let frozen = self.contact.as_ref().map_or(0, |c| c.sys.frozen_points()) as u64;
         let mut any = 0u64;
         self.petsc

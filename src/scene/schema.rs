@@ -510,7 +510,8 @@ pub struct SolverOptions {
     /// attempt, a frictionless penalty contact point whose active/inactive status has changed at
     /// least three times keeps its status until the solve converges; the converged state is accepted
     /// only when every such point has the status the law gives it there, else those points are
-    /// updated and Newton resumes (REPRODUCTION.md 4.1). 0 disables it. Default: 0.
+    /// updated and Newton resumes (REPRODUCTION.md 4.1; 4 measured in BENCHMARKS.md). 0 disables
+    /// it. Default: 0.
     #[serde(default)]
     pub contact_freeze_after: usize,
 }

@@ -96,6 +96,11 @@ impl ContactSystem {
         self.active_set.freeze_after = iterates;
     }
 
+    /// Newton iterates after which a point whose status keeps changing is frozen (0: never).
+    pub fn freeze_after(&self) -> usize {
+        self.active_set.freeze_after
+    }
+
     /// Frozen points of this rank.
     pub fn frozen_points(&self) -> usize {
         self.active_set
