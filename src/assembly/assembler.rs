@@ -1146,7 +1146,11 @@ impl Assembler<'_> {
     /// Collective.
     pub fn settle_active_set(&mut self, x: &Vector) -> crate::contact::Settle {
         // the same setting on every rank: no communication when it is off
-        if self.contact.as_ref().is_none_or(|c| c.sys.freeze_after() == 0) {
+        if self
+            .contact
+            .as_ref()
+            .is_none_or(|c| c.sys.freeze_after() == 0)
+        {
             return crate::contact::Settle::Free;
         }
         let frozen = self.contact.as_ref().map_or(0, |c| c.sys.frozen_points()) as u64;
