@@ -779,6 +779,7 @@ fn set_up_solver<'p>(
             .map_err(|msg| Error::Usage(format!("{}: contact: {msg}", case.file.display()))),
         )?;
         asm.set_contact(sys, &x, case.solver.contact_pattern_ring)?;
+        asm.set_contact_freeze_after(case.solver.contact_freeze_after);
     }
     if !model.couplings.is_empty() {
         let offsets = NodeOffsets::new(&model.couplings, &asm.dofs.rep, &model.coords, model.dim);

@@ -1127,3 +1127,58 @@ impl MatrixSink for PetscSink<'_, '_, '_> {
         }
     }
 }
+
+/// Newton at the kink of the penalty law (see `crate::contact::system::active_set`).
+impl Assembler<'_> {
+    /// Contact points whose status keeps changing are frozen after this many Newton iterates of a
+    /// step attempt (0: never).
+    pub fn set_contact_freeze_after(&mut self, iterates: usize) {
+        if let Some(c) = &mut self.contact {
+            c.sys.set_freeze_after(iterates);
+        }
+    }
+
+    /// After a converged Newton solve at `x`: compares every frozen contact point's status with
+    /// the law's at `x` (re-evaluated there) and releases them all when they agree (the state is
+    /// then the law's equilibrium: the same residual, bit for bit), else updates the disagreeing
+    /// ones for a resumed solve. The same answer on every rank.
+    ///
+    /// Collective.
+    pub fn settle_active_set(&mut self, x: &Vector) -> crate::contact::Settle {
+        // the same setting on every rank: no communication when it is off
+        if self
+            .contact
+            .as_ref()
+            .is_none_or(|c| c.sys.freeze_after() == 0)
+        {
+            return crate::contact::Settle::Free;
+        }
+        let frozen = self.contact.as_ref().map_or(0, |c| c.sys.frozen_points()) as u64;
+        let mut any = 0u64;
+        self.petsc
+            .comm()
+            .all_reduce_into(&frozen, &mut any, SystemOperation::max());
+        if any == 0 {
+            return crate::contact::Settle::Free;
+        }
+        // the gaps at `x` itself (the last evaluation of the solve is there, but make sure)
+        let cu = self.contact_update(x);
+        let ok = self.agree(cu).is_ok() && {
+            let local = self.guarded_loop(x, None);
+            self.agree(local).is_ok()
+        };
+        let local = match (&self.contact, ok) {
+            (Some(c), true) => c.sys.inconsistent_points() as u64,
+            (Some(_), false) => 1,
+            (None, _) => 0,
+        };
+        let mut total = 0u64;
+        self.petsc
+            .comm()
+            .all_reduce_into(&local, &mut total, SystemOperation::sum());
+        match &mut self.contact {
+            Some(c) => c.sys.settle_active_set(true, total as usize),
+            None => crate::contact::Settle::Free,
+        }
+    }
+}

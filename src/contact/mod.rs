@@ -22,7 +22,9 @@ pub mod search;
 pub mod surface;
 pub mod system;
 
-pub use system::{Anchor, ContactSystem, Coupling, Friction, Law, PairDef, Partner, PassResult};
+pub use system::{
+    Anchor, ContactSystem, Coupling, Friction, Law, PairDef, Partner, PassResult, Settle,
+};
 
 #[cfg(test)]
 mod tests;

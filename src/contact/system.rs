@@ -23,7 +23,9 @@ use crate::contact::surface::{raw_normal, ContactSurface, MAX_FACE_NODES};
 use crate::fem::quadrature::tensor_rule;
 use std::collections::HashMap;
 
+mod active_set;
 mod checkpoint;
+pub use active_set::{Settle, MAX_ROUNDS as MAX_ACTIVE_SET_ROUNDS};
 pub use checkpoint::ROW as CHECKPOINT_ROW;
 
 /// A contact law with its parameters.
@@ -262,6 +264,8 @@ pub struct ContactSystem {
     /// Tangent blocks of the element being assembled, keyed by partner element; the buffers are
     /// kept between elements and evaluations (no allocation per element once they have grown).
     blocks: Vec<(u32, Vec<f64>)>,
+    /// Newton at the kink of the penalty law (see `active_set.rs`).
+    active_set: active_set::ActiveSet,
 }
 
 /// Evaluation of a pass's point: what kind of partner and traction.
@@ -354,6 +358,7 @@ impl ContactSystem {
             rc: Vec::new(),
             blocks: Vec::new(),
             last_update: None,
+            active_set: Default::default(),
         };
         sys.r_table = vec![0.0; sys.table.len() * dim];
         sys.update_positions(&vec![0.0; sys.X.len()]);
@@ -809,6 +814,7 @@ impl ContactSystem {
     ) {
         let dim = self.dim;
         let m = dim - 1;
+        let jacobian = jac.is_some();
         let mut pass_id = 0u32;
         let (mut N, mut dN) = ([0.0; MAX_FACE_NODES], [0.0; 2 * MAX_FACE_NODES]);
         self.r_table.fill(0.0);
@@ -973,12 +979,15 @@ impl ContactSystem {
                                 _ => None,
                             };
                             let kslice = kb.map(|i| &mut blocks[i].1[..]);
+                            let forced = self.active_set.forced(pass_id as usize, q);
                             let lawf = |g: &[f64; 3], n: &[f64; 3]| -> Traction {
                                 if cohesive {
                                     match law {
                                         Law::Cohesive { t0, g0, .. } => law::cohesive(t0, g0, g),
                                         _ => Traction::ZERO,
                                     }
+                                } else if let (Some(f), Law::Penalty { eps_n }) = (forced, law) {
+                                    active_set::forced_penalty(eps_n, f, g, n)
                                 } else {
                                     law_traction(&law, touch, g, n)
                                 }
@@ -1145,6 +1154,9 @@ impl ContactSystem {
             }
         }
         self.blocks = blocks;
+        if jacobian {
+            self.observe_iterate();
+        }
     }
 
     /// Resultants of every half-pass over this rank's points, pair by pair.
@@ -1419,6 +1431,7 @@ impl ContactSystem {
     /// Keeps the current projections as warm starts of the next step.
     pub fn commit(&mut self) {
         self.last_update = None;
+        self.active_set.reset();
         for pair in &mut self.pairs {
             for pass in &mut pair.passes {
                 for q in &mut pass.points {
@@ -1432,6 +1445,7 @@ impl ContactSystem {
     /// Returns the warm starts to the last committed state.
     pub fn rollback(&mut self) {
         self.last_update = None;
+        self.active_set.reset();
         for pair in &mut self.pairs {
             for pass in &mut pair.passes {
                 for q in &mut pass.points {

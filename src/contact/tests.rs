@@ -447,7 +447,7 @@ fn van_der_waals_and_cohesive_tangents_match_central_differences_in_3d() {
 }
 
 /// A surface against a rigid partner: one body, one surface.
-fn case_rigid(dim: usize, family: &str, rigid: &str) -> String {
+pub(crate) fn case_rigid(dim: usize, family: &str, rigid: &str) -> String {
     case_rigid_law(dim, family, rigid, "law = \"penalty\"\neps_n = 100.0")
 }
 

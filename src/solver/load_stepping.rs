@@ -199,7 +199,7 @@ pub fn run_load_steps_from<'p>(
                 x_conv.copy_to(x)?;
             }
             asm.refresh_pattern(x, jac)?;
-            let out = snes.solve(asm, x, jac)?;
+            let out = super::settle::solve_settled(asm, snes, x, jac)?;
             // A singular tangent (a body nothing holds) would give an arbitrary answer: MUMPS's
             // null-pivot count (-mat_mumps_icntl_24 1) stops the run instead.
             if let Some(pivots) = snes.null_pivots()?.filter(|&p| p > 0) {
@@ -285,14 +285,14 @@ fn solve_resuming<'p>(
     let mut iterations = 0;
     for _ in 0..=MAX_PATTERN_RETRIES {
         asm.refresh_pattern(x, jac)?;
-        let mut out = snes.solve(asm, x, jac)?;
+        let mut out = super::settle::solve_settled(asm, snes, x, jac)?;
         iterations += out.iterations;
         if out.converged || !asm.pattern_outdated() {
             out.iterations = iterations;
             return Ok(out);
         }
     }
-    let mut out = snes.solve(asm, x, jac)?;
+    let mut out = super::settle::solve_settled(asm, snes, x, jac)?;
     out.iterations += iterations;
     Ok(out)
 }

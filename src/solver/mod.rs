@@ -2,6 +2,7 @@
 //! automatic cutback when a step diverges or meets a domain error.
 
 pub mod load_stepping;
+mod settle;
 
 pub use load_stepping::{
     run_load_steps, run_load_steps_from, AfterStep, LoadPosition, SolverError, StepControl,
