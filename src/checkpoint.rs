@@ -34,6 +34,9 @@ pub struct RunLog {
     pub wall_time: f64,
     /// The results writer's description of results.h5 ([`crate::io::ResultsWriter::layout`]).
     pub results_layout: String,
+    /// Restarts before the one that wrote this checkpoint.
+    #[serde(default)]
+    pub restarts: usize,
 }
 
 /// Meta data of `state.h5`.

@@ -1034,6 +1034,8 @@ struct StepObserver<'c, 'p> {
     checkpoint_every: Option<usize>,
     /// Wall time of the run before a restart (s).
     wall_offset: f64,
+    /// Restarts of this run so far (this process's included).
+    restarts: usize,
 }
 
 impl<'c, 'p> StepObserver<'c, 'p> {
@@ -1074,6 +1076,7 @@ impl<'c, 'p> StepObserver<'c, 'p> {
             interrupted: None,
             checkpoint_every,
             wall_offset: resumed.map_or(0.0, |l| l.wall_time),
+            restarts: resumed.map_or(0, |l| l.restarts + 1),
         }
     }
 
@@ -1117,24 +1120,32 @@ impl<'c, 'p> StepObserver<'c, 'p> {
         }
         extra_columns.extend(contact_history(asm, model.dim));
         let last = (rec.load - self.n_stages).abs() < 1e-12;
-        let write =
-            last || rec.step.is_multiple_of(self.case.output.every) || self.interrupted.is_some();
+        let scheduled = last || rec.step.is_multiple_of(self.case.output.every);
         self.output
             .step(
                 rec,
                 &reactions,
                 &extra_columns,
                 self.wall_offset + self.t_start.elapsed().as_secs_f64(),
-                write,
+                scheduled,
                 x,
                 asm,
             )
             .map_err(|e| e.to_string())?;
         if let Some(every) = self.checkpoint_every {
             if rec.step.is_multiple_of(every) || self.interrupted.is_some() {
+                // before the interrupt's extra output step below: the checkpoint's copy of the
+                // results holds the scheduled steps only, so a restart from it writes what an
+                // uninterrupted run writes
                 self.checkpoint(model, rec, x, asm)
                     .map_err(|e| format!("checkpoint: {e}"))?;
             }
+        }
+        if self.interrupted.is_some() && !scheduled {
+            // the interrupted run's results end with its last converged step, whatever the schedule
+            self.output
+                .results_step(rec, x, asm, Ok(()))
+                .map_err(|e| e.to_string())?;
         }
         self.t_output += t0.elapsed().as_secs_f64();
         self.progress(rec);
@@ -1228,6 +1239,7 @@ impl<'c, 'p> StepObserver<'c, 'p> {
                     steps: self.step_log.clone(),
                     wall_time: self.wall_offset + self.t_start.elapsed().as_secs_f64(),
                     results_layout: out.results.as_ref().map(|r| r.layout()).unwrap_or_default(),
+                    restarts: self.restarts,
                 },
             };
             let results = match &out.results {
@@ -1352,6 +1364,7 @@ fn finish_and_report(
         unknowns: asm.dofs.n_global() as u64,
         elements: model.n_cells() as u64,
         newton: observer.newton,
+        restarts: observer.restarts,
         wall_time: io::PhaseTimes {
             assembly: times[0],
             residual: times[3],
@@ -1360,7 +1373,8 @@ fn finish_and_report(
             contact: times[6],
             solve: times[1],
             output: times[2],
-            total: observer.t_start.elapsed().as_secs_f64(),
+            total: observer.wall_offset + observer.t_start.elapsed().as_secs_f64(),
+            before_restart: observer.wall_offset,
         },
         peak_memory_mb,
         contact_pattern: asm.contact_pattern_stats().map(|(ring, missing)| {
@@ -1759,36 +1773,50 @@ impl<'p> Output<'p> {
                 .map_err(Error::from);
         }
         if write {
-            self.gather.gather(x, &mut self.u_root)?;
-            // Element measures: each rank fills its cells, a sum-reduction assembles them on rank 0.
-            let measures = asm.stress_measures(x)?;
-            let comm = asm.comm();
-            let mut cells = vec![0.0; 3 * self.n_cells];
-            let rank = comm.rank() as f64;
-            for (body, cell, tr, vm) in measures {
-                let g = self.cell_offset[body] + cell;
-                cells[g] = tr;
-                cells[self.n_cells + g] = vm;
-                cells[2 * self.n_cells + g] = rank;
+            self.results_step(rec, x, asm, local)
+        } else {
+            agree(asm.comm(), local)
+        }
+    }
+
+    /// Writes one output step of results.h5 (`local`: an earlier rank-local failure of this step,
+    /// agreed with the others at the end). Collective.
+    fn results_step(
+        &mut self,
+        rec: &StepRecord,
+        x: &Vector,
+        asm: &mut Assembler,
+        mut local: Result<(), Error>,
+    ) -> Result<(), Error> {
+        self.gather.gather(x, &mut self.u_root)?;
+        // Element measures: each rank fills its cells, a sum-reduction assembles them on rank 0.
+        let measures = asm.stress_measures(x)?;
+        let comm = asm.comm();
+        let mut cells = vec![0.0; 3 * self.n_cells];
+        let rank = comm.rank() as f64;
+        for (body, cell, tr, vm) in measures {
+            let g = self.cell_offset[body] + cell;
+            cells[g] = tr;
+            cells[self.n_cells + g] = vm;
+            cells[2 * self.n_cells + g] = rank;
+        }
+        let root_proc = comm.process_at_rank(0);
+        let contact = contact_fields(asm, self.n_nodes, self.root);
+        let points = gather_points(asm);
+        if self.root {
+            let mut global = vec![0.0; 3 * self.n_cells];
+            root_proc.reduce_into_root(&cells[..], &mut global[..], SystemOperation::sum());
+            if local.is_ok() {
+                local = self.write_results(
+                    rec.load,
+                    &global,
+                    contact.as_ref(),
+                    points.as_deref(),
+                    asm.offsets(),
+                );
             }
-            let root_proc = comm.process_at_rank(0);
-            let contact = contact_fields(asm, self.n_nodes, self.root);
-            let points = gather_points(asm);
-            if self.root {
-                let mut global = vec![0.0; 3 * self.n_cells];
-                root_proc.reduce_into_root(&cells[..], &mut global[..], SystemOperation::sum());
-                if local.is_ok() {
-                    local = self.write_results(
-                        rec.load,
-                        &global,
-                        contact.as_ref(),
-                        points.as_deref(),
-                        asm.offsets(),
-                    );
-                }
-            } else {
-                root_proc.reduce_into(&cells[..], SystemOperation::sum());
-            }
+        } else {
+            root_proc.reduce_into(&cells[..], SystemOperation::sum());
         }
         agree(asm.comm(), local)
     }

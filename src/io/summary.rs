@@ -45,7 +45,12 @@ pub struct PhaseTimes {
     pub contact: f64,
     pub solve: f64,
     pub output: f64,
+    /// The whole run's wall time, including the parts before any restart (the phase times above
+    /// are this process's only).
     pub total: f64,
+    /// Of `total`: the parts before the last restart (0 for a run that was not restarted).
+    #[serde(default)]
+    pub before_restart: f64,
 }
 
 /// One converged load step in the summary.
@@ -100,6 +105,9 @@ pub struct Summary {
     pub unknowns: u64,
     pub elements: u64,
     pub newton: NewtonStats,
+    /// How many times the run was continued from a checkpoint (`run --restart`).
+    #[serde(default)]
+    pub restarts: usize,
     pub wall_time: PhaseTimes,
     /// Peak resident memory of rank 0 as PETSc measured it (MB).
     pub peak_memory_mb: f64,
@@ -152,6 +160,7 @@ mod tests {
             unknowns: 375,
             elements: 64,
             newton,
+            restarts: 0,
             wall_time: PhaseTimes {
                 assembly: 1.5,
                 residual: 0.5,
@@ -160,6 +169,7 @@ mod tests {
                 solve: 2.25,
                 output: 0.125,
                 total: 4.0,
+                before_restart: 0.0,
                 contact: 0.0,
             },
             peak_memory_mb: 54.0,
