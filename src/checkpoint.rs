@@ -37,6 +37,47 @@ pub struct RunLog {
     /// Restarts before the one that wrote this checkpoint.
     #[serde(default)]
     pub restarts: usize,
+    /// (mesh name, file as given, hash of its contents) of every mesh the case reads from a file
+    /// ([`mesh_hashes`]); a restart refuses changed files.
+    #[serde(default)]
+    pub mesh_hashes: Vec<(String, String, String)>,
+}
+
+/// (mesh name, file, FNV-1a 64 of its bytes) of every mesh `case` reads from a file. A file that
+/// cannot be read hashes to the reason (the run itself will have failed on it).
+pub fn mesh_hashes(case: &crate::scene::Case) -> Vec<(String, String, String)> {
+    case.meshes
+        .iter()
+        .filter_map(|(name, m)| match m {
+            crate::scene::MeshSpec::File(f) => {
+                let path = case.resolve_path(&f.file);
+                let hash = match std::fs::read(&path) {
+                    Ok(bytes) => bytes_hash(&bytes),
+                    Err(e) => format!("unreadable ({e})"),
+                };
+                Some((name.clone(), f.file.display().to_string(), hash))
+            }
+            crate::scene::MeshSpec::Generated(_) => None,
+        })
+        .collect()
+}
+
+/// Why the mesh files now (`now`, from [`mesh_hashes`]) cannot continue a checkpoint that read
+/// `saved`: the first mesh whose file changed.
+pub fn compare_meshes(
+    saved: &[(String, String, String)],
+    now: &[(String, String, String)],
+) -> Result<(), String> {
+    for (name, file, hash) in now {
+        if let Some((_, _, was)) = saved.iter().find(|(n, f, _)| n == name && f == file) {
+            if was != hash {
+                return Err(format!(
+                    "the mesh file `{file}` (`meshes.{name}`) changed since the checkpoint was written (contents hash {was} there, {hash} now)"
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Meta data of `state.h5`.
@@ -75,8 +116,13 @@ pub struct State {
 
 /// FNV-1a 64 of the resolved case's text: stable across builds and platforms.
 pub fn case_hash(text: &str) -> String {
+    bytes_hash(text.as_bytes())
+}
+
+/// FNV-1a 64 of `bytes`, as 16 hex digits.
+fn bytes_hash(bytes: &[u8]) -> String {
     let mut h: u64 = 0xcbf29ce484222325;
-    for b in text.bytes() {
+    for &b in bytes {
         h ^= u64::from(b);
         h = h.wrapping_mul(0x100000001b3);
     }
@@ -291,39 +337,24 @@ pub fn stages_started(p: &LoadPosition) -> usize {
 /// `Ok` when they differ only in output settings and in stages the checkpoint has not started
 /// (with the per-stage values of those stages in boundary conditions and contact pairs).
 pub fn compare_cases(saved: &str, now: &str, started: usize) -> Result<(), String> {
-    let parse = |t: &str| -> Result<toml::Value, String> {
-        toml::from_str(t).map_err(|e| format!("the case does not parse: {e}"))
+    // through the schema, which knows its per-stage lists ([`Case::truncate_stages`]), then
+    // compared as TOML trees so that the first differing key can be named
+    let trimmed = |t: &str| -> Result<toml::Value, String> {
+        let mut case: crate::scene::Case =
+            toml::from_str(t).map_err(|e| format!("the case does not parse: {e}"))?;
+        case.truncate_stages(started);
+        let mut v = toml::Value::try_from(&case).map_err(|e| e.to_string())?;
+        if let Some(t) = v.as_table_mut() {
+            t.remove("output");
+        }
+        Ok(v)
     };
-    let (mut a, mut b) = (parse(saved)?, parse(now)?);
-    for v in [&mut a, &mut b] {
-        trim(v, started);
-    }
+    let (a, b) = (trimmed(saved)?, trimmed(now)?);
     match first_difference(&a, &b, "") {
         None => Ok(()),
         Some((key, was, is)) => Err(format!(
             "`{key}` differs from the case the checkpoint was written for ({was} there, {is} now); only `output` and the stages after the first {started} (those the checkpoint has started) may change"
         )),
-    }
-}
-
-/// Drops what a restart may change: `output`, stages from `started` on, and their per-stage values.
-fn trim(v: &mut toml::Value, started: usize) {
-    let Some(t) = v.as_table_mut() else {
-        return;
-    };
-    t.remove("output");
-    if let Some(toml::Value::Array(s)) = t.get_mut("stages") {
-        s.truncate(started);
-    }
-    let per_stage = [("bcs", "value"), ("contact", "friction_stages")];
-    for (list, key) in per_stage {
-        if let Some(toml::Value::Array(items)) = t.get_mut(list) {
-            for it in items {
-                if let Some(toml::Value::Array(vals)) = it.get_mut(key) {
-                    vals.truncate(started);
-                }
-            }
-        }
     }
 }
 
@@ -393,18 +424,48 @@ fn first_difference(
 mod tests {
     use super::*;
 
+    /// A case with every kind of per-stage list: a displacement's values, a rotation's angles
+    /// and translations, a contact pair's friction switches and its rigid partner's motion.
     const CASE: &str = r#"
 [case]
 name = "c"
+dim = 2
+[meshes.m]
+generator = "rectangle"
+origin = [0.0, 0.0]
+size = [1.0, 1.0]
+divisions = [2, 2]
+[bodies.b]
+mesh = "m"
+element = "Q1C1"
 [bodies.b.material]
+model = "neo_hookean"
 E = 1.0
 nu = 0.3
 [[bcs]]
+body = "b"
 set = "top"
+kind = "displacement"
 value = [[0.1], [0.2]]
+[[bcs]]
+body = "b"
+set = "left"
+kind = "rotation"
+center = [0.0, 0.0]
+angle_deg = [1.0, 2.0]
+translation = [[0.0, 0.1], [0.0, 0.2]]
+[[contact]]
+surfaces = ["b.bottom"]
+rigid = { shape = "plane", point = [0.0, 0.0], normal = [0.0, 1.0], translation = [[0.0, 0.0], [0.1, 0.0]], rotation_deg = [0.0, 5.0] }
+law = "penalty"
+eps_n = 100.0
+mu = 0.3
+friction_stages = [false, true]
 [[stages]]
+name = "s0"
 steps = 4
 [[stages]]
+name = "s1"
 steps = 2
 [output]
 every = 1
@@ -412,19 +473,40 @@ every = 1
 
     #[test]
     fn output_and_later_stages_may_change_nothing_else() {
-        let later = CASE
-            .replace("every = 1", "every = 5")
-            .replace("steps = 2", "steps = 8")
-            .replace("[0.2]]", "[0.3]]");
-        assert_eq!(compare_cases(CASE, &later, 1), Ok(()));
-        let err = compare_cases(CASE, &later, 2).unwrap_err();
-        assert!(err.starts_with("`bcs.0.value.1.0` differs"), "{err}");
+        // every per-stage list may change in the second stage when only the first has started
+        let changes = [
+            ("steps = 2", "steps = 8"),
+            ("[0.2]]", "[0.3]]"),
+            ("[1.0, 2.0]", "[1.0, 3.0]"),
+            ("[0.0, 0.2]]", "[0.0, 0.3]]"),
+            ("[false, true]", "[false, false]"),
+            ("[0.1, 0.0]]", "[0.2, 0.0]]"),
+            ("[0.0, 5.0]", "[0.0, 6.0]"),
+        ];
+        let keys = [
+            "`stages.1.steps`",
+            "`bcs.0.value.1.0`",
+            "`bcs.1.angle_deg.1`",
+            "`bcs.1.translation.1.1`",
+            "`contact.0.friction_stages.1`",
+            "`contact.0.rigid.translation.1.0`",
+            "`contact.0.rigid.rotation_deg.1`",
+        ];
+        for ((from, to), key) in changes.iter().zip(keys) {
+            assert!(CASE.contains(from), "{from}");
+            let later = CASE.replace("every = 1", "every = 5").replacen(from, to, 1);
+            assert_eq!(compare_cases(CASE, &later, 1), Ok(()), "{from} -> {to}");
+            let err = compare_cases(CASE, &later, 2).unwrap_err();
+            assert!(err.starts_with(&format!("{key} differs")), "{err}");
+        }
         let e = CASE.replace("E = 1.0", "E = 2.0");
         let err = compare_cases(CASE, &e, 1).unwrap_err();
         assert!(err.contains("`bodies.b.material.E`"), "{err}");
         assert!(err.contains("1.0 there, 2.0 now"), "{err}");
-        let more = format!("{CASE}\n[[stages]]\nsteps = 3\n");
-        let more = more.replace("[0.2]]", "[0.2], [0.4]]");
+        // a stage appended to a finished run
+        let more = format!("{CASE}\n[[stages]]\nname = \"s2\"\nsteps = 3\n")
+            .replace("[0.2]]", "[0.2], [0.4]]")
+            .replace("[1.0, 2.0]", "[1.0, 2.0, 3.0]");
         assert_eq!(compare_cases(CASE, &more, 2), Ok(()));
         let err = compare_cases(&more, CASE, 3).unwrap_err();
         assert!(err.contains("`bcs.0.value.2`"), "{err}");

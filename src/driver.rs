@@ -421,6 +421,12 @@ fn read_checkpoint(
         let state = crate::checkpoint::read_state(&ckpt)?;
         let started = crate::checkpoint::stages_started(&state.position);
         crate::checkpoint::compare_cases(&state.case_toml, &case.to_toml_string()?, started)
+            .and_then(|()| {
+                crate::checkpoint::compare_meshes(
+                    &state.log.mesh_hashes,
+                    &crate::checkpoint::mesh_hashes(case),
+                )
+            })
             .map_err(|m| {
                 Error::Restart(format!(
                     "{}: cannot continue the checkpoint {}: {m}",
@@ -1036,6 +1042,8 @@ struct StepObserver<'c, 'p> {
     wall_offset: f64,
     /// Restarts of this run so far (this process's included).
     restarts: usize,
+    /// The mesh files this run read, hashed when it started (for its checkpoints).
+    mesh_hashes: Vec<(String, String, String)>,
 }
 
 impl<'c, 'p> StepObserver<'c, 'p> {
@@ -1077,6 +1085,11 @@ impl<'c, 'p> StepObserver<'c, 'p> {
             checkpoint_every,
             wall_offset: resumed.map_or(0.0, |l| l.wall_time),
             restarts: resumed.map_or(0, |l| l.restarts + 1),
+            mesh_hashes: if rank == 0 && checkpoint_every.is_some() {
+                crate::checkpoint::mesh_hashes(case)
+            } else {
+                Vec::new()
+            },
         }
     }
 
@@ -1240,6 +1253,7 @@ impl<'c, 'p> StepObserver<'c, 'p> {
                     wall_time: self.wall_offset + self.t_start.elapsed().as_secs_f64(),
                     results_layout: out.results.as_ref().map(|r| r.layout()).unwrap_or_default(),
                     restarts: self.restarts,
+                    mesh_hashes: self.mesh_hashes.clone(),
                 },
             };
             let results = match &out.results {

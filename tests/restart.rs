@@ -445,3 +445,38 @@ fn cohesive_dcb_killed_and_restarted_equals_an_uninterrupted_run() {
     );
     assert!(d <= 1e-12, "difference {d:e}");
 }
+
+/// A mesh file that changed behind the same path is refused on restart, naming the file; the
+/// unchanged file continues.
+#[test]
+fn a_restart_with_a_changed_mesh_file_is_refused_with_the_file() {
+    let dir = scratch("restart/mesh_hash");
+    std::fs::create_dir_all(dir.join("meshes")).unwrap();
+    std::fs::copy(
+        root().join("cases/meshes/box_4x4x4.msh"),
+        dir.join("meshes/box_4x4x4.msh"),
+    )
+    .unwrap();
+    let case = dir.join("case.toml");
+    std::fs::copy(common::case("block_compression_gmsh_3d.toml"), &case).unwrap();
+    let out = dir.join("run");
+    let o = out.to_str().unwrap();
+    run_ok(
+        1,
+        &args(&case, &[], &["--out", o, "--checkpoint-every", "1"]),
+    );
+    assert_eq!(checkpoints(&out), vec!["step-000005".to_string()]);
+    run_ok(1, &args(&case, &[], &["--restart", o]));
+    assert_eq!(summary(&out)["restarts"], 1);
+    let msh = dir.join("meshes/box_4x4x4.msh");
+    let mut text = std::fs::read_to_string(&msh).unwrap();
+    text.push('\n');
+    std::fs::write(&msh, text).unwrap();
+    let r = run(1, &args(&case, &[], &["--restart", o]));
+    assert!(!r.status.success());
+    let e = stderr(&r);
+    assert!(
+        e.contains("`meshes/box_4x4x4.msh` (`meshes.block`) changed"),
+        "{e}"
+    );
+}

@@ -46,6 +46,31 @@ pub struct Case {
 }
 
 impl Case {
+    /// Keeps the first `n` stages: `stages` and every per-stage list (those documented
+    /// `[n_stages]...` on their fields: displacement values, rotation angles and translations,
+    /// friction switches, rigid partners' motions). A restart compares cases truncated to the
+    /// stages its checkpoint has started. A per-stage field added to the schema belongs here.
+    pub fn truncate_stages(&mut self, n: usize) {
+        self.stages.truncate(n);
+        for bc in &mut self.bcs {
+            match bc {
+                BcSpec::Fixed(_) => {}
+                BcSpec::Displacement(d) => d.value.truncate(n),
+                BcSpec::Rotation(r) => {
+                    r.angle_deg.truncate(n);
+                    r.translation.truncate(n);
+                }
+            }
+        }
+        for c in &mut self.contact {
+            c.friction_stages.truncate(n);
+            if let Some(r) = &mut c.rigid {
+                r.translation.truncate(n);
+                r.rotation_deg.truncate(n);
+            }
+        }
+    }
+
     /// The resolved case (after overrides) as TOML, to be stored beside the results.
     pub fn to_toml_string(&self) -> Result<String, crate::scene::SceneError> {
         Ok(toml::to_string(self)?)
