@@ -1,0 +1,32 @@
+#!/usr/bin/env python3
+"""Pointwise contact pressure of the Hertz case (BENCHMARKS.md, oscillation study).
+Usage: python3 ci/bench_oscillation.py FAMILY:N_ARC:EPS_N ...  (e.g. Q1N2:128:1e4)
+Reads the grid `contact_points` of results.h5 (the law's pressure at every contact quadrature point)."""
+import sys, os, math, re, subprocess
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import bench_contact as b
+def study(fam, n, eps):
+    out, s = b.run("hertz_2d.toml", 1, [f"bodies.disk.element={fam}", f"meshes.disk.n_arc={n}",
+                   f"meshes.disk.n_radial={n//4}", f"contact.0.eps_n={eps}"])
+    f = os.path.join(out, "results.h5")
+    hist = open(os.path.join(out, "history.csv")).read().splitlines()
+    head, last = hist[0].split(","), hist[-1].split(",")
+    P = float(last[head.index("P_flat_disk_arc_y")])
+    steps = sorted(set(re.findall(r"/steps/(\d+)/", subprocess.run(["h5ls", "-r", f], capture_output=True, text=True).stdout)))
+    st = steps[-1]
+    x = b.h5(f, "/grids/contact_points/coordinates")
+    u = b.h5(f, f"/steps/{st}/contact_points/displacement")
+    p = b.h5(f, f"/steps/{st}/contact_points/contact_pressure")
+    grid = "bulk" if fam == "Q1C1" else "surface"
+    pn = b.h5(f, f"/steps/{st}/{grid}/contact_pressure_nominal")
+    pts = sorted((x[3*i], p[i]) for i in range(len(p)) if p[i] > 0)
+    Es = 1/(1-0.09); a = math.sqrt(4*P/(math.pi*Es)); p0 = 2*P/(math.pi*a)
+    inner = [(xx, pp) for xx, pp in pts if abs(xx) < 0.7*a]
+    ps = [pp for _, pp in pts]
+    sd = [abs(ps[k] - 0.5*(ps[k-1]+ps[k+1])) for k in range(1, len(ps)-1) if abs(pts[k][0]) < 0.7*a]
+    dev = [abs(pp - p0*math.sqrt(max(0, 1-(xx/a)**2)))/p0 for xx, pp in inner]
+    print(f"| {fam} | {n} | {eps:g} | {len(pts)} | {min(pp for _,pp in inner)/p0:.3f} | {max(ps)/p0:.3f} | {100*max(dev):.1f} % | {100*max(sd)/p0:.1f} % | {100*(max(pn)-p0)/p0:+.2f} % | {b.newton(s)} |", flush=True)
+print("| family | n_arc | eps_n | points in contact | min p/p0 (|x|<0.7a) | max p/p0 | max |p - p_Hertz(x_ref)|/p0 (|x|<0.7a) | max 2nd difference /p0 | nominal L2 peak error | Newton its |")
+print("|---|---|---|---|---|---|---|---|---|---|")
+for args in [a.split(":") for a in sys.argv[1:]]:
+    study(args[0], int(args[1]), float(args[2]))
