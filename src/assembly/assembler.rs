@@ -950,6 +950,18 @@ impl<'p> Assembler<'p> {
         }
     }
 
+    /// Commits the state of an intermediate point of a solver device (the damped rescue): element
+    /// history and contact warm starts, not the friction anchors (load-step history that only a
+    /// converged load step may move; see [`ContactSystem::commit_warm_starts`]).
+    pub fn commit_intermediate(&mut self) {
+        for s in &mut self.sets {
+            s.commit();
+        }
+        if let Some(c) = &mut self.contact {
+            c.sys.commit_warm_starts();
+        }
+    }
+
     /// Returns every element set and the contact state to the last committed state.
     pub fn rollback(&mut self) {
         for s in &mut self.sets {

@@ -1442,6 +1442,22 @@ impl ContactSystem {
         }
     }
 
+    /// Commits the projection warm starts only: the friction anchors stay those of the last
+    /// converged load step. For the intermediate states of a solver device (the damped rescue's
+    /// pseudo-time points), which must not change the step's discrete problem: a rescued step's
+    /// frictional return mapping still starts from the previous step's anchors, as any step's does.
+    pub fn commit_warm_starts(&mut self) {
+        self.last_update = None;
+        self.active_set.reset();
+        for pair in &mut self.pairs {
+            for pass in &mut pair.passes {
+                for q in &mut pass.points {
+                    q.committed = q.warm;
+                }
+            }
+        }
+    }
+
     /// Returns the warm starts to the last committed state.
     pub fn rollback(&mut self) {
         self.last_update = None;

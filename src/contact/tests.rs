@@ -1044,3 +1044,57 @@ fn friction_tangent_against_rigid_partners_matches_central_differences() {
         }
     }
 }
+
+/// The rescue's intermediate commits (`commit_warm_starts`) keep the friction anchors of the last
+/// converged step, while a step's `commit` moves the slipping points' anchors; the warm starts
+/// follow both (`export_points` rows: key 0..4, warm start 4..8, anchor 8..12; see
+/// `system/checkpoint.rs`).
+#[test]
+fn intermediate_commits_keep_the_friction_anchors() {
+    let law = "law = \"penalty\"\neps_n = 100.0\nmu = 0.3\neps_t = 80.0";
+    let mut h = Harness::new(&case_2d("Q1N2", "Q1N2", law));
+    let u0 = pressed(&h, 0.08, 0.0, 2e-3, 11);
+    let disk_i = h
+        .model
+        .bodies
+        .iter()
+        .position(|b| b.name == "disk")
+        .unwrap();
+    let u1 = shifted(&h, &u0, &|b| {
+        if b == disk_i {
+            vec![0.06, 0.0]
+        } else {
+            vec![0.0; 2]
+        }
+    });
+    h.eval(&u0, false);
+    h.sys.commit();
+    let at_u0 = h.sys.export_points();
+    h.eval(&u1, false);
+    let slip: usize = h.sys.results()[0].1.iter().map(|r| r.n_slip).sum();
+    assert!(slip > 0, "the shift must make points slip");
+    h.sys.commit_warm_starts();
+    let intermediate = h.sys.export_points();
+    h.sys.commit();
+    let converged = h.sys.export_points();
+    let row = crate::contact::system::CHECKPOINT_ROW;
+    let split = |v: &[f64]| -> (Vec<f64>, Vec<f64>) {
+        let (mut warm, mut anchors) = (Vec::new(), Vec::new());
+        for r in v.chunks_exact(row) {
+            warm.extend_from_slice(&r[4..8]);
+            anchors.extend_from_slice(&r[8..12]);
+        }
+        (warm, anchors)
+    };
+    let ((w0, a0), (wi, ai), (wc, ac)) = (split(&at_u0), split(&intermediate), split(&converged));
+    assert_eq!(ai, a0, "an intermediate commit moved friction anchors");
+    assert_ne!(
+        ac, a0,
+        "a converged step's commit moves the slipping points' anchors"
+    );
+    assert_ne!(
+        wi, w0,
+        "an intermediate commit keeps the warm starts it reached"
+    );
+    assert_eq!(wi, wc);
+}

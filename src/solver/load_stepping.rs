@@ -340,9 +340,11 @@ fn rescue<'p>(
             }
             continue;
         }
-        // the damped state is the next pseudo-time point: history follows it
+        // the damped state is the next pseudo-time point: warm starts follow it, the friction
+        // anchors stay the last converged step's (the rescue solves this step's equations, it
+        // does not change them)
         let force = asm.damping_force_norm(x)?;
-        asm.commit();
+        asm.commit_intermediate();
         x.copy_to(&mut u_prev)?;
         if damped.iterations <= 4 {
             c = (c * 0.5).max(1e-10);
