@@ -416,3 +416,80 @@ fn frictional_sliding_of_two_deformable_blocks_converges_without_cutbacks_at_mu_
         }
     }
 }
+
+#[test]
+fn a_rescued_frictional_step_is_one_increment_from_the_last_equilibrium() {
+    // The damped pseudo-steps of the rescue are not on the load path: committing the friction
+    // anchors at each of them made the friction follow the pseudo-time path (on twisting mesh 8 a
+    // rescued step invalidated everything after it). With SNES limited to `max_it` iterations and
+    // no cutbacks, steps that plain Newton needs more iterations for are rescued; their result
+    // must be the plain solve's (the same anchors, the same load), to the solver's tolerance.
+    // cases/sliding_flat_2d.toml, friction from the start, a thin upper block slid by `slide`:
+    // points stick at the end (slide 0.01: some slip). Measured before the fix: with max_it = 2 (slide 0.002) the press
+    // steps are rescued, and points touching during the pseudo-steps got anchors there: the first
+    // step carried friction a plain step does not (8 sticking, 4 slipping points instead of none);
+    // with max_it = 3 (slide 0.01) the last slide step is rescued: 9 sticking points instead of 8,
+    // the forces off by 12 %. With the rescue's intermediate commits (77b8629): the same to 1e-11.
+    for (slide, max_it) in [("0.002", 2), ("0.01", 3)] {
+        let value = format!("bcs.3.value=[[0.0], [{slide}]]");
+        let base = [
+            "contact.0.mu=0.3",
+            &value,
+            "stages.1.steps=2",
+            "meshes.upper.divisions=[6, 1]",
+            "steps.max_cutbacks=0",
+        ];
+        let plain = run_case(
+            &format!("friction-rescue-plain-{max_it}"),
+            "sliding_flat_2d.toml",
+            1,
+            &base,
+        );
+        let cols: Vec<String> = history(&plain)
+            .into_iter()
+            .map(|(h, _)| h)
+            .filter(|h| h.starts_with("P_") || h.starts_with("Pt_") || h.starts_with("M_"))
+            .collect();
+        let stick = history_col(&plain, "stick_slide_upper_bottom");
+        // the friction history decides the end state: points stick there
+        assert!(
+            *stick.last().unwrap() > 0.0,
+            "slide {slide}: the plain run ends with sticking points: {stick:?}"
+        );
+        let mut sets = base.to_vec();
+        let opt = format!("solver.petsc_options=\"-snes_max_it {max_it}\"");
+        sets.push(&opt);
+        let d = run_case(
+            &format!("friction-rescue-{max_it}"),
+            "sliding_flat_2d.toml",
+            1,
+            &sets,
+        );
+        let s = summary(&d);
+        let steps = s["steps"].as_array().unwrap();
+        let rescued: Vec<u64> = steps
+            .iter()
+            .filter(|st| st["pseudo_steps"].as_u64().unwrap_or(0) > 0)
+            .map(|st| st["step"].as_u64().unwrap())
+            .collect();
+        assert!(!rescued.is_empty(), "max_it {max_it}: no step was rescued");
+        assert_eq!(steps.len(), 4, "max_it {max_it}: 2 + 2 steps");
+        for name in ["stick", "slip"] {
+            for side in ["upper_bottom", "lower_top"] {
+                let c = format!("{name}_slide_{side}");
+                assert_eq!(
+                    history_col(&plain, &c),
+                    history_col(&d, &c),
+                    "max_it {max_it} (rescued steps {rescued:?}): {c}"
+                );
+            }
+        }
+        for c in &cols {
+            let diff = rel_diff(&history_col(&plain, c), &history_col(&d, c));
+            assert!(
+                diff < 1e-8,
+                "max_it {max_it} (rescued steps {rescued:?}): {c} differs by {diff:e}"
+            );
+        }
+    }
+}
