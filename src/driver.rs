@@ -3,6 +3,7 @@
 
 use crate::assembly::{
     constrained_flags, prescribed_values, Assembler, DofMap, DofMapError, GlobalDof, NodeOffsets,
+    SkewRows,
 };
 use crate::contact::system::POINT_RECORD;
 use crate::contact::ContactSystem;
@@ -761,11 +762,21 @@ fn set_up_solver<'p>(
     let constrained = constrained_flags(&model.bcs, &dofs);
     let mut x = Vector::new_mpi(petsc, n_owned)?;
     x.set(0.0)?;
+    let skew = SkewRows::new(&model.skews, &dofs, &model.coords, &constrained)
+        .map_err(|e| Error::Usage(format!("{}: {e}", case.file.display())))?;
     let mut asm = Assembler::new(petsc, &x, dofs, sets, constrained)?;
+    if !skew.is_empty() {
+        asm.set_skew(skew);
+    }
     if opts.matsetvalues {
         if !model.contact_pairs.is_empty() {
             return Err(Error::Usage(
                 "--matsetvalues does not support contact pairs yet: the COO path rebuilds the contact coupling pattern".into(),
+            ));
+        }
+        if !model.skews.is_empty() {
+            return Err(Error::Usage(
+                "--matsetvalues does not support `radial` or `sliding` conditions: drop --matsetvalues".into(),
             ));
         }
         asm.use_preallocated(model.cell_offsets.clone(), model.cell_nodes.clone());

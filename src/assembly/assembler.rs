@@ -5,11 +5,14 @@
 //! Constrained unknowns stay in the system: their residual row is `u_i - ubar_i` and their matrix row
 //! is the identity, so Newton drives them to the prescribed value even from a guess that misses it.
 //! Element contributions to those rows are dropped in the COO pattern (negative row index).
+//! Skew conditions ([`super::skew`]) are constrained rows too, but their element rows are moved to
+//! the node's other rows with the constraint's weights, and their own row is the constraint.
 
 use super::coupling::NodeOffsets;
 use super::dofmap::{DofMap, GlobalDof};
 use super::element_set::{ElementFailure, ElementSet};
 use super::sink::{CooSink, MatrixSink};
+use super::skew::{SkewRow, SkewRows};
 use crate::contact::{ContactSystem, Coupling};
 use crate::petsc::{
     Matrix, NonlinearProblem, Petsc, PetscError, PetscInt, ProblemError, Scatter, Vector,
@@ -124,6 +127,47 @@ pub struct Assembler<'p> {
     stab_diag: Vec<f64>,
     /// `u_prev` on the owned rows. [n_owned]
     stab_prev: Vec<f64>,
+    /// Skew constraints (empty without skew conditions).
+    skew: SkewRows,
+    /// Owned skew rows in owned offsets: `(d, [(o, a_o)])`.
+    skew_owned: Vec<(usize, Vec<(usize, f64)>)>,
+    /// COO entries of a skew row moved to its first other row: (entry, weight).
+    skew_scale: Vec<(usize, f64)>,
+    /// COO entries added for a skew row's further other rows: (source entry, entry, weight).
+    skew_copy: Vec<(usize, usize, f64)>,
+    /// First COO entry of the owned constraint rows' off-diagonal entries `-a_o`.
+    skew_tail: usize,
+}
+
+/// Where an element row `gi` goes in the pattern: dropped (constrained), itself, or (a skew row)
+/// its node's first other row, with the constraint.
+fn row_target<'a>(
+    constrained: &[bool],
+    skew: &'a SkewRows,
+    gi: PetscInt,
+) -> (PetscInt, Option<&'a SkewRow>) {
+    if gi < 0 || !constrained[gi as usize] {
+        return (gi, None);
+    }
+    match skew.of(gi) {
+        Some(r) if !r.others.is_empty() => (r.others[0].0, Some(r)),
+        _ => (-1, None),
+    }
+}
+
+/// Pattern bookkeeping of a skew row's entry at COO index `idx`, column `gj`: its weight on the
+/// first other row, and entries for the further ones (pushed later as `extra`).
+fn note_skew(
+    r: &SkewRow,
+    idx: usize,
+    gj: PetscInt,
+    scale: &mut Vec<(usize, f64)>,
+    extra: &mut Vec<(PetscInt, PetscInt, usize, f64)>,
+) {
+    scale.push((idx, r.others[0].1));
+    for &(o, a) in &r.others[1..] {
+        extra.push((o, gj, idx, a));
+    }
 }
 
 /// Collects the diagonal entries of element and contact matrices by global row. [n_global]
@@ -236,6 +280,11 @@ impl<'p> Assembler<'p> {
             stab_c: 0.0,
             stab_diag: Vec::new(),
             stab_prev: Vec::new(),
+            skew: SkewRows::default(),
+            skew_owned: Vec::new(),
+            skew_scale: Vec::new(),
+            skew_copy: Vec::new(),
+            skew_tail: 0,
         })
     }
 
@@ -332,6 +381,26 @@ impl<'p> Assembler<'p> {
             .loaded_nodes()
             .into_iter()
             .find(|&n| self.offsets.slot(n).is_some())
+    }
+
+    /// Imposes skew conditions (COO assembly only): their dependent unknowns become constrained
+    /// rows holding the constraint, and their element rows move to the node's other rows.
+    pub fn set_skew(&mut self, skew: SkewRows) {
+        let (lo, hi) = self.dofs.owned_range();
+        self.skew_owned.clear();
+        for r in skew.rows() {
+            self.constrained[r.dep as usize] = true;
+            if r.dep >= lo && r.dep < hi {
+                let others = r
+                    .others
+                    .iter()
+                    .map(|&(o, a)| ((o - lo) as usize, a))
+                    .collect();
+                self.skew_owned.push(((r.dep - lo) as usize, others));
+            }
+        }
+        self.skew = skew;
+        self.pattern_ready = false;
     }
 
     /// Sets the values of the owned constrained unknowns for the next solve.
@@ -514,18 +583,19 @@ impl<'p> Assembler<'p> {
             MatrixAssembly::Coo => {
                 let mut rows: Vec<PetscInt> = Vec::new();
                 let mut cols: Vec<PetscInt> = Vec::new();
+                let mut scale = Vec::new();
+                let mut extra = Vec::new();
                 self.coo_offsets.clear();
                 self.coo_offsets.push(0);
                 for r in &self.restrict {
                     for e in 0..r.offsets.len() - 1 {
                         let g = &r.global[r.offsets[e]..r.offsets[e + 1]];
                         for &gi in g {
-                            let row = if gi >= 0 && self.constrained[gi as usize] {
-                                -1
-                            } else {
-                                gi
-                            };
+                            let (row, sk) = row_target(&self.constrained, &self.skew, gi);
                             for &gj in g {
+                                if let Some(sr) = sk {
+                                    note_skew(sr, rows.len(), gj, &mut scale, &mut extra);
+                                }
                                 rows.push(row);
                                 cols.push(gj);
                             }
@@ -543,12 +613,11 @@ impl<'p> Assembler<'p> {
                     for cp in &c.couplings {
                         let (rws, cls) = c.sys.block_dofs(cp);
                         for &gi in &rws {
-                            let row = if gi >= 0 && self.constrained[gi as usize] {
-                                -1
-                            } else {
-                                gi
-                            };
+                            let (row, sk) = row_target(&self.constrained, &self.skew, gi);
                             for &gj in &cls {
+                                if let Some(sr) = sk {
+                                    note_skew(sr, rows.len(), gj, &mut scale, &mut extra);
+                                }
                                 rows.push(row);
                                 cols.push(gj);
                             }
@@ -563,6 +632,22 @@ impl<'p> Assembler<'p> {
                     cols.push(g);
                 }
                 self.coo_offsets.push(rows.len());
+                // Skew constraint rows `x_d - sum a_o x_o`: their off-diagonal entries, then the
+                // element entries of skew rows on their further other rows.
+                self.skew_tail = rows.len();
+                for (d, others) in &self.skew_owned {
+                    for &(o, _) in others {
+                        rows.push(lo + *d as PetscInt);
+                        cols.push(lo + o as PetscInt);
+                    }
+                }
+                self.skew_copy.clear();
+                for (o, gj, src, a) in extra {
+                    self.skew_copy.push((src, rows.len(), a));
+                    rows.push(o);
+                    cols.push(gj);
+                }
+                self.skew_scale = scale;
                 self.coo_values = vec![0.0; rows.len()];
                 j.set_preallocation_coo(&mut rows, &mut cols)?;
             }
@@ -1021,6 +1106,16 @@ impl NonlinearProblem for Assembler<'_> {
             for &(i, v) in &self.prescribed {
                 fa[i] = xa[i] - v;
             }
+            // Skew conditions: the dependent row's force acts on the node's other rows (virtual
+            // displacements `e_o + a_o e_d`); its own row is the constraint.
+            for (d, others) in &self.skew_owned {
+                let mut c = xa[*d];
+                for &(o, a) in others {
+                    fa[o] += a * self.raw_residual[*d];
+                    c -= a * xa[o];
+                }
+                fa[*d] = c;
+            }
         }
         self.timers.residual += t0.elapsed().as_secs_f64();
         self.timers.n_residual += 1;
@@ -1050,10 +1145,24 @@ impl NonlinearProblem for Assembler<'_> {
                     };
                     self.guarded_loop(x, Some(&mut sink))
                 };
+                // Skew rows' element entries onto the other rows of their node.
+                for &(src, dst, a) in &self.skew_copy {
+                    values[dst] = a * values[src];
+                }
+                for &(i, a) in &self.skew_scale {
+                    values[i] *= a;
+                }
+                let mut k = self.skew_tail;
+                for (_, others) in &self.skew_owned {
+                    for &(_, a) in others {
+                        values[k] = -a;
+                        k += 1;
+                    }
+                }
                 // Identity rows of the constrained unknowns, damping on the free ones.
-                let tail = offsets[offsets.len() - 2];
+                let (tail, end) = (offsets[offsets.len() - 2], offsets[offsets.len() - 1]);
                 let (lo, _) = self.dofs.owned_range();
-                for (i, v) in values[tail..].iter_mut().enumerate() {
+                for (i, v) in values[tail..end].iter_mut().enumerate() {
                     *v = if self.constrained[lo as usize + i] {
                         1.0
                     } else if self.stab_c > 0.0 {

@@ -7,6 +7,7 @@ pub mod dirichlet;
 pub mod dofmap;
 pub mod element_set;
 pub mod sink;
+pub mod skew;
 
 pub use assembler::{Assembler, MatrixAssembly, Timers};
 pub use coupling::{NodeOffsets, RigidCoupling};
@@ -16,3 +17,4 @@ pub use dirichlet::{
 pub use dofmap::{DofMap, DofMapError, GlobalDof, LocalDof};
 pub use element_set::{ElementFailure, ElementSet};
 pub use sink::{CooSink, DenseSink, MatrixSink};
+pub use skew::{SkewBc, SkewError, SkewKind, SkewRow, SkewRows};

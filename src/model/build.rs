@@ -1,7 +1,7 @@
 //! Building a [`Model`] from a validated [`Case`].
 
 use super::enrich::{build_enrichment_with, EnrichedCell, Enrichment, TiedCell};
-use crate::assembly::{DirichletBc, ElementSet, Prescription, RigidCoupling};
+use crate::assembly::{DirichletBc, ElementSet, Prescription, RigidCoupling, SkewBc, SkewKind};
 use crate::fem::kernel::TlElement;
 use crate::fem::q1e4::Q1e4Element;
 use crate::fem::quadrature::tensor_rule;
@@ -189,6 +189,8 @@ pub struct Model {
     /// Node sets moving rigidly with a prescribed rotation and a free translation; their nodes
     /// are tied (in `ties`) and move with the offsets of [`crate::assembly::NodeOffsets`].
     pub couplings: Vec<RigidCoupling>,
+    /// Skew conditions (`radial`, `sliding`); their `bcs` entries are empty.
+    pub skews: Vec<SkewBc>,
     /// Reaction sets for the history: (column label `<body>_<set>`, global nodes).
     pub reactions: Vec<(String, Vec<u32>)>,
     /// Reaction sets whose moment the history reports: (label, global nodes, point [3]).
@@ -559,6 +561,7 @@ impl Model {
 
         let mut bcs = Vec::new();
         let mut couplings = Vec::new();
+        let mut skews = Vec::new();
         for (i, bc) in case.bcs.iter().enumerate() {
             let body = find(bc.body()).ok_or_else(|| ModelError::Unsupported {
                 file: case.file.clone(),
@@ -586,6 +589,35 @@ impl Model {
                         nodes: nodes.clone(),
                         axis: a.map(|x| x / norm),
                         angles: r.angle_deg.iter().map(|d| d.to_radians()).collect(),
+                    });
+                    (Vec::new(), Prescription::Fixed)
+                }
+                BcSpec::Radial(r) => {
+                    let a = r.axis.unwrap_or([0.0, 0.0, 1.0]);
+                    let norm = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+                    let mut center = [0.0; 3];
+                    center[..r.center.len().min(3)]
+                        .copy_from_slice(&r.center[..r.center.len().min(3)]);
+                    skews.push(SkewBc {
+                        label: label.clone(),
+                        nodes: nodes.clone(),
+                        kind: SkewKind::Radial {
+                            axis: a.map(|x| x / norm),
+                            center,
+                        },
+                    });
+                    (Vec::new(), Prescription::Fixed)
+                }
+                BcSpec::Sliding(sl) => {
+                    let norm = sl.normal.iter().map(|x| x * x).sum::<f64>().sqrt();
+                    let mut normal = [0.0; 3];
+                    for (n, x) in normal.iter_mut().zip(&sl.normal) {
+                        *n = x / norm;
+                    }
+                    skews.push(SkewBc {
+                        label: label.clone(),
+                        nodes: nodes.clone(),
+                        kind: SkewKind::Sliding { normal },
                     });
                     (Vec::new(), Prescription::Fixed)
                 }
@@ -761,6 +793,7 @@ impl Model {
             bcs,
             ties,
             couplings,
+            skews,
             reactions,
             reaction_moments,
             contact_surfaces: Vec::new(),

@@ -54,7 +54,7 @@ impl Case {
         self.stages.truncate(n);
         for bc in &mut self.bcs {
             match bc {
-                BcSpec::Fixed(_) => {}
+                BcSpec::Fixed(_) | BcSpec::Radial(_) | BcSpec::Sliding(_) => {}
                 BcSpec::Displacement(d) => d.value.truncate(n),
                 BcSpec::Rotation(r) => {
                     r.angle_deg.truncate(n);
@@ -352,17 +352,21 @@ pub enum BcSpec {
     Fixed(FixedBc),
     Displacement(DisplacementBc),
     Rotation(RotationBc),
+    Radial(RadialBc),
+    Sliding(SlidingBc),
 }
 
 impl BcSpec {
     /// Names accepted for `kind`.
-    pub const KINDS: [&'static str; 3] = ["fixed", "displacement", "rotation"];
+    pub const KINDS: [&'static str; 5] = ["fixed", "displacement", "rotation", "radial", "sliding"];
 
     pub fn body(&self) -> &str {
         match self {
             BcSpec::Fixed(b) => &b.body,
             BcSpec::Displacement(b) => &b.body,
             BcSpec::Rotation(b) => &b.body,
+            BcSpec::Radial(b) => &b.body,
+            BcSpec::Sliding(b) => &b.body,
         }
     }
 
@@ -372,6 +376,8 @@ impl BcSpec {
             BcSpec::Fixed(b) => &b.set,
             BcSpec::Displacement(b) => &b.set,
             BcSpec::Rotation(b) => &b.set,
+            BcSpec::Radial(b) => &b.set,
+            BcSpec::Sliding(b) => &b.set,
         }
     }
 }
@@ -442,6 +448,34 @@ pub struct RotationBc {
     /// reaction moment is the applied moment. Excludes `translation`. Default: false.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub free_translation: bool,
+}
+
+/// `kind = "radial"`: the nodes move radially and along an axis, never around it: the
+/// circumferential component of their displacement about `axis` through `center` is zero (a skew
+/// condition, `e_theta . u = 0` at each node, in every stage). A base that may expand about its
+/// centre but neither turn nor (with the other nodes) translate. Nodes on the axis are left free.
+/// Combine with `fixed` on the axial component to stop the set moving along the axis.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RadialBc {
+    pub body: String,
+    pub set: String,
+    /// The axis, 3D only (2D: the out-of-plane axis); need not be normalised, must be non-zero.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis: Option<[f64; 3]>,
+    /// `[dim]`: a point on the axis.
+    pub center: Vec<f64>,
+}
+
+/// `kind = "sliding"`: the nodes slide on a plane with normal `normal`: their displacement along
+/// it is zero (a skew condition, `n . u = 0`, in every stage; a roller on an inclined support).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SlidingBc {
+    pub body: String,
+    pub set: String,
+    /// `[dim]`: the normal; need not be normalised, must be non-zero.
+    pub normal: Vec<f64>,
 }
 
 /// `[[ties]]`: periodic tie of a slave node set to a master node set of one body.
@@ -698,6 +732,8 @@ impl<'de> Deserialize<'de> for BcSpec {
             "fixed" => from_table(table).map(BcSpec::Fixed),
             "displacement" => from_table(table).map(BcSpec::Displacement),
             "rotation" => from_table(table).map(BcSpec::Rotation),
+            "radial" => from_table(table).map(BcSpec::Radial),
+            "sliding" => from_table(table).map(BcSpec::Sliding),
             other => Err(de::Error::custom(nest_message(
                 &format!(
                     "unknown kind `{other}`, expected one of {}",

@@ -586,6 +586,43 @@ fn check_bcs(case: &Case, dim_ok: bool, v: &mut Issues) {
                     );
                 }
             }
+            BcSpec::Radial(r) => {
+                match (dim, r.axis) {
+                    (3, None) => v.push(k("axis"), "a 3D radial condition needs an axis"),
+                    (3, Some(a)) => {
+                        let n2: f64 = a.iter().map(|x| x * x).sum();
+                        if !(n2.is_finite() && n2 > 0.0) {
+                            v.push(k("axis"), format!("must be a non-zero vector, got {a:?}"));
+                        }
+                    }
+                    (_, Some(_)) => v.push(
+                        k("axis"),
+                        "2D radial conditions are about the out-of-plane axis; remove axis",
+                    ),
+                    _ => {}
+                }
+                if r.center.len() != dim {
+                    v.push(
+                        k("center"),
+                        format!("needs {dim} coordinates, got {}", r.center.len()),
+                    );
+                }
+                v.finite(k("center"), &r.center);
+            }
+            BcSpec::Sliding(sl) => {
+                let n2: f64 = sl.normal.iter().map(|x| x * x).sum();
+                if sl.normal.len() != dim {
+                    v.push(
+                        k("normal"),
+                        format!("needs {dim} coordinates, got {}", sl.normal.len()),
+                    );
+                } else if !(n2.is_finite() && n2 > 0.0) {
+                    v.push(
+                        k("normal"),
+                        format!("must be a non-zero vector, got {:?}", sl.normal),
+                    );
+                }
+            }
         }
     }
 }

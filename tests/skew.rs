@@ -1,0 +1,283 @@
+//! Skew conditions (`kind = "radial"`, `kind = "sliding"`): the held direction of every node's
+//! displacement stays zero while the others are free, the support's reaction is normal to the
+//! freedom it allows, Newton keeps converging quadratically, and 1 and 2 ranks agree.
+mod common;
+use common::*;
+use std::path::{Path, PathBuf};
+
+/// The cube of the twisting cases alone (2 x 2 x 2, E = 1, nu = 0.3, 4^3 Q1C1), its top pressed
+/// by 0.2 and then clamped and turned by 45 degrees about z; its base fixed in z and held by
+/// `base` (the conditions after `kind = ...`).
+fn cube(base: &str) -> String {
+    format!(
+        r#"
+[case]
+name = "cube_twist"
+dim = 3
+[meshes.cube]
+generator = "box"
+origin = [-1.0, -1.0, -2.0]
+size = [2.0, 2.0, 2.0]
+divisions = [4, 4, 4]
+[bodies.cube]
+mesh = "cube"
+element = "Q1C1"
+[bodies.cube.material]
+model = "neo_hookean"
+E = 1.0
+nu = 0.3
+[bodies.cube.node_sets]
+base_x0 = {{ within = "zmin", min = [-1e-9, -2.0, -3.0], max = [1e-9, 2.0, -1.0] }}
+base_y0 = {{ within = "zmin", min = [-2.0, -1e-9, -3.0], max = [2.0, 1e-9, -1.0] }}
+[[bcs]]
+body = "cube"
+set = "zmin"
+kind = "fixed"
+components = ["z"]
+{base}
+[[bcs]]
+body = "cube"
+set = "zmax"
+kind = "rotation"
+axis = [0.0, 0.0, 1.0]
+center = [0.0, 0.0, 0.0]
+angle_deg = [0.0, 45.0]
+translation = [[0.0, 0.0, -0.2], [0.0, 0.0, -0.2]]
+[[stages]]
+name = "press"
+steps = 2
+[[stages]]
+name = "twist"
+steps = 3
+[output]
+every = 1
+reactions = [{{ body = "cube", set = "zmax", moment_about = [0.0, 0.0, 0.0] }}, {{ body = "cube", set = "zmin", moment_about = [0.0, 0.0, -2.0] }}]
+"#
+    )
+}
+
+const RADIAL: &str = r#"[[bcs]]
+body = "cube"
+set = "zmin"
+kind = "radial"
+axis = [0.0, 0.0, 1.0]
+center = [0.0, 0.0, -2.0]"#;
+
+/// FORMULATION.md's base: line supports on x = 0 and y = 0.
+const LINES: &str = r#"[[bcs]]
+body = "cube"
+set = "base_x0"
+kind = "fixed"
+components = ["x"]
+[[bcs]]
+body = "cube"
+set = "base_y0"
+kind = "fixed"
+components = ["y"]"#;
+
+fn write_case(name: &str, text: &str) -> PathBuf {
+    let dir = scratch(&format!("{name}-case"));
+    let file = dir.join("case.toml");
+    std::fs::write(&file, text).expect("write case");
+    file
+}
+
+fn run_file(file: &Path, name: &str, np: usize) -> PathBuf {
+    let d = scratch(name);
+    run_ok(
+        np,
+        &[
+            "run",
+            file.to_str().unwrap(),
+            "--out",
+            d.to_str().unwrap(),
+            "-q",
+            "--overwrite",
+        ],
+    );
+    d
+}
+
+/// Reference coordinates and last displacements of the bulk grid, [n][3] each.
+fn bulk(dir: &Path) -> (Vec<f64>, Vec<f64>) {
+    let f = hdf5::File::open(dir.join("results.h5")).expect("open results.h5");
+    let x = f
+        .dataset("grids/bulk/coordinates")
+        .expect("coordinates")
+        .read_raw::<f64>()
+        .expect("read coordinates");
+    (x, h5_last(dir, "bulk", "displacement"))
+}
+
+/// Largest |u . e_theta| and |u . e_r| over the base nodes (z = -2) off the axis.
+fn base_motion(dir: &Path) -> (f64, f64) {
+    let (x, u) = bulk(dir);
+    let (mut circ, mut rad) = (0.0f64, 0.0f64);
+    for (x, u) in x.chunks(3).zip(u.chunks(3)) {
+        let r = x[0].hypot(x[1]);
+        if (x[2] + 2.0).abs() > 1e-12 || r < 1e-12 {
+            continue;
+        }
+        let (er, et) = ([x[0] / r, x[1] / r], [-x[1] / r, x[0] / r]);
+        circ = circ.max((u[0] * et[0] + u[1] * et[1]).abs());
+        rad = rad.max((u[0] * er[0] + u[1] * er[1]).abs());
+    }
+    (circ, rad)
+}
+
+#[test]
+fn a_radial_base_expands_without_turning_and_balances_the_twist_on_1_and_2_ranks() {
+    let file = write_case("skew-radial", &cube(RADIAL));
+    let dirs = [1, 2].map(|np| run_file(&file, &format!("skew-radial-np{np}"), np));
+    for (np, d) in [1, 2].iter().zip(&dirs) {
+        let (circ, rad) = base_motion(d);
+        assert!(circ < 1e-12, "np={np}: base nodes turn by {circ:e}");
+        assert!(rad > 1e-2, "np={np}: base does not expand ({rad:e})");
+        // the base carries the twist: its reaction moment about the axis balances the top's
+        let (top, base) = (
+            history_col(d, "M_cube_zmax_z"),
+            history_col(d, "M_cube_zmin_z"),
+        );
+        let m = top.last().unwrap();
+        assert!(m.abs() > 0.1, "np={np}: no twisting moment ({m})");
+        for (a, b) in top.iter().zip(&base) {
+            assert!(
+                (a + b).abs() < 1e-9 * a.abs().max(1.0),
+                "np={np}: {a} vs {b}"
+            );
+        }
+        // Newton stays quadratic with the constraint rows in the Jacobian
+        let its = history_col(d, "newton_iterations");
+        assert!(its.iter().all(|&i| i <= 6.0), "np={np}: iterations {its:?}");
+    }
+    let (a, b) = (bulk(&dirs[0]).1, bulk(&dirs[1]).1);
+    let diff = rel_diff(&a, &b);
+    assert!(diff < 1e-10, "1 and 2 ranks differ by {diff:e}");
+}
+
+#[test]
+fn line_supports_let_the_base_turn_where_a_radial_base_does_not() {
+    // the distinction the radial condition exists for (REPRODUCTION.md, frictional twisting)
+    let lines = run_file(&write_case("skew-lines", &cube(LINES)), "skew-lines", 1);
+    let (circ, _) = base_motion(&lines);
+    assert!(circ > 1e-3, "line-supported base turns by only {circ:e}");
+}
+
+#[test]
+fn a_block_sliding_on_an_inclined_support_gets_only_a_normal_reaction() {
+    // a 2 x 1 block pressed down by its clamped top; its base slides on a plane with normal
+    // (sin 30, cos 30): n . u = 0 at the base and the base's reaction is along n
+    let (s, c) = 30f64.to_radians().sin_cos();
+    let text = format!(
+        r#"
+[case]
+name = "slide"
+dim = 2
+[meshes.block]
+generator = "rectangle"
+origin = [0.0, 0.0]
+size = [2.0, 1.0]
+divisions = [6, 3]
+[bodies.block]
+mesh = "block"
+element = "Q1C1"
+[bodies.block.material]
+model = "neo_hookean"
+E = 1.0
+nu = 0.3
+[[bcs]]
+body = "block"
+set = "bottom"
+kind = "sliding"
+normal = [{s}, {c}]
+[[bcs]]
+body = "block"
+set = "top"
+kind = "displacement"
+value = [[0.0, -0.1]]
+[[stages]]
+name = "press"
+steps = 2
+[output]
+every = 1
+reactions = [{{ body = "block", set = "bottom" }}, {{ body = "block", set = "top" }}]
+"#
+    );
+    let file = write_case("skew-slide", &text);
+    let dirs = [1, 2].map(|np| run_file(&file, &format!("skew-slide-np{np}"), np));
+    for (np, d) in [1, 2].iter().zip(&dirs) {
+        let (x, u) = bulk(d);
+        let mut slid = 0.0f64;
+        for (x, u) in x.chunks(3).zip(u.chunks(3)) {
+            if x[1].abs() < 1e-12 {
+                let un = u[0] * s + u[1] * c;
+                assert!(
+                    un.abs() < 1e-12,
+                    "np={np}: base node at {x:?} moves {un:e} along n"
+                );
+                slid = slid.max((u[0] * c - u[1] * s).abs());
+            }
+        }
+        assert!(slid > 1e-3, "np={np}: base does not slide ({slid:e})");
+        let (rx, ry) = (last(d, "R_block_bottom_x"), last(d, "R_block_bottom_y"));
+        let (tx, ty) = (last(d, "R_block_top_x"), last(d, "R_block_top_y"));
+        let norm = rx.hypot(ry);
+        assert!(norm > 1e-2, "np={np}: no reaction");
+        assert!(
+            (rx * c - ry * s).abs() < 1e-9 * norm,
+            "np={np}: tangential reaction {} of {norm}",
+            rx * c - ry * s
+        );
+        // the top balances it, and carries the tangential load that keeps the block in place
+        assert!((rx + tx).abs() < 1e-9 && (ry + ty).abs() < 1e-9, "np={np}");
+        assert!(tx.abs() > 1e-3, "np={np}: top has no tangential reaction");
+    }
+    let diff = rel_diff(&bulk(&dirs[0]).1, &bulk(&dirs[1]).1);
+    assert!(diff < 1e-10, "1 and 2 ranks differ by {diff:e}");
+}
+
+#[test]
+fn a_skew_condition_on_a_prescribed_component_is_refused_with_the_node_and_condition() {
+    let both = format!("{RADIAL}\n{LINES}");
+    let file = write_case("skew-conflict", &cube(&both));
+    let d = scratch("skew-conflict");
+    let out = run(
+        1,
+        &[
+            "run",
+            file.to_str().unwrap(),
+            "--out",
+            d.to_str().unwrap(),
+            "-q",
+            "--overwrite",
+        ],
+    );
+    assert!(!out.status.success());
+    let err = stderr(&out);
+    assert!(
+        err.contains("case.toml") && err.contains("bcs.1 (cube/zmin)") && err.contains("node"),
+        "{err}"
+    );
+    // a 2D radial condition with an axis, a zero sliding normal: named keys
+    for (bad, key) in [
+        (
+            "kind = \"radial\"\naxis = [0.0, 0.0, 0.0]\ncenter = [0.0, 0.0, 0.0]",
+            "bcs.1.axis",
+        ),
+        (
+            "kind = \"radial\"\naxis = [0.0, 0.0, 1.0]\ncenter = [0.0, 0.0]",
+            "bcs.1.center",
+        ),
+        (
+            "kind = \"sliding\"\nnormal = [0.0, 0.0, 0.0]",
+            "bcs.1.normal",
+        ),
+    ] {
+        let text = cube(&format!("[[bcs]]\nbody = \"cube\"\nset = \"zmin\"\n{bad}"));
+        let file = write_case("skew-bad", &text);
+        let out = run(1, &["check", file.to_str().unwrap()]);
+        assert!(!out.status.success(), "{bad} accepted");
+        let err = stderr(&out);
+        assert!(err.contains(key), "{bad}: {err}");
+    }
+}
