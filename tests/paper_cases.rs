@@ -352,8 +352,8 @@ fn frictional_twisting_coarse_agrees_on_one_and_two_ranks_and_the_rim_carries_th
 {
     // mesh 2, pressed by 0.2 without friction, then twisted by 6 degrees with mu = 0.5
     let sets = [
-        "bcs.3.translation=[[0.0, 0.0, -0.2], [0.0, 0.0, -0.2]]",
-        "bcs.3.angle_deg=[0.0, 6.0]",
+        "bcs.2.translation=[[0.0, 0.0, -0.2], [0.0, 0.0, -0.2]]",
+        "bcs.2.angle_deg=[0.0, 6.0]",
         "stages.0.steps=2",
         "stages.1.steps=3",
         "output.every=5",
