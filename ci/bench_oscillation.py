@@ -1,13 +1,13 @@
 #!/usr/bin/env python3
 """Pointwise contact pressure of the Hertz case (BENCHMARKS.md, oscillation study).
-Usage: python3 ci/bench_oscillation.py FAMILY:N_ARC:EPS_N ...  (e.g. Q1N2:128:1e4)
+Usage: python3 ci/bench_oscillation.py FAMILY:N_ARC:EPS_N[:GAP] ...  (e.g. Q1N2:128:1e4, Q1N2:128:1e4:element_mean)
 Reads the grid `contact_points` of results.h5 (the law's pressure at every contact quadrature point)."""
 import sys, os, math, re, subprocess
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import bench_contact as b
-def study(fam, n, eps):
+def study(fam, n, eps, gap="pointwise"):
     out, s = b.run("hertz_2d.toml", 1, [f"bodies.disk.element={fam}", f"meshes.disk.n_arc={n}",
-                   f"meshes.disk.n_radial={n//4}", f"contact.0.eps_n={eps}"])
+                   f"meshes.disk.n_radial={n//4}", f"contact.0.eps_n={eps}", f"contact.0.gap={gap}"])
     f = os.path.join(out, "results.h5")
     hist = open(os.path.join(out, "history.csv")).read().splitlines()
     head, last = hist[0].split(","), hist[-1].split(",")
@@ -25,8 +25,8 @@ def study(fam, n, eps):
     ps = [pp for _, pp in pts]
     sd = [abs(ps[k] - 0.5*(ps[k-1]+ps[k+1])) for k in range(1, len(ps)-1) if abs(pts[k][0]) < 0.7*a]
     dev = [abs(pp - p0*math.sqrt(max(0, 1-(xx/a)**2)))/p0 for xx, pp in inner]
-    print(f"| {fam} | {n} | {eps:g} | {len(pts)} | {min(pp for _,pp in inner)/p0:.3f} | {max(ps)/p0:.3f} | {100*max(dev):.1f} % | {100*max(sd)/p0:.1f} % | {100*(max(pn)-p0)/p0:+.2f} % | {b.newton(s)} |", flush=True)
-print("| family | n_arc | eps_n | points in contact | min p/p0 (|x|<0.7a) | max p/p0 | max |p - p_Hertz(x_ref)|/p0 (|x|<0.7a) | max 2nd difference /p0 | nominal L2 peak error | Newton its |")
-print("|---|---|---|---|---|---|---|---|---|---|")
+    print(f"| {fam} | {gap} | {n} | {eps:g} | {len(pts)} | {min(pp for _,pp in inner)/p0:.3f} | {max(ps)/p0:.3f} | {100*max(dev):.1f} % | {100*max(sd)/p0:.1f} % | {100*(max(pn)-p0)/p0:+.2f} % | {b.newton(s)} |", flush=True)
+print("| family | gap | n_arc | eps_n | points in contact | min p/p0 (|x|<0.7a) | max p/p0 | max |p - p_Hertz(x_ref)|/p0 (|x|<0.7a) | max 2nd difference /p0 | nominal L2 peak error | Newton its |")
+print("|---|---|---|---|---|---|---|---|---|---|---|")
 for args in [a.split(":") for a in sys.argv[1:]]:
-    study(args[0], int(args[1]), float(args[2]))
+    study(args[0], int(args[1]), float(args[2]), *args[3:4])

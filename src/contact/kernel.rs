@@ -186,6 +186,49 @@ fn partner_geom(el: &SurfaceElement, dim: usize, y: &[f64], xi: &[f64; 2]) -> Pa
     g
 }
 
+/// The gap vector and the normal of a point at `xk` [3] paired with a projected or rigid partner
+/// (as [`contact_point_pass`] takes them), and the partner element's basis at the projection
+/// (`n_l` values; none for a rigid partner). `None` for a material pairing.
+pub fn gap_and_normal(
+    dim: usize,
+    xk: &[f64; 3],
+    partner: &PartnerPoint,
+) -> Option<([f64; 3], [f64; 3], [f64; MAX_FACE_NODES], usize)> {
+    let m = dim - 1;
+    match partner {
+        PartnerPoint::Rigid(rp) => Some((rp.g, rp.n, [0.0; MAX_FACE_NODES], 0)),
+        PartnerPoint::Material { .. } => None,
+        PartnerPoint::Projected { el, y, xi, free } => {
+            let ge = partner_geom(el, dim, y, xi);
+            let g = [0, 1, 2].map(|k| xk[k] - ge.p[k]);
+            let (n, _) = projected_normal(dim, &ge, el.sign, &g, &free[..m]);
+            Some((g, n, ge.N, ge.n))
+        }
+    }
+}
+
+/// The normal at a projection onto a deformable partner: the partner surface's (signed) normal
+/// where the projection is orthogonal (every coordinate `free`, or a zero gap), else the normal
+/// along the gap (an edge or corner of a faceted partner). Returns it and whether it is orthogonal.
+fn projected_normal(
+    dim: usize,
+    ge: &PartnerGeom,
+    sign: f64,
+    g: &[f64; 3],
+    free: &[bool],
+) -> ([f64; 3], bool) {
+    let nr = raw_normal(dim, &ge.a);
+    let l = dot(&nr, &nr).sqrt();
+    let ns = nr.map(|c| sign * c / l);
+    let gl = dot(g, g).sqrt();
+    if free.iter().all(|&f| f) || gl == 0.0 {
+        (ns, true)
+    } else {
+        let sgn = if dot(g, &ns) >= 0.0 { 1.0 } else { -1.0 };
+        (g.map(|c| sgn * c / gl), false)
+    }
+}
+
 /// Evaluates one point: adds its residual to `r` [n_k*dim] and, if given, its tangent to `K`
 /// [n_k*dim][n_cols] row-major, `n_cols = (n_k + n_l) * dim` (own unknowns first, then the partner
 /// element's; `n_l = 0` for a rigid partner). `law(g, n)` gives the traction.
@@ -255,17 +298,8 @@ pub fn contact_point_pass(
         }
         (PartnerPoint::Projected { free, .. }, Some(ge)) => {
             let g = [0, 1, 2].map(|k| xk[k] - ge.p[k]);
-            let nr = raw_normal(dim, &ge.a);
-            let l = dot(&nr, &nr).sqrt();
-            let ns = nr.map(|c| el_sign * c / l);
-            let gl = dot(&g, &g).sqrt();
-            let all_free = (0..m).all(|i| free[i]);
-            if all_free || gl == 0.0 {
-                (g, ns, true)
-            } else {
-                let sgn = if dot(&g, &ns) >= 0.0 { 1.0 } else { -1.0 };
-                (g, g.map(|c| sgn * c / gl), false)
-            }
+            let (n, orthogonal) = projected_normal(dim, ge, el_sign, &g, &free[..m]);
+            (g, n, orthogonal)
         }
         _ => unreachable!("a deformable partner always has its geometry"),
     };

@@ -12,7 +12,8 @@
 
 use crate::assembly::{DofMap, MatrixSink};
 use crate::contact::kernel::{
-    contact_point_pass, Area, FrictionIn, OwnPoint, PartnerPoint, Scratch, SlipState,
+    contact_point_pass, gap_and_normal, Area, FrictionIn, OwnPoint, PartnerPoint, Scratch,
+    SlipState,
 };
 use crate::contact::law::{self, Traction};
 use crate::contact::projection::{global_search, surface_grid, walk, Positions, Projection};
@@ -25,6 +26,7 @@ use std::collections::HashMap;
 
 mod active_set;
 mod checkpoint;
+mod mean_gap;
 pub use active_set::{Settle, MAX_ROUNDS as MAX_ACTIVE_SET_ROUNDS};
 pub use checkpoint::ROW as CHECKPOINT_ROW;
 
@@ -111,6 +113,9 @@ pub struct PairDef {
     pub one_pass: bool,
     /// Coulomb friction (penalty law, and the cohesive law's penalty against penetration).
     pub friction: Option<Friction>,
+    /// Penalty law on each surface element's mean normal gap instead of the pointwise one
+    /// (frictionless two-half-pass only; `gap = "element_mean"`).
+    pub element_mean_gap: bool,
 }
 
 /// Projection state of one quadrature point.
@@ -822,8 +827,10 @@ impl ContactSystem {
         let mut blocks = std::mem::take(&mut self.blocks);
         let mut n_used;
         let mut r = Vec::new();
+        let mut mean = mean_gap::ElementMean::default();
         for pi in 0..self.pairs.len() {
             let law = self.pairs[pi].def.law;
+            let element_mean = self.pairs[pi].def.element_mean_gap;
             let mpt = self.pairs[pi].def.moment_point;
             let dist = self.pairs[pi].def.search_distance;
             let one_pass = self.pairs[pi].def.one_pass;
@@ -855,6 +862,64 @@ impl ContactSystem {
                     r.clear();
                     r.resize(nk * dim, 0.0);
                     n_used = 0;
+                    // `gap = "element_mean"`: the element's mean normal gap (mean_gap.rs)
+                    let mut g_mean = None;
+                    if element_mean {
+                        mean.start(nk);
+                        for q in oe.first..oe.first + oe.n {
+                            let qp = pass.points[q];
+                            let (bN, _) = oe.basis(q);
+                            let mut xk = [0.0; 3];
+                            for a in 0..nk {
+                                for c in 0..dim {
+                                    xk[c] += bN[a] * x[a * dim + c];
+                                }
+                            }
+                            let (pp, le) = match (&pass.shape, l) {
+                                (Some(shape), _) => match shape.project(&xk) {
+                                    Some(rp)
+                                        if (rp.g[0] * rp.g[0]
+                                            + rp.g[1] * rp.g[1]
+                                            + rp.g[2] * rp.g[2])
+                                            .sqrt()
+                                            <= dist =>
+                                    {
+                                        (PartnerPoint::Rigid(rp), u32::MAX)
+                                    }
+                                    _ => continue,
+                                },
+                                (None, Some(l)) => match qp.current {
+                                    Some(p) => (
+                                        PartnerPoint::Projected {
+                                            el: &self.surfaces[l].elements[p.elem as usize],
+                                            y: self.pos[l].of(p.elem as usize),
+                                            xi: p.xi,
+                                            free: p.free,
+                                        },
+                                        p.elem,
+                                    ),
+                                    None => continue,
+                                },
+                                (None, None) => continue,
+                            };
+                            if let Some((g, n, nl_vals, nl)) = gap_and_normal(dim, &xk, &pp) {
+                                let g_n = g[0] * n[0] + g[1] * n[1] + g[2] * n[2];
+                                let c = qp.w * qp.J0;
+                                let p = mean_gap::MeanPoint {
+                                    q,
+                                    le,
+                                    n,
+                                    nl_vals,
+                                    nl,
+                                    c,
+                                };
+                                mean.add(p, &bN[..nk], g_n);
+                            }
+                        }
+                        if mean.finish() {
+                            g_mean = Some(mean.g);
+                        }
+                    }
                     for q in oe.first..oe.first + oe.n {
                         let qp = pass.points[q];
                         let (bN, bdN) = oe.basis(q);
@@ -986,6 +1051,11 @@ impl ContactSystem {
                                         Law::Cohesive { t0, g0, .. } => law::cohesive(t0, g0, g),
                                         _ => Traction::ZERO,
                                     }
+                                } else if let (Some(gm), Law::Penalty { eps_n }) = (g_mean, law) {
+                                    // the point's gap moved along its normal to the mean's
+                                    let gn = g[0] * n[0] + g[1] * n[1] + g[2] * n[2];
+                                    let gs = [0, 1, 2].map(|i| g[i] + (gm - gn) * n[i]);
+                                    law::penalty(eps_n, touch, &gs, n)
                                 } else if let (Some(f), Law::Penalty { eps_n }) = (forced, law) {
                                     active_set::forced_penalty(eps_n, f, g, n)
                                 } else {
@@ -1007,6 +1077,24 @@ impl ContactSystem {
                                 kslice,
                                 &mut self.scratch,
                             );
+                            if let (Some(gm), true, Law::Penalty { eps_n }) =
+                                (g_mean, jacobian && !cohesive, law)
+                            {
+                                if gm <= touch {
+                                    let jw = point_area(dim, &own) * qp.w;
+                                    mean.correct(
+                                        dim,
+                                        q,
+                                        &N[..nk],
+                                        jw,
+                                        eps_n,
+                                        &mut blocks,
+                                        &mut |b: &mut Vec<(u32, Vec<f64>)>, le, len| {
+                                            block_slot(b, &mut n_used, le, len)
+                                        },
+                                    );
+                                }
+                            }
                             if master {
                                 for (v, rv) in r.iter_mut().zip(&self.rc[..nk * dim]) {
                                     *v += rv;
@@ -1381,6 +1469,24 @@ impl ContactSystem {
             }
         }
         x
+    }
+
+    /// Per own element of half-pass `pass` of pair `pair`, per point: its normal pressure, its
+    /// normal gap (NaN without a partner) and its reference weight `w J0`, at the last evaluation.
+    #[cfg(test)]
+    pub(crate) fn points_per_element(&self, pair: usize, pass: usize) -> Vec<Vec<(f64, f64, f64)>> {
+        let ps = &self.pairs[pair].passes[pass];
+        ps.elems
+            .iter()
+            .map(|oe| {
+                (oe.first..oe.first + oe.n)
+                    .map(|q| {
+                        let p = &ps.points[q];
+                        (p.p_n, p.gap.unwrap_or(f64::NAN), p.w * p.J0)
+                    })
+                    .collect()
+            })
+            .collect()
     }
 
     /// The one-pass residual of master-surface nodes from the last [`ContactSystem::assemble`],

@@ -1098,3 +1098,111 @@ fn intermediate_commits_keep_the_friction_anchors() {
     );
     assert_eq!(wi, wc);
 }
+
+#[test]
+fn element_mean_gap_tangent_matches_central_differences() {
+    // `gap = "element_mean"`: every point's traction depends on the gaps of all points of its
+    // element and so on all their partners; deformable partners (smooth and faceted, whose edge
+    // projections take the normal along the gap), 2D and 3D, and rigid partners
+    let law = "law = \"penalty\"\neps_n = 100.0\ngap = \"element_mean\"";
+    for (block, disk) in [
+        ("Q1C1", "Q1C1"),
+        ("Q1N2", "Q1N2"),
+        ("Q1C1", "Q1N2"),
+        ("Q1N2.1", "Q1CH"),
+    ] {
+        let mut h = Harness::new(&case_2d(block, disk, law));
+        let u = pressed(&h, 0.08, 0.13, 2e-3, 11);
+        let (err, kmax) = tangent_error(&mut h, &u);
+        assert!(kmax > 1.0, "{block}/{disk}: no contact stiffness ({kmax})");
+        assert!(err < 1e-6, "{block}/{disk}: tangent error {err:e}");
+    }
+    for (lower, upper) in [("Q1N2", "Q1N2"), ("Q1C1", "Q1N2")] {
+        let mut h = Harness::new(&case_3d_blocks(lower, upper, law));
+        let u = pressed_3d(&h, 0.04, [0.11, -0.07], 2e-3, 17);
+        let (err, kmax) = tangent_error(&mut h, &u);
+        assert!(kmax > 1.0, "{lower}/{upper}: no contact stiffness ({kmax})");
+        assert!(err < 1e-6, "{lower}/{upper}: tangent error {err:e}");
+    }
+    let mut h = Harness::new(&case_3d_hemisphere("Q1N2", "Q1N2", law));
+    let u = pressed_3d(&h, 0.06, [0.05, 0.08], 2e-3, 23);
+    let (err, kmax) = tangent_error(&mut h, &u);
+    assert!(kmax > 1.0 && err < 1e-6, "hemisphere: {err:e} ({kmax})");
+    for (dim, fam, r) in [
+        (
+            2,
+            "Q1N2",
+            "{ shape = \"circle\", center = [0.3, -2.0], radius = 2.0 }",
+        ),
+        (
+            2,
+            "Q1C1",
+            "{ shape = \"plane\", point = [0.0, 0.0], normal = [0.2, 1.0] }",
+        ),
+        (
+            3,
+            "Q1N2",
+            "{ shape = \"sphere\", center = [0.2, 0.1, -3.0], radius = 3.0 }",
+        ),
+    ] {
+        let mut h = Harness::new(&case_rigid_law(dim, fam, r, law));
+        let shift = if dim == 2 {
+            vec![0.05, -0.06]
+        } else {
+            vec![0.02, 0.01, -0.05]
+        };
+        let u = h
+            .displacement(&|_, _| shift.clone())
+            .iter()
+            .enumerate()
+            .map(|(i, v)| v + 2e-3 * rnd(&mut (i as u64 + 3)))
+            .collect::<Vec<_>>();
+        let (err, kmax) = tangent_error(&mut h, &u);
+        assert!(kmax > 1.0, "{fam} {r}: no contact stiffness ({kmax})");
+        assert!(err < 1e-6, "{fam} {r}: tangent error {err:e}");
+    }
+}
+
+#[test]
+fn element_mean_gap_gives_every_point_of_an_element_the_same_pressure() {
+    // the residual side: the points of one element carry eps_n <-g_mean>, g_mean the mean of their
+    // normal gaps weighted by w J0
+    let mut h = Harness::new(&case_2d(
+        "Q1N2",
+        "Q1N2",
+        "law = \"penalty\"\neps_n = 100.0\ngap = \"element_mean\"",
+    ));
+    let u = pressed(&h, 0.08, 0.13, 0.0, 1);
+    h.eval(&u, false);
+    let (mut active, mut spread) = (0, 0.0f64);
+    for pass in 0..2 {
+        for points in h.sys.points_per_element(0, pass) {
+            let paired: Vec<(f64, f64, f64)> =
+                points.into_iter().filter(|p| !p.1.is_nan()).collect();
+            if paired.is_empty() {
+                continue;
+            }
+            let w: f64 = paired.iter().map(|p| p.2).sum();
+            let g_mean = paired.iter().map(|p| p.1 * p.2).sum::<f64>() / w;
+            let expected = 100.0 * (-g_mean).max(0.0);
+            for &(p, _, _) in &paired {
+                assert!(
+                    (p - expected).abs() < 1e-12 * (1.0 + expected),
+                    "{p} vs {expected}"
+                );
+            }
+            if expected > 0.0 {
+                active += 1;
+                let (lo, hi) = paired
+                    .iter()
+                    .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.1), b.max(p.1)));
+                spread = spread.max(hi - lo);
+            }
+        }
+    }
+    // elements in contact whose points have different gaps: the pressure is not the pointwise one
+    assert!(
+        active > 2 && spread > 1e-4,
+        "{active} elements, gap spread {spread:e}"
+    );
+}

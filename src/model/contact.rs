@@ -8,6 +8,7 @@ use crate::contact::rigid::{RigidMotion, RigidShape};
 use crate::contact::search::Aabb;
 use crate::contact::surface::ContactSurface;
 use crate::contact::{Friction, Law, PairDef, Partner};
+use crate::scene::GapMode;
 use crate::scene::{
     Algorithm, BoxSpec, Case, ContactSpec, LawKind, PenaltyForm, RigidShapeKind, RigidSpec,
 };
@@ -217,6 +218,23 @@ pub fn build_contact(
             Some(p) => vec3(case, key("moment_point"), p, dim)?,
         };
         let friction = friction(case, i, spec, &law)?;
+        let element_mean_gap = spec.gap == GapMode::ElementMean;
+        if element_mean_gap {
+            let why = if !matches!(spec.law, LawKind::Penalty) {
+                Some("goes with the `penalty` law only")
+            } else if friction.is_some() {
+                Some("is frictionless only (drop `mu` or use `gap = \"pointwise\"`)")
+            } else if spec.algorithm == Algorithm::OnePass && spec.rigid.is_none() {
+                Some("is implemented for the two-half-pass algorithm only")
+            } else if case.solver.contact_freeze_after > 0 {
+                Some("has one status per element; `solver.contact_freeze_after` holds pointwise statuses (drop one of them)")
+            } else {
+                None
+            };
+            if let Some(why) = why {
+                return Err(err(case, key("gap"), format!("`element_mean` {why}")));
+            }
+        }
         // partners
         let passes = match (&spec.rigid, idx.len()) {
             (Some(r), 1) => {
@@ -262,6 +280,7 @@ pub fn build_contact(
             region,
             one_pass: spec.algorithm == Algorithm::OnePass && spec.rigid.is_none(),
             friction,
+            element_mean_gap,
         });
     }
     Ok((surfaces, pairs))

@@ -47,6 +47,16 @@ pub struct ContactSpec {
     /// through its shape functions).
     #[serde(default)]
     pub algorithm: Algorithm,
+    /// `penalty`: where the law's normal gap is taken. `pointwise` (default, eq. 5 at every
+    /// quadrature point, the paper's) or `element_mean`: one pressure per surface element,
+    /// `eps_n <-g_mean>` with `g_mean` the mean normal gap over the element's quadrature points
+    /// (weighted by their reference area), applied at every point of the element. One pressure
+    /// unknown per element instead of one per point removes the point-to-point oscillation of the
+    /// pressure on enriched surfaces, whose points outnumber the surface's control points
+    /// (BENCHMARKS.md, "Pointwise contact pressure"); it is no longer the paper's pointwise law.
+    /// Frictionless two-half-pass penalty contact only (deformable or rigid partners).
+    #[serde(default, skip_serializing_if = "GapMode::is_pointwise")]
+    pub gap: GapMode,
     /// Penalty parameter (> 0; force per length^3 in 3D, per length^2 in 2D): `penalty`, and the
     /// penalty against penetration of `cohesive`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -99,6 +109,24 @@ pub struct ContactSpec {
     /// Default: the origin.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub moment_point: Option<Vec<f64>>,
+}
+
+/// Where the penalty law's normal gap is taken (`gap`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GapMode {
+    /// At every quadrature point (eq. 5).
+    #[default]
+    Pointwise,
+    /// The mean over each surface element's points.
+    ElementMean,
+}
+
+impl GapMode {
+    /// True for the default (kept out of the resolved case).
+    pub fn is_pointwise(&self) -> bool {
+        *self == GapMode::Pointwise
+    }
 }
 
 /// Contact algorithms.
