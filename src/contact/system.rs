@@ -114,7 +114,7 @@ pub struct PairDef {
     /// Coulomb friction (penalty law, and the cohesive law's penalty against penetration).
     pub friction: Option<Friction>,
     /// Penalty law on each surface element's mean normal gap instead of the pointwise one
-    /// (frictionless two-half-pass only; `gap = "element_mean"`).
+    /// (two-half-pass only; `gap = "element_mean"`).
     pub element_mean_gap: bool,
 }
 
@@ -1082,12 +1082,20 @@ impl ContactSystem {
                             {
                                 if gm <= touch {
                                     let jw = point_area(dim, &own) * qp.w;
+                                    // d t / d p: the normal, plus the slip direction in slip
+                                    let fo = &pr.friction;
+                                    let d = if fo.state == SlipState::Slip && pr.p_n > 0.0 {
+                                        [0, 1, 2].map(|c| pr.n[c] + fo.t_t[c] / pr.p_n)
+                                    } else {
+                                        pr.n
+                                    };
                                     mean.correct(
                                         dim,
                                         q,
                                         &N[..nk],
                                         jw,
                                         eps_n,
+                                        d,
                                         &mut blocks,
                                         &mut |b: &mut Vec<(u32, Vec<f64>)>, le, len| {
                                             block_slot(b, &mut n_used, le, len)

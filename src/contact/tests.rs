@@ -1206,3 +1206,68 @@ fn element_mean_gap_gives_every_point_of_an_element_the_same_pressure() {
         "{active} elements, gap spread {spread:e}"
     );
 }
+
+#[test]
+fn element_mean_gap_friction_tangent_matches_central_differences_in_stick_and_slip() {
+    // the slip traction mu p s depends on the element's pressure: its rows take the mean's
+    // variation along n + mu s
+    let law = "law = \"penalty\"\neps_n = 100.0\nmu = 0.3\neps_t = 80.0\ngap = \"element_mean\"";
+    for (block, disk) in [("Q1N2", "Q1N2"), ("Q1C1", "Q1C1")] {
+        for (shift, want_slip) in [(2e-4, false), (0.06, true)] {
+            let mut h = Harness::new(&case_2d(block, disk, law));
+            let u0 = pressed(&h, 0.08, 0.0, 2e-3, 11);
+            let disk_i = h
+                .model
+                .bodies
+                .iter()
+                .position(|b| b.name == "disk")
+                .unwrap();
+            let u1 = shifted(&h, &u0, &|b| {
+                if b == disk_i {
+                    vec![shift, 0.0]
+                } else {
+                    vec![0.0; 2]
+                }
+            });
+            let (err, kmax, stick, slip) = friction_fd(&mut h, &u0, &u1);
+            let what = if want_slip { "slip" } else { "stick" };
+            assert!(kmax > 1.0, "{block}/{disk} {what}: no stiffness ({kmax})");
+            assert!(
+                if want_slip {
+                    slip > stick
+                } else {
+                    stick > slip
+                },
+                "{block}/{disk} {what}: {stick} sticking, {slip} slipping"
+            );
+            assert!(err < 1e-6, "{block}/{disk} {what}: tangent error {err:e}");
+        }
+    }
+    let law3 = "law = \"penalty\"\neps_n = 100.0\nmu = 0.3\ngap = \"element_mean\"";
+    for (shift, want_slip) in [(1e-4, false), (0.05, true)] {
+        let mut h = Harness::new(&case_3d_hemisphere("Q1N2", "Q1N2", law3));
+        let u0 = pressed_3d(&h, 0.06, [0.05, 0.08], 2e-3, 23);
+        let lo = h
+            .model
+            .bodies
+            .iter()
+            .position(|b| b.name == "lower")
+            .unwrap();
+        let u1 = shifted(&h, &u0, &|b| {
+            if b == lo {
+                vec![0.0; 3]
+            } else {
+                vec![-shift, shift, 0.0]
+            }
+        });
+        let (err, _, stick, slip) = friction_fd(&mut h, &u0, &u1);
+        assert!(
+            if want_slip { slip > 0 } else { stick > 0 },
+            "hemisphere: {stick} sticking, {slip} slipping"
+        );
+        assert!(
+            err < 1e-6,
+            "hemisphere slip={want_slip}: tangent error {err:e}"
+        );
+    }
+}

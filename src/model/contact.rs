@@ -222,8 +222,6 @@ pub fn build_contact(
         if element_mean_gap {
             let why = if !matches!(spec.law, LawKind::Penalty) {
                 Some("goes with the `penalty` law only")
-            } else if friction.is_some() {
-                Some("is frictionless only (drop `mu` or use `gap = \"pointwise\"`)")
             } else if spec.algorithm == Algorithm::OnePass && spec.rigid.is_none() {
                 Some("is implemented for the two-half-pass algorithm only")
             } else if case.solver.contact_freeze_after > 0 {

@@ -54,7 +54,8 @@ pub struct ContactSpec {
     /// unknown per element instead of one per point removes the point-to-point oscillation of the
     /// pressure on enriched surfaces, whose points outnumber the surface's control points
     /// (BENCHMARKS.md, "Pointwise contact pressure"); it is no longer the paper's pointwise law.
-    /// Frictionless two-half-pass penalty contact only (deformable or rigid partners).
+    /// Two-half-pass penalty contact (deformable or rigid partners, with or without friction: the
+    /// friction cone uses the element's pressure).
     #[serde(default, skip_serializing_if = "GapMode::is_pointwise")]
     pub gap: GapMode,
     /// Penalty parameter (> 0; force per length^3 in 3D, per length^2 in 2D): `penalty`, and the

@@ -13,6 +13,10 @@
 //! - its partner's columns: `+coef n_k N^l_b(xi_p,k)` (removes the kernel's own-gap term);
 //! - each point `j`'s partner columns: `-coef c_j / W n_j N^l_b(xi_p,j)`.
 //!
+//! With Coulomb friction a slipping point's traction is `p (n_k + mu s_k)` (`mu p s_k` its
+//! tangential part), so `n_k` of `coef` becomes `d_k = n_k + t_T,k / p`; a sticking point's
+//! tangential traction does not depend on `p`, `d_k = n_k`.
+//!
 //! All these blocks are couplings of the element with its points' partners, which the sparsity
 //! pattern already has.
 
@@ -88,8 +92,9 @@ impl ElementMean {
     }
 
     /// Adds the correction of point `q`'s tangent rows (own basis `n_own` [n_k], current area
-    /// times weight `jw`, normal `n`) to the element's blocks; `block(le, len)` gives the slot of
-    /// the block coupling the element with partner `le` (`len` entries when new).
+    /// times weight `jw`, `d` the derivative of its traction with respect to the pressure) to the
+    /// element's blocks; `block(le, len)` gives the slot of the block coupling the element with
+    /// partner `le` (`len` entries when new).
     #[allow(clippy::too_many_arguments)]
     pub fn correct(
         &self,
@@ -98,6 +103,7 @@ impl ElementMean {
         n_own: &[f64],
         jw: f64,
         eps_n: f64,
+        d: [f64; 3],
         blocks: &mut Vec<(u32, Vec<f64>)>,
         block: &mut dyn FnMut(&mut Vec<(u32, Vec<f64>)>, u32, usize) -> usize,
     ) {
@@ -113,7 +119,7 @@ impl ElementMean {
         let kb = &mut blocks[ik].1;
         for a in 0..nk {
             for i in 0..dim {
-                let coef = n_own[a] * jw * eps_n * n[i];
+                let coef = n_own[a] * jw * eps_n * d[i];
                 let row = (a * dim + i) * nck;
                 for b in 0..nk {
                     for j in 0..dim {
@@ -135,7 +141,7 @@ impl ElementMean {
             let f = pj.c / self.w;
             for a in 0..nk {
                 for i in 0..dim {
-                    let coef = n_own[a] * jw * eps_n * n[i] * f;
+                    let coef = n_own[a] * jw * eps_n * d[i] * f;
                     let row = (a * dim + i) * ncj;
                     for b in 0..pj.nl {
                         for j in 0..dim {
