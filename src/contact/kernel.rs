@@ -186,23 +186,41 @@ fn partner_geom(el: &SurfaceElement, dim: usize, y: &[f64], xi: &[f64; 2]) -> Pa
     g
 }
 
+/// A point's gap and normal towards its partner, with the partner's basis at the projection.
+pub struct PartnerGap {
+    /// Gap vector [3].
+    pub g: [f64; 3],
+    /// Normal [3].
+    pub n: [f64; 3],
+    /// Partner element basis at the projection [n_nodes] (nothing for a rigid partner).
+    pub basis: [f64; MAX_FACE_NODES],
+    /// Partner element nodes (0: rigid).
+    pub n_nodes: usize,
+}
+
 /// The gap vector and the normal of a point at `xk` [3] paired with a projected or rigid partner
-/// (as [`contact_point_pass`] takes them), and the partner element's basis at the projection
-/// (`n_l` values; none for a rigid partner). `None` for a material pairing.
-pub fn gap_and_normal(
-    dim: usize,
-    xk: &[f64; 3],
-    partner: &PartnerPoint,
-) -> Option<([f64; 3], [f64; 3], [f64; MAX_FACE_NODES], usize)> {
+/// (as [`contact_point_pass`] takes them), and the partner element's basis at the projection.
+/// `None` for a material pairing.
+pub fn gap_and_normal(dim: usize, xk: &[f64; 3], partner: &PartnerPoint) -> Option<PartnerGap> {
     let m = dim - 1;
     match partner {
-        PartnerPoint::Rigid(rp) => Some((rp.g, rp.n, [0.0; MAX_FACE_NODES], 0)),
+        PartnerPoint::Rigid(rp) => Some(PartnerGap {
+            g: rp.g,
+            n: rp.n,
+            basis: [0.0; MAX_FACE_NODES],
+            n_nodes: 0,
+        }),
         PartnerPoint::Material { .. } => None,
         PartnerPoint::Projected { el, y, xi, free } => {
             let ge = partner_geom(el, dim, y, xi);
             let g = [0, 1, 2].map(|k| xk[k] - ge.p[k]);
             let (n, _) = projected_normal(dim, &ge, el.sign, &g, &free[..m]);
-            Some((g, n, ge.N, ge.n))
+            Some(PartnerGap {
+                g,
+                n,
+                basis: ge.N,
+                n_nodes: ge.n,
+            })
         }
     }
 }

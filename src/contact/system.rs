@@ -902,15 +902,16 @@ impl ContactSystem {
                                 },
                                 (None, None) => continue,
                             };
-                            if let Some((g, n, nl_vals, nl)) = gap_and_normal(dim, &xk, &pp) {
+                            if let Some(pg) = gap_and_normal(dim, &xk, &pp) {
+                                let (g, n) = (pg.g, pg.n);
                                 let g_n = g[0] * n[0] + g[1] * n[1] + g[2] * n[2];
                                 let c = qp.w * qp.J0;
                                 let p = mean_gap::MeanPoint {
                                     q,
                                     le,
                                     n,
-                                    nl_vals,
-                                    nl,
+                                    nl_vals: pg.basis,
+                                    nl: pg.n_nodes,
                                     c,
                                 };
                                 mean.add(p, &bN[..nk], g_n);
@@ -1097,7 +1098,7 @@ impl ContactSystem {
                                         eps_n,
                                         d,
                                         &mut blocks,
-                                        &mut |b: &mut Vec<(u32, Vec<f64>)>, le, len| {
+                                        &mut |b: &mut Blocks, le, len| {
                                             block_slot(b, &mut n_used, le, len)
                                         },
                                     );
@@ -1597,9 +1598,12 @@ impl ContactSystem {
     }
 }
 
+/// Tangent blocks of the current own element, keyed by partner element.
+type Blocks = Vec<(u32, Vec<f64>)>;
+
 /// The slot of the tangent block coupling the current own element with partner element `le`,
 /// zeroed to `len` entries when it is new for this element.
-fn block_slot(blocks: &mut Vec<(u32, Vec<f64>)>, n_used: &mut usize, le: u32, len: usize) -> usize {
+fn block_slot(blocks: &mut Blocks, n_used: &mut usize, le: u32, len: usize) -> usize {
     if let Some(i) = blocks[..*n_used].iter().position(|(b, _)| *b == le) {
         return i;
     }

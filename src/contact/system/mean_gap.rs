@@ -20,6 +20,7 @@
 //! All these blocks are couplings of the element with its points' partners, which the sparsity
 //! pattern already has.
 
+use super::Blocks;
 use crate::contact::surface::MAX_FACE_NODES;
 
 /// A point of the element that has a partner.
@@ -104,8 +105,8 @@ impl ElementMean {
         jw: f64,
         eps_n: f64,
         d: [f64; 3],
-        blocks: &mut Vec<(u32, Vec<f64>)>,
-        block: &mut dyn FnMut(&mut Vec<(u32, Vec<f64>)>, u32, usize) -> usize,
+        blocks: &mut Blocks,
+        block: &mut dyn FnMut(&mut Blocks, u32, usize) -> usize,
     ) {
         let Some(pk) = self.point(q) else {
             return;
