@@ -6,8 +6,9 @@ share   - contact (surface gather, search, projection, contact residual and tang
           (depression + a short slide) and on the 3D hemisphere pressed onto an 8^3 block, 1 and 2 ranks
 pattern - sparsity pattern strategies on ironing_2d (4 elements per unit, 1-unit slide): reserved
           side-neighbour rings 0, 1, 2: pattern rebuilds, Newton iterations, cutbacks, wall time
-hertz   - the 2D Hertz case (linear elastic half disk on a rigid flat) for Q1C1, Q1N2, Q1N2.1 at three
-          meshes: peak of the post-processed pressure and half-width against Hertz for the computed load
+hertz   - the 2D Hertz case (linear elastic half disk on a rigid flat) for Q1C1, Q1N2, Q1N2.1 at four
+          meshes: peak of the post-processed pressure and half-width against Hertz for the computed load;
+          `hertz SET...` with further --set values (e.g. contact.0.gap=element_mean)
 Times are from summary.json (slowest rank)."""
 import json, math, os, re, subprocess, sys, tempfile
 
@@ -74,7 +75,7 @@ def h5(path, dataset):
         return [float(v) for v in re.split(r"[,\s]+", open(f.name).read()) if v]
 
 
-def hertz(meshes=(64, 128, 256, 512)):
+def hertz(meshes=(64, 128, 256, 512), extra=()):
     """Hertz, 2D. The pressures are the L2-projected ones written to results.h5: `contact_pressure`
     (per current area) and `contact_pressure_nominal` (per reference area); Hertz's theory is
     geometrically linear, so the nominal pressure on the reference coordinates is the one it
@@ -86,7 +87,7 @@ def hertz(meshes=(64, 128, 256, 512)):
     for fam in ("Q1C1", "Q1N2", "Q1N2.1"):
         for n in meshes:
             out, s = run("hertz_2d.toml", 1, [f"bodies.disk.element={fam}", f"meshes.disk.n_arc={n}",
-                                               f"meshes.disk.n_radial={n // 4}"])
+                                               f"meshes.disk.n_radial={n // 4}"] + list(extra))
             hist = open(os.path.join(out, "history.csv")).read().splitlines()
             head, last = hist[0].split(","), hist[-1].split(",")
             P = float(last[head.index("P_flat_disk_arc_y")])
@@ -117,6 +118,9 @@ def hertz(meshes=(64, 128, 256, 512)):
 
 if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else "all"
+    if what == "hertz" and len(sys.argv) > 2:  # further --set values, e.g. contact.0.gap=element_mean
+        hertz(extra=sys.argv[2:])
+        sys.exit(0)
     for name, f in (("share", share), ("pattern", pattern), ("hertz", hertz)):
         if what in (name, "all"):
             print(f"\n## {name}\n")
