@@ -865,7 +865,10 @@ impl ContactSystem {
                     // `gap = "element_mean"`: the element's mean normal gap (mean_gap.rs)
                     let mut g_mean = None;
                     if element_mean {
-                        mean.start(nk);
+                        let area: f64 = (oe.first..oe.first + oe.n)
+                            .map(|q| pass.points[q].w * pass.points[q].J0)
+                            .sum();
+                        mean.start(nk, area);
                         for q in oe.first..oe.first + oe.n {
                             let qp = pass.points[q];
                             let (bN, _) = oe.basis(q);
@@ -913,8 +916,9 @@ impl ContactSystem {
                                     nl_vals: pg.basis,
                                     nl: pg.n_nodes,
                                     c,
+                                    active: false,
                                 };
-                                mean.add(p, &bN[..nk], g_n);
+                                mean.add(p, &bN[..nk], g_n, touch);
                             }
                         }
                         if mean.finish() {

@@ -1165,8 +1165,8 @@ fn element_mean_gap_tangent_matches_central_differences() {
 
 #[test]
 fn element_mean_gap_gives_every_point_of_an_element_the_same_pressure() {
-    // the residual side: the points of one element carry eps_n <-g_mean>, g_mean the mean of their
-    // normal gaps weighted by w J0
+    // the residual side: the points of one element carry the mean over the element (weights
+    // w J0) of the pointwise penalty pressures eps_n <-g_N>
     let mut h = Harness::new(&case_2d(
         "Q1N2",
         "Q1N2",
@@ -1177,14 +1177,14 @@ fn element_mean_gap_gives_every_point_of_an_element_the_same_pressure() {
     let (mut active, mut spread) = (0, 0.0f64);
     for pass in 0..2 {
         for points in h.sys.points_per_element(0, pass) {
+            let w: f64 = points.iter().map(|p| p.2).sum();
             let paired: Vec<(f64, f64, f64)> =
                 points.into_iter().filter(|p| !p.1.is_nan()).collect();
             if paired.is_empty() {
                 continue;
             }
-            let w: f64 = paired.iter().map(|p| p.2).sum();
-            let g_mean = paired.iter().map(|p| p.1 * p.2).sum::<f64>() / w;
-            let expected = 100.0 * (-g_mean).max(0.0);
+            // the mean of the pointwise penalty pressures over the element's area
+            let expected = 100.0 * paired.iter().map(|p| (-p.1).max(0.0) * p.2).sum::<f64>() / w;
             for &(p, _, _) in &paired {
                 assert!(
                     (p - expected).abs() < 1e-12 * (1.0 + expected),

@@ -1,17 +1,21 @@
-//! The penalty law on a surface element's mean normal gap (`gap = "element_mean"`).
+//! The penalty pressure averaged over each surface element (`gap = "element_mean"`).
 //!
-//! Each own surface element gets one pressure, `p = eps_n <-g_mean>` with
-//! `g_mean = sum_j c_j g_N,j / W`, `c_j = w_j J0_j` the reference area weight of its point `j`,
-//! `W = sum_j c_j` over the points that have a partner, and every point `k` carries the traction
-//! `t_k = p n_k` (its own partner normal). The point kernel evaluates each point with its gap
-//! shifted along its normal so that its normal gap is `g_mean`; that gives the residual exactly
-//! and the tangent except for the variation of `g_mean`, which the kernel takes as the point's own
-//! (`d g_N,k`). Since the gap is along the normal (closest point, or the gap direction at an edge),
+//! Each own surface element gets one pressure, the mean of the pointwise penalty pressures over
+//! the element: `p = eps_n sum_{j active} c_j (-g_N,j) / W`, `c_j = w_j J0_j` the reference area
+//! weight of point `j`, `W = sum_j c_j` over all points of the element (its reference area), and
+//! "active" the points with `g_N,j <= touch` (the pointwise law's active set). Every point `k`
+//! of the element then carries `t_k = p n_k` (its own partner normal). Points enter and leave the
+//! mean one by one, so the pressure grows continuously as an element comes into contact.
+//!
+//! The point kernel evaluates each point with its gap shifted along its normal to the element's
+//! equivalent gap `g_e = -p / eps_n`; that gives the residual exactly and the tangent except for
+//! the variation of `g_e`, which the kernel takes as the point's own (`d g_N,k`). Since the gap is
+//! along the normal (closest point, or the gap direction at an edge),
 //! `d g_N,j = n_j . (N_b(xi_j) du_b - N^l_b(xi_p,j) dy_b)` with no projection terms, and the
 //! correction of point `k`'s rows `a` (`coef_ai = N_a(xi_k) J_k w_k eps_n n_k,i`) is
-//! - own columns `b`: `coef (A_b - n_k N_b(xi_k))` with `A_b = sum_j c_j n_j N_b(xi_j) / W`;
+//! - own columns `b`: `coef (A_b - n_k N_b(xi_k))` with `A_b = sum_{j active} c_j n_j N_b(xi_j) / W`;
 //! - its partner's columns: `+coef n_k N^l_b(xi_p,k)` (removes the kernel's own-gap term);
-//! - each point `j`'s partner columns: `-coef c_j / W n_j N^l_b(xi_p,j)`.
+//! - each active point `j`'s partner columns: `-coef c_j / W n_j N^l_b(xi_p,j)`.
 //!
 //! With Coulomb friction a slipping point's traction is `p (n_k + mu s_k)` (`mu p s_k` its
 //! tangential part), so `n_k` of `coef` becomes `d_k = n_k + t_T,k / p`; a sticking point's
@@ -37,14 +41,16 @@ pub(super) struct MeanPoint {
     pub nl: usize,
     /// Reference area weight `w J0`.
     pub c: f64,
+    /// In the pointwise active set (set by [`ElementMean::add`]).
+    pub active: bool,
 }
 
 /// The mean normal gap of one own element and what its linearisation needs.
 #[derive(Default)]
 pub(super) struct ElementMean {
-    /// The mean normal gap.
+    /// The equivalent gap `g_e = -p / eps_n`.
     pub g: f64,
-    /// Total weight `W`.
+    /// Total weight `W` (the element's reference area).
     pub w: f64,
     /// `A_b` [n_k][3].
     a: Vec<[f64; 3]>,
@@ -52,30 +58,35 @@ pub(super) struct ElementMean {
 }
 
 impl ElementMean {
-    /// Starts an element with `nk` own nodes.
-    pub fn start(&mut self, nk: usize) {
+    /// Starts an element with `nk` own nodes and reference area `area` (the sum of its points'
+    /// `w J0`).
+    pub fn start(&mut self, nk: usize, area: f64) {
         self.g = 0.0;
-        self.w = 0.0;
+        self.w = area;
         self.a.clear();
         self.a.resize(nk, [0.0; 3]);
         self.points.clear();
     }
 
-    /// Adds point `p` with its own basis values `n_own` [n_k] and normal gap `g_n`.
-    pub fn add(&mut self, p: MeanPoint, n_own: &[f64], g_n: f64) {
-        self.g += p.c * g_n;
-        self.w += p.c;
-        for (ab, &nb) in self.a.iter_mut().zip(n_own) {
-            for i in 0..3 {
-                ab[i] += p.c * p.n[i] * nb;
+    /// Adds point `p` (with a partner) with its own basis values `n_own` [n_k] and normal gap
+    /// `g_n`; it joins the mean when `g_n <= touch`.
+    pub fn add(&mut self, mut p: MeanPoint, n_own: &[f64], g_n: f64, touch: f64) {
+        p.active = g_n <= touch;
+        if p.active {
+            self.g += p.c * g_n;
+            for (ab, &nb) in self.a.iter_mut().zip(n_own) {
+                for i in 0..3 {
+                    ab[i] += p.c * p.n[i] * nb;
+                }
             }
         }
         self.points.push(p);
     }
 
-    /// Ends the element: false when no point has a partner (no mean).
+    /// Ends the element: false when none of its points is active (no pressure; the pointwise
+    /// law, inactive at every point, applies).
     pub fn finish(&mut self) -> bool {
-        if self.points.is_empty() || self.w <= 0.0 {
+        if !self.points.iter().any(|p| p.active) || self.w <= 0.0 {
             return false;
         }
         self.g /= self.w;
@@ -135,7 +146,7 @@ impl ElementMean {
             }
         }
         // every point's partner through the mean
-        for pj in self.points.iter().filter(|p| p.nl > 0) {
+        for pj in self.points.iter().filter(|p| p.nl > 0 && p.active) {
             let ncj = (nk + pj.nl) * dim;
             let ij = block(blocks, pj.le, rows * ncj);
             let kb = &mut blocks[ij].1;
