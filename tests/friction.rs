@@ -493,3 +493,52 @@ fn a_rescued_frictional_step_is_one_increment_from_the_last_equilibrium() {
         }
     }
 }
+
+#[test]
+fn friction_onset_after_a_frictionless_press_converges_without_rescue_with_one_pressure_per_element(
+) {
+    // cases/sliding_flat_2d.toml pressed without friction, then slid with mu = 0.3: with the
+    // pointwise law the first frictional steps need the damped rescue (BENCHMARKS.md, "Frictional
+    // sliding of two deformable blocks"); with `gap = "element_mean"` every step converges by plain
+    // Newton without a cutback, on 1 and 2 ranks alike, and the block slides at mu
+    for fam in ["Q1C1", "Q1N2"] {
+        let element = [
+            format!("bodies.upper.element={fam}"),
+            format!("bodies.lower.element={fam}"),
+        ];
+        let mut dirs = Vec::new();
+        for np in [1, 2] {
+            let d = run_case(
+                &format!("friction-onset-{fam}-np{np}"),
+                "sliding_flat_2d.toml",
+                np,
+                &[
+                    "contact.0.mu=0.3",
+                    "contact.0.friction_stages=[false, true]",
+                    "contact.0.gap=element_mean",
+                    "steps.pseudo_steps=0",
+                    "steps.max_cutbacks=0",
+                    &element[0],
+                    &element[1],
+                ],
+            );
+            let s = summary(&d);
+            assert_eq!(s["status"], "converged", "{fam} np={np}");
+            let (pt, p) = (
+                last(&d, "Pt_slide_upper_bottom_x"),
+                last(&d, "P_slide_upper_bottom_y"),
+            );
+            assert!(
+                (pt.abs() - MU * p.abs()).abs() < 1e-9 * p.abs(),
+                "{fam} np={np}: tangential {pt} against mu times normal {p}"
+            );
+            dirs.push(d);
+        }
+        let (a, b) = (
+            history_col(&dirs[0], "Pt_slide_upper_bottom_x"),
+            history_col(&dirs[1], "Pt_slide_upper_bottom_x"),
+        );
+        let diff = rel_diff(&a, &b);
+        assert!(diff < 1e-10, "{fam}: 1 and 2 ranks differ by {diff:e}");
+    }
+}
