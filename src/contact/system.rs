@@ -862,7 +862,7 @@ impl ContactSystem {
                     r.clear();
                     r.resize(nk * dim, 0.0);
                     n_used = 0;
-                    // `gap = "element_mean"`: the element's mean normal gap (mean_gap.rs)
+                    // `gap = "element_mean"`: the equivalent gap -p/eps_n of the element's mean pressure (mean_gap.rs)
                     let mut g_mean = None;
                     if element_mean {
                         let area: f64 = (oe.first..oe.first + oe.n)
@@ -1057,7 +1057,7 @@ impl ContactSystem {
                                         _ => Traction::ZERO,
                                     }
                                 } else if let (Some(gm), Law::Penalty { eps_n }) = (g_mean, law) {
-                                    // the point's gap moved along its normal to the mean's
+                                    // the point's gap moved along its normal to the element's equivalent gap
                                     let gn = g[0] * n[0] + g[1] * n[1] + g[2] * n[2];
                                     let gs = [0, 1, 2].map(|i| g[i] + (gm - gn) * n[i]);
                                     law::penalty(eps_n, touch, &gs, n)
