@@ -867,6 +867,70 @@ fn friction_fd(h: &mut Harness, u0: &[f64], u1: &[f64]) -> (f64, f64, usize, usi
     (err, kmax, stick, slip)
 }
 
+/// The 2D pair pressed, then its disk shifted a little (most points stick) and far (most slip):
+/// the frictional tangent against central differences in both.
+fn friction_fd_2d(block: &str, disk: &str, law: &str) {
+    for (shift, want_slip) in [(2e-4, false), (0.06, true)] {
+        let mut h = Harness::new(&case_2d(block, disk, law));
+        let u0 = pressed(&h, 0.08, 0.0, 2e-3, 11);
+        let disk_i = h
+            .model
+            .bodies
+            .iter()
+            .position(|b| b.name == "disk")
+            .unwrap();
+        let u1 = shifted(&h, &u0, &|b| {
+            if b == disk_i {
+                vec![shift, 0.0]
+            } else {
+                vec![0.0; 2]
+            }
+        });
+        let (err, kmax, stick, slip) = friction_fd(&mut h, &u0, &u1);
+        let what = if want_slip { "slip" } else { "stick" };
+        assert!(kmax > 1.0, "{block}/{disk} {what}: no stiffness ({kmax})");
+        assert!(
+            if want_slip {
+                slip > stick
+            } else {
+                stick > slip
+            },
+            "{block}/{disk} {what}: {stick} sticking, {slip} slipping"
+        );
+        assert!(err < 1e-6, "{block}/{disk} {what}: tangent error {err:e}");
+    }
+}
+
+/// The hemisphere on a block, pressed, then shifted a little and far: the frictional tangent
+/// against central differences with sticking and with slipping points.
+fn friction_fd_hemisphere(lower: &str, shell: &str, law: &str) {
+    for (shift, want_slip) in [(1e-4, false), (0.05, true)] {
+        let mut h = Harness::new(&case_3d_hemisphere(lower, shell, law));
+        let u0 = pressed_3d(&h, 0.06, [0.05, 0.08], 2e-3, 23);
+        let lo = h
+            .model
+            .bodies
+            .iter()
+            .position(|b| b.name == "lower")
+            .unwrap();
+        let u1 = shifted(&h, &u0, &|b| {
+            if b == lo {
+                vec![0.0; 3]
+            } else {
+                vec![-shift, shift, 0.0]
+            }
+        });
+        let (err, _, stick, slip) = friction_fd(&mut h, &u0, &u1);
+        let what = if want_slip { "slip" } else { "stick" };
+        assert!(stick + slip > 0, "{lower}/{shell}: no frictional point");
+        assert!(
+            if want_slip { slip > 0 } else { stick > 0 },
+            "{lower}/{shell} {what}: {stick} sticking, {slip} slipping"
+        );
+        assert!(err < 1e-6, "{lower}/{shell} {what}: tangent error {err:e}");
+    }
+}
+
 /// `u` plus a rigid shift of the bodies `f` selects.
 fn shifted(h: &Harness, u: &[f64], f: &dyn Fn(usize) -> Vec<f64>) -> Vec<f64> {
     let d = h.displacement(&|b, _| f(b));
@@ -882,38 +946,7 @@ fn friction_tangent_matches_central_differences_in_stick_and_slip_2d() {
         ("Q1N2.1", "Q1CH"),
     ] {
         let law = "law = \"penalty\"\neps_n = 100.0\nmu = 0.3\neps_t = 80.0";
-        for (shift, want_slip) in [(2e-4, false), (0.06, true)] {
-            let mut h = Harness::new(&case_2d(block, disk, law));
-            let u0 = pressed(&h, 0.08, 0.0, 2e-3, 11);
-            let disk_i = h
-                .model
-                .bodies
-                .iter()
-                .position(|b| b.name == "disk")
-                .unwrap();
-            let u1 = shifted(&h, &u0, &|b| {
-                if b == disk_i {
-                    vec![shift, 0.0]
-                } else {
-                    vec![0.0; 2]
-                }
-            });
-            let (err, kmax, stick, slip) = friction_fd(&mut h, &u0, &u1);
-            let what = if want_slip { "slip" } else { "stick" };
-            assert!(kmax > 1.0, "{block}/{disk} {what}: no stiffness ({kmax})");
-            if want_slip {
-                assert!(
-                    slip > stick,
-                    "{block}/{disk}: {slip} slipping, {stick} sticking"
-                );
-            } else {
-                assert!(
-                    stick > slip,
-                    "{block}/{disk}: {stick} sticking, {slip} slipping"
-                );
-            }
-            assert!(err < 1e-6, "{block}/{disk} {what}: tangent error {err:e}");
-        }
+        friction_fd_2d(block, disk, law);
     }
 }
 
@@ -957,32 +990,7 @@ fn friction_tangent_matches_central_differences_in_stick_and_slip_3d() {
     // the curved partner: a Q1N2 hemisphere on a block
     let law = "law = \"penalty\"\neps_n = 100.0\nmu = 0.3";
     for (lower, shell) in [("Q1N2", "Q1N2"), ("Q1C1", "Q1N2")] {
-        for (shift, want_slip) in [(1e-4, false), (0.05, true)] {
-            let mut h = Harness::new(&case_3d_hemisphere(lower, shell, law));
-            let u0 = pressed_3d(&h, 0.06, [0.05, 0.08], 2e-3, 23);
-            let lo = h
-                .model
-                .bodies
-                .iter()
-                .position(|b| b.name == "lower")
-                .unwrap();
-            let u1 = shifted(&h, &u0, &|b| {
-                if b == lo {
-                    vec![0.0; 3]
-                } else {
-                    vec![-shift, shift, 0.0]
-                }
-            });
-            let (err, _, stick, slip) = friction_fd(&mut h, &u0, &u1);
-            let what = if want_slip { "slip" } else { "stick" };
-            assert!(stick + slip > 0, "{lower}/{shell}: no frictional point");
-            if want_slip {
-                assert!(slip > 0, "{lower}/{shell}: no slipping point");
-            } else {
-                assert!(stick > 0, "{lower}/{shell}: no sticking point");
-            }
-            assert!(err < 1e-6, "{lower}/{shell} {what}: tangent error {err:e}");
-        }
+        friction_fd_hemisphere(lower, shell, law);
     }
 }
 
@@ -1213,61 +1221,8 @@ fn element_mean_gap_friction_tangent_matches_central_differences_in_stick_and_sl
     // variation along n + mu s
     let law = "law = \"penalty\"\neps_n = 100.0\nmu = 0.3\neps_t = 80.0\ngap = \"element_mean\"";
     for (block, disk) in [("Q1N2", "Q1N2"), ("Q1C1", "Q1C1")] {
-        for (shift, want_slip) in [(2e-4, false), (0.06, true)] {
-            let mut h = Harness::new(&case_2d(block, disk, law));
-            let u0 = pressed(&h, 0.08, 0.0, 2e-3, 11);
-            let disk_i = h
-                .model
-                .bodies
-                .iter()
-                .position(|b| b.name == "disk")
-                .unwrap();
-            let u1 = shifted(&h, &u0, &|b| {
-                if b == disk_i {
-                    vec![shift, 0.0]
-                } else {
-                    vec![0.0; 2]
-                }
-            });
-            let (err, kmax, stick, slip) = friction_fd(&mut h, &u0, &u1);
-            let what = if want_slip { "slip" } else { "stick" };
-            assert!(kmax > 1.0, "{block}/{disk} {what}: no stiffness ({kmax})");
-            assert!(
-                if want_slip {
-                    slip > stick
-                } else {
-                    stick > slip
-                },
-                "{block}/{disk} {what}: {stick} sticking, {slip} slipping"
-            );
-            assert!(err < 1e-6, "{block}/{disk} {what}: tangent error {err:e}");
-        }
+        friction_fd_2d(block, disk, law);
     }
     let law3 = "law = \"penalty\"\neps_n = 100.0\nmu = 0.3\ngap = \"element_mean\"";
-    for (shift, want_slip) in [(1e-4, false), (0.05, true)] {
-        let mut h = Harness::new(&case_3d_hemisphere("Q1N2", "Q1N2", law3));
-        let u0 = pressed_3d(&h, 0.06, [0.05, 0.08], 2e-3, 23);
-        let lo = h
-            .model
-            .bodies
-            .iter()
-            .position(|b| b.name == "lower")
-            .unwrap();
-        let u1 = shifted(&h, &u0, &|b| {
-            if b == lo {
-                vec![0.0; 3]
-            } else {
-                vec![-shift, shift, 0.0]
-            }
-        });
-        let (err, _, stick, slip) = friction_fd(&mut h, &u0, &u1);
-        assert!(
-            if want_slip { slip > 0 } else { stick > 0 },
-            "hemisphere: {stick} sticking, {slip} slipping"
-        );
-        assert!(
-            err < 1e-6,
-            "hemisphere slip={want_slip}: tangent error {err:e}"
-        );
-    }
+    friction_fd_hemisphere("Q1N2", "Q1N2", law3);
 }

@@ -533,24 +533,17 @@ fn check_bcs(case: &Case, dim_ok: bool, v: &mut Issues) {
                 }
             }
             BcSpec::Rotation(r) => {
-                match (dim, r.axis) {
-                    (3, None) => v.push(k("axis"), "a 3D rotation needs an axis"),
-                    (3, Some(a)) => {
-                        let n2: f64 = a.iter().map(|x| x * x).sum();
-                        if !(n2.is_finite() && n2 > 0.0) {
-                            v.push(k("axis"), format!("must be a non-zero vector, got {a:?}"));
-                        }
-                    }
-                    (_, Some(_)) => v.push(k("axis"), "2D rotations are in-plane; remove axis"),
-                    _ => {}
-                }
-                if r.center.len() != dim {
-                    v.push(
-                        k("center"),
-                        format!("needs {dim} coordinates, got {}", r.center.len()),
-                    );
-                }
-                v.finite(k("center"), &r.center);
+                check_axis_center(
+                    v,
+                    &k,
+                    dim,
+                    r.axis,
+                    &r.center,
+                    (
+                        "a 3D rotation needs an axis",
+                        "2D rotations are in-plane; remove axis",
+                    ),
+                );
                 if r.angle_deg.len() != n_stages {
                     v.push(
                         k("angle_deg"),
@@ -586,29 +579,17 @@ fn check_bcs(case: &Case, dim_ok: bool, v: &mut Issues) {
                     );
                 }
             }
-            BcSpec::Radial(r) => {
-                match (dim, r.axis) {
-                    (3, None) => v.push(k("axis"), "a 3D radial condition needs an axis"),
-                    (3, Some(a)) => {
-                        let n2: f64 = a.iter().map(|x| x * x).sum();
-                        if !(n2.is_finite() && n2 > 0.0) {
-                            v.push(k("axis"), format!("must be a non-zero vector, got {a:?}"));
-                        }
-                    }
-                    (_, Some(_)) => v.push(
-                        k("axis"),
-                        "2D radial conditions are about the out-of-plane axis; remove axis",
-                    ),
-                    _ => {}
-                }
-                if r.center.len() != dim {
-                    v.push(
-                        k("center"),
-                        format!("needs {dim} coordinates, got {}", r.center.len()),
-                    );
-                }
-                v.finite(k("center"), &r.center);
-            }
+            BcSpec::Radial(r) => check_axis_center(
+                v,
+                &k,
+                dim,
+                r.axis,
+                &r.center,
+                (
+                    "a 3D radial condition needs an axis",
+                    "2D radial conditions are about the out-of-plane axis; remove axis",
+                ),
+            ),
             BcSpec::Sliding(sl) => {
                 let n2: f64 = sl.normal.iter().map(|x| x * x).sum();
                 if sl.normal.len() != dim {
@@ -625,6 +606,36 @@ fn check_bcs(case: &Case, dim_ok: bool, v: &mut Issues) {
             }
         }
     }
+}
+
+/// `axis` (3D only, non-zero) and `center` (`dim` finite coordinates) of a rotation or radial
+/// condition; `msgs` = (no axis in 3D, an axis in 2D).
+fn check_axis_center(
+    v: &mut Issues,
+    k: &dyn Fn(&str) -> String,
+    dim: usize,
+    axis: Option<[f64; 3]>,
+    center: &[f64],
+    msgs: (&str, &str),
+) {
+    match (dim, axis) {
+        (3, None) => v.push(k("axis"), msgs.0),
+        (3, Some(a)) => {
+            let n2: f64 = a.iter().map(|x| x * x).sum();
+            if !(n2.is_finite() && n2 > 0.0) {
+                v.push(k("axis"), format!("must be a non-zero vector, got {a:?}"));
+            }
+        }
+        (_, Some(_)) => v.push(k("axis"), msgs.1),
+        _ => {}
+    }
+    if center.len() != dim {
+        v.push(
+            k("center"),
+            format!("needs {dim} coordinates, got {}", center.len()),
+        );
+    }
+    v.finite(k("center"), center);
 }
 
 fn check_ties(case: &Case, dim_ok: bool, v: &mut Issues) {
