@@ -878,32 +878,16 @@ impl ContactSystem {
                                     xk[c] += bN[a] * x[a * dim + c];
                                 }
                             }
-                            let (pp, le) = match (&pass.shape, l) {
-                                (Some(shape), _) => match shape.project(&xk) {
-                                    Some(rp)
-                                        if (rp.g[0] * rp.g[0]
-                                            + rp.g[1] * rp.g[1]
-                                            + rp.g[2] * rp.g[2])
-                                            .sqrt()
-                                            <= dist =>
-                                    {
-                                        (PartnerPoint::Rigid(rp), u32::MAX)
-                                    }
-                                    _ => continue,
-                                },
-                                (None, Some(l)) => match qp.current {
-                                    Some(p) => (
-                                        PartnerPoint::Projected {
-                                            el: &self.surfaces[l].elements[p.elem as usize],
-                                            y: self.pos[l].of(p.elem as usize),
-                                            xi: p.xi,
-                                            free: p.free,
-                                        },
-                                        p.elem,
-                                    ),
-                                    None => continue,
-                                },
-                                (None, None) => continue,
+                            let Some((le, pp)) = contact_partner(
+                                pass.shape.as_ref(),
+                                l,
+                                qp.current,
+                                &xk,
+                                dist,
+                                &self.surfaces,
+                                &self.pos,
+                            ) else {
+                                continue;
                             };
                             if let Some(pg) = gap_and_normal(dim, &xk, &pp) {
                                 let (g, n) = (pg.g, pg.n);
@@ -940,58 +924,35 @@ impl ContactSystem {
                         // (partner element, partner point, law, area) of each contribution
                         let mut contributions: [Option<(u32, PartnerPoint, Area, bool)>; 2] =
                             [None, None];
-                        match (&pass.shape, l) {
-                            (Some(shape), _) => {
-                                let mut xk = [0.0; 3];
-                                for a in 0..nk {
-                                    for c in 0..dim {
-                                        xk[c] += N[a] * x[a * dim + c];
-                                    }
-                                }
-                                if let Some(rp) = shape.project(&xk) {
-                                    let within =
-                                        (rp.g[0] * rp.g[0] + rp.g[1] * rp.g[1] + rp.g[2] * rp.g[2])
-                                            .sqrt()
-                                            <= dist;
-                                    if within {
-                                        contributions[0] = Some((
-                                            u32::MAX,
-                                            PartnerPoint::Rigid(rp),
-                                            area_of(&law),
-                                            false,
-                                        ));
-                                    }
+                        let mut xk = [0.0; 3];
+                        if pass.shape.is_some() {
+                            for a in 0..nk {
+                                for c in 0..dim {
+                                    xk[c] += N[a] * x[a * dim + c];
                                 }
                             }
-                            (None, Some(l)) => {
-                                if let Some(p) = qp.current {
-                                    let le = p.elem as usize;
-                                    contributions[0] = Some((
-                                        p.elem,
-                                        PartnerPoint::Projected {
-                                            el: &self.surfaces[l].elements[le],
-                                            y: self.pos[l].of(le),
-                                            xi: p.xi,
-                                            free: p.free,
-                                        },
-                                        area_of(&law),
-                                        false,
-                                    ));
-                                }
-                                if let Some((le, xi0)) = qp.pairing {
-                                    contributions[1] = Some((
-                                        le,
-                                        PartnerPoint::Material {
-                                            el: &self.surfaces[l].elements[le as usize],
-                                            y: self.pos[l].of(le as usize),
-                                            xi: xi0,
-                                        },
-                                        Area::Reference,
-                                        true,
-                                    ));
-                                }
-                            }
-                            (None, None) => {}
+                        }
+                        contributions[0] = contact_partner(
+                            pass.shape.as_ref(),
+                            l,
+                            qp.current,
+                            &xk,
+                            dist,
+                            &self.surfaces,
+                            &self.pos,
+                        )
+                        .map(|(le, pp)| (le, pp, area_of(&law), false));
+                        if let (None, Some(l), Some((le, xi0))) = (&pass.shape, l, qp.pairing) {
+                            contributions[1] = Some((
+                                le,
+                                PartnerPoint::Material {
+                                    el: &self.surfaces[l].elements[le as usize],
+                                    y: self.pos[l].of(le as usize),
+                                    xi: xi0,
+                                },
+                                Area::Reference,
+                                true,
+                            ));
                         }
                         let mut fsum = [0.0; 3];
                         let mut gap = None;
@@ -1549,12 +1510,10 @@ impl ContactSystem {
 
     /// Keeps the current projections as warm starts of the next step.
     pub fn commit(&mut self) {
-        self.last_update = None;
-        self.active_set.reset();
+        self.commit_warm_starts();
         for pair in &mut self.pairs {
             for pass in &mut pair.passes {
                 for q in &mut pass.points {
-                    q.committed = q.warm;
                     q.anchor = q.anchor_trial;
                 }
             }
@@ -1599,6 +1558,40 @@ impl ContactSystem {
     /// Number of table nodes.
     pub fn n_table(&self) -> usize {
         self.table.len()
+    }
+}
+
+/// The law's partner of an own point at `xk` [3] (its current position; used for a rigid
+/// partner only): the rigid shape's closest point within `dist`, or the point's current
+/// projection onto surface `l`. Returns the partner element (`u32::MAX`: rigid) and the point.
+#[allow(clippy::too_many_arguments)]
+fn contact_partner<'a>(
+    shape: Option<&RigidShape>,
+    l: Option<usize>,
+    current: Option<Projection>,
+    xk: &[f64; 3],
+    dist: f64,
+    surfaces: &'a [ContactSurface],
+    pos: &'a [Positions],
+) -> Option<(u32, PartnerPoint<'a>)> {
+    match (shape, l) {
+        (Some(shape), _) => shape
+            .project(xk)
+            .filter(|rp| (rp.g[0] * rp.g[0] + rp.g[1] * rp.g[1] + rp.g[2] * rp.g[2]).sqrt() <= dist)
+            .map(|rp| (u32::MAX, PartnerPoint::Rigid(rp))),
+        (None, Some(l)) => current.map(|p| {
+            let le = p.elem as usize;
+            (
+                p.elem,
+                PartnerPoint::Projected {
+                    el: &surfaces[l].elements[le],
+                    y: pos[l].of(le),
+                    xi: p.xi,
+                    free: p.free,
+                },
+            )
+        }),
+        (None, None) => None,
     }
 }
 
