@@ -185,6 +185,10 @@ pub fn check_main(case_path: &Path, sets: &[String], petsc_args: Vec<String>) ->
     for w in check_holds(&case, &model, &dofs)?.warnings {
         eprintln!("warning: {w}");
     }
+    // skew conditions against the prescribed and tied unknowns, as `run` builds them
+    let constrained = constrained_flags(&model.bcs, &dofs);
+    SkewRows::new(&model.skews, &dofs, &model.coords, &constrained)
+        .map_err(|e| Error::Usage(format!("{}: {e}", case.file.display())))?;
     let sets = model.element_sets(&case.file, &part, 0)?;
     {
         let universe = mpi::initialize().ok_or(Error::Mpi)?;
@@ -901,6 +905,7 @@ fn snes_from_options<'p>(
     };
     let mut snes = Snes::new(petsc)?;
     snes.set_tolerances(1e-11, 1e-10, 1e-14, 30)?;
+    snes.set_stagnation_window(case.solver.stagnation_window);
     quiet_errors(|| snes.set_from_options()).map_err(rejected)?;
     let ksp = snes.ksp()?.tolerances()?;
     let problems: Vec<String> = tolerance_problems(&snes.tolerances()?, &ksp)
@@ -1116,7 +1121,8 @@ impl<'c, 'p> StepObserver<'c, 'p> {
         // A signal on any rank stops every rank after this step, which is then written whatever
         // the output schedule says.
         self.interrupted = crate::interrupt::agreed(asm.comm());
-        self.newton.record(rec.iterations as u32);
+        self.newton
+            .record(rec.iterations as u32, rec.failed_iterations as u64);
         self.step_log.push(io::StepLog {
             step: rec.step,
             load: rec.load,
@@ -1125,6 +1131,7 @@ impl<'c, 'p> StepObserver<'c, 'p> {
             residual_history: rec.residual_history.clone(),
             failed_attempts: rec.failed_attempts.clone(),
             pseudo_steps: rec.pseudo_steps,
+            failed_iterations: rec.failed_iterations,
         });
         let reactions: Vec<f64> = model
             .reactions

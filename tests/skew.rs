@@ -258,6 +258,10 @@ fn a_skew_condition_on_a_prescribed_component_is_refused_with_the_node_and_condi
         err.contains("case.toml") && err.contains("bcs.1 (cube/zmin)") && err.contains("node"),
         "{err}"
     );
+    // `check` finds the same conflict without running
+    let out = run(1, &["check", file.to_str().unwrap()]);
+    assert!(!out.status.success(), "check accepted the conflict");
+    assert_eq!(stderr(&out), err);
     // a 2D radial condition with an axis, a zero sliding normal: named keys
     for (bad, key) in [
         (

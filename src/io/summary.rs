@@ -14,11 +14,15 @@ pub struct NewtonStats {
     pub total_iterations: u64,
     /// Largest number of Newton iterations one converged step needed.
     pub max_iterations_per_step: u32,
+    /// Newton iterations of the attempts that failed and were cut back (not in `total_iterations`).
+    #[serde(default)]
+    pub failed_iterations: u64,
 }
 
 impl NewtonStats {
-    /// Account for one converged step.
-    pub fn record(&mut self, iterations: u32) {
+    /// Account for one converged step and the iterations of its failed attempts.
+    pub fn record(&mut self, iterations: u32, failed_iterations: u64) {
+        self.failed_iterations += failed_iterations;
         self.steps += 1;
         self.total_iterations += u64::from(iterations);
         self.max_iterations_per_step = self.max_iterations_per_step.max(iterations);
@@ -72,6 +76,9 @@ pub struct StepLog {
     /// Damped pseudo-steps that rescued the step (0: a plain Newton solve).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub pseudo_steps: usize,
+    /// Newton iterations of the failed attempts (not in `iterations`).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub failed_iterations: usize,
 }
 
 fn is_zero(n: &usize) -> bool {
@@ -150,8 +157,8 @@ mod tests {
 
     fn sample(status: RunStatus) -> Summary {
         let mut newton = NewtonStats::default();
-        for it in [4, 7, 5] {
-            newton.record(it);
+        for (it, failed) in [(4, 30), (7, 0), (5, 12)] {
+            newton.record(it, failed);
         }
         Summary {
             case: "block_compression_3d".to_string(),
@@ -182,6 +189,7 @@ mod tests {
                 residual_history: vec![1.0, 1e-3, 1e-9],
                 failed_attempts: vec![(1.0, "DIVERGED_LINE_SEARCH".into())],
                 pseudo_steps: 0,
+                failed_iterations: 30,
             }],
             status,
         }
@@ -191,8 +199,13 @@ mod tests {
     fn newton_stats_track_total_and_max() {
         let s = sample(RunStatus::Converged).newton;
         assert_eq!(
-            (s.steps, s.total_iterations, s.max_iterations_per_step),
-            (3, 16, 7)
+            (
+                s.steps,
+                s.total_iterations,
+                s.max_iterations_per_step,
+                s.failed_iterations
+            ),
+            (3, 16, 7, 42)
         );
     }
 

@@ -61,7 +61,28 @@ pub struct Snes<'p> {
     /// the SNES even though nothing reads it.
     #[allow(dead_code)]
     history_its: Vec<PetscInt>,
+    /// Stop a solve whose best residual norm has not fallen by [`STAGNATION_FACTOR`] within this
+    /// many iterations (0: never).
+    stagnation_window: usize,
     _petsc: PhantomData<&'p Petsc>,
+}
+
+/// A solve stagnates when its best residual norm over the last `stagnation_window` iterations is
+/// not below this fraction of its best norm before them.
+pub const STAGNATION_FACTOR: f64 = 0.9;
+
+/// Whether a solve with residual norms `norms` (`|F(x_0)|, ..., |F(x_it)|`) has stagnated: its
+/// best norm over the last `window` iterations is not below [`STAGNATION_FACTOR`] times its best
+/// norm before them (a Newton iteration cycling between iterates, e.g. at the kink of a penalty
+/// law, or creeping without progress). Never before `window + 1` norms; `window = 0`: never.
+pub fn stagnated(norms: &[f64], window: usize) -> bool {
+    if window == 0 || norms.len() <= window {
+        return false;
+    }
+    let (before, recent) = norms.split_at(norms.len() - window);
+    let best_before = before.iter().copied().fold(f64::INFINITY, f64::min);
+    let best_recent = recent.iter().copied().fold(f64::INFINITY, f64::min);
+    best_recent >= STAGNATION_FACTOR * best_before
 }
 handle!(Snes, sys::SNES, sys::SNESDestroy);
 
@@ -74,6 +95,11 @@ struct Context<'a> {
     fatal: Option<String>,
     /// A Jacobian evaluation raised a domain error: the solve stops after this iteration.
     jacobian_failed: bool,
+    /// Residual norms seen by the convergence test, and the stagnation window (0: off).
+    norms: Vec<f64>,
+    stagnation_window: usize,
+    /// The solve was stopped because it stagnated.
+    stagnated: bool,
 }
 
 /// PETSc's code for "error in user callback" (PETSC_ERR_USER in petscerror.h).
@@ -162,7 +188,8 @@ unsafe extern "C" fn jacobian_trampoline(
 }
 
 /// SNES's default convergence test, then a stop (`SNES_DIVERGED_JACOBIAN_DOMAIN`) when a Jacobian
-/// evaluation failed or the problem asks for one ([`NonlinearProblem::stop_requested`]).
+/// evaluation failed or the problem asks for one ([`NonlinearProblem::stop_requested`]), and a stop
+/// (`SNES_DIVERGED_MAX_IT`, reported as `DIVERGED_STAGNATION`) when the solve [`stagnated`].
 unsafe extern "C" fn converged_trampoline(
     snes: sys::SNES,
     it: PetscInt,
@@ -185,6 +212,13 @@ unsafe extern "C" fn converged_trampoline(
     let r = unsafe { &mut *reason };
     if r.0 == 0 && (ctx.jacobian_failed || ctx.problem.stop_requested()) {
         *r = sys::SNESConvergedReason::SNES_DIVERGED_JACOBIAN_DOMAIN;
+    }
+    if r.0 == 0 && ctx.stagnation_window > 0 && fnorm.is_finite() {
+        ctx.norms.push(fnorm);
+        if stagnated(&ctx.norms, ctx.stagnation_window) {
+            ctx.stagnated = true;
+            *r = sys::SNESConvergedReason::SNES_DIVERGED_MAX_IT;
+        }
     }
     0
 }
@@ -228,6 +262,7 @@ impl<'p> Snes<'p> {
             owned: true,
             history,
             history_its,
+            stagnation_window: 0,
             _petsc: PhantomData,
         })
     }
@@ -262,6 +297,13 @@ impl<'p> Snes<'p> {
         }
     }
 
+    /// Stops a solve whose best residual norm has not fallen by 10 % ([`STAGNATION_FACTOR`]) within
+    /// `window` Newton iterations (0: never): a cycling or creeping solve fails early, so the step
+    /// is cut back without spending the rest of the iteration limit.
+    pub fn set_stagnation_window(&mut self, window: usize) {
+        self.stagnation_window = window;
+    }
+
     /// Applies the options database (`-snes_*`, `-ksp_*`, `-pc_*`, ...). Call after setting defaults.
     pub fn set_from_options(&mut self) -> Result<(), PetscError> {
         // SAFETY: valid handle.
@@ -287,6 +329,9 @@ impl<'p> Snes<'p> {
             domain: None,
             fatal: None,
             jacobian_failed: false,
+            norms: Vec::new(),
+            stagnation_window: self.stagnation_window,
+            stagnated: false,
         };
         let ctx_ptr = &mut ctx as *mut Context as *mut c_void;
         // SAFETY: ctx outlives SNESSolve (it is on this stack frame); the callbacks are re-registered
@@ -341,7 +386,13 @@ impl<'p> Snes<'p> {
                 &mut n_hist
             ))?;
         }
-        let reason_text = if text.is_null() {
+        let reason_text = if ctx.stagnated && reason.0 < 0 {
+            format!(
+                "DIVERGED_STAGNATION (the residual norm fell by less than {:.0} % in {} iterations)",
+                100.0 * (1.0 - STAGNATION_FACTOR),
+                self.stagnation_window
+            )
+        } else if text.is_null() {
             format!("{}", reason.0)
         } else {
             // SAFETY: PETSc returns a static NUL-terminated string.
@@ -357,5 +408,42 @@ impl<'p> Snes<'p> {
             residual_history: self.history[..n].to_vec(),
             domain_error: ctx.domain,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::stagnated;
+
+    #[test]
+    fn a_two_cycle_stagnates_after_the_window_and_newton_does_not() {
+        // the residual norms of a Newton solve cycling at a penalty kink (ironing, Q1N2.1 mesh 4)
+        let cycle = [
+            3.52e-4, 1.43e-4, 4.77e-5, 4.36e-5, 9.55e-5, 4.91e-5, 1.06e-4, 5.61e-5, 1.06e-4,
+            5.76e-5, 1.06e-4,
+        ];
+        let first = (1..=cycle.len())
+            .find(|&n| stagnated(&cycle[..n], 6))
+            .unwrap();
+        // the best norm (4.36e-5) is at index 3; six later norms do not beat 0.9 of the best
+        // before them (4.77e-5)
+        assert_eq!(first, 9);
+        assert!(!stagnated(&cycle, 0));
+        // quadratic convergence, and a slow but steady decrease by 0.85 per iteration, never
+        let newton = [1.0, 0.3, 0.05, 1e-3, 1e-6, 1e-12];
+        let creeping: Vec<f64> = (0..40).map(|i| 0.85f64.powi(i)).collect();
+        for n in 1..=creeping.len() {
+            assert!(!stagnated(&creeping[..n], 6));
+            assert!(!stagnated(&newton[..n.min(newton.len())], 2));
+        }
+        // a solve that climbs over a hump and then falls (ironing Q1N2.1, a 27-iteration step):
+        // the default window (10) lets it through (8 would stop it after 10 norms)
+        let hump = [
+            0.045, 0.034, 0.039, 0.10, 0.45, 0.14, 0.083, 0.059, 0.047, 0.038, 0.027, 0.020, 0.018,
+            0.015, 0.038, 0.037, 0.072, 0.034, 0.020, 0.011, 0.0039, 3.1e-4, 1.9e-6,
+        ];
+        for n in 1..=hump.len() {
+            assert!(!stagnated(&hump[..n], 10), "stopped after {n} norms");
+        }
     }
 }

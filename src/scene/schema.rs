@@ -573,10 +573,20 @@ pub struct SolverOptions {
     /// it. Default: 0.
     #[serde(default)]
     pub contact_freeze_after: usize,
+    /// Stop a Newton solve early when its best residual norm has not fallen by 10 % within this
+    /// many iterations (a solve cycling at the kink of a penalty law, or creeping): the step is cut
+    /// back at once instead of after the iteration limit (30). 0 disables it. Default: 10
+    /// (BENCHMARKS.md, "Stopping stagnant Newton solves").
+    #[serde(default = "default_stagnation_window")]
+    pub stagnation_window: usize,
 }
 
 fn default_contact_pattern_ring() -> usize {
     1
+}
+
+fn default_stagnation_window() -> usize {
+    10
 }
 
 impl Default for SolverOptions {
@@ -585,6 +595,7 @@ impl Default for SolverOptions {
             petsc_options: String::new(),
             contact_pattern_ring: default_contact_pattern_ring(),
             contact_freeze_after: 0,
+            stagnation_window: default_stagnation_window(),
         }
     }
 }

@@ -54,6 +54,8 @@ pub struct StepRecord {
     pub wall_time: f64,
     /// Damped pseudo-steps that carried this step to its equilibrium (0: a plain Newton solve).
     pub pseudo_steps: usize,
+    /// Newton iterations of the attempts that failed and were cut back (not in `iterations`).
+    pub failed_iterations: usize,
     /// Where the load stepping stands after this step (what a checkpoint keeps).
     pub position: LoadPosition,
 }
@@ -181,6 +183,7 @@ pub fn run_load_steps_from<'p>(
         let t_step = Instant::now();
         let mut cutbacks = 0;
         let mut failed_attempts = Vec::new();
+        let mut failed_iterations = 0;
         let mut resume = false;
         let mut pattern_retries = 0;
         // iterations of solves that stopped for a new contact pattern and were resumed
@@ -218,6 +221,7 @@ pub fn run_load_steps_from<'p>(
                 resumed_iterations += out.iterations;
                 continue;
             }
+            failed_iterations += out.iterations + resumed_iterations;
             resumed_iterations = 0;
             asm.rollback();
             let why = out
@@ -263,6 +267,7 @@ pub fn run_load_steps_from<'p>(
             failed_attempts,
             wall_time: t_step.elapsed().as_secs_f64(),
             pseudo_steps: pseudo,
+            failed_iterations,
             position: sizer.position(step),
         };
         let after = observer(&rec, x, asm).map_err(SolverError::Observer)?;
