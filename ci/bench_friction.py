@@ -16,6 +16,7 @@ import csv, json, math, os, re, subprocess, sys, tempfile
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BIN = os.path.join(ROOT, "target", "release", "nurbs-contact")
 MU = 0.3
+E_STAR = 1.0 / (1.0 - 0.3**2)  # cases/cattaneo_mindlin_2d.toml: E = 1, nu = 0.3
 
 
 def run(case, sets=()):
@@ -75,8 +76,8 @@ def positions(out, q, p_total):
 
 
 def cm():
-    print("| family | n_arc | Q/(mu P) | active points | stick | slip | c/a (stick/active) | c/a from positions | c/a Cattaneo-Mindlin | error (counts) | error (positions) | shear RMS / max dev. (of mu p0) | shift steps (cutbacks) | Newton its (shift stage) | wall s |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("| family | n_arc | Q/(mu P) | active points | stick | slip | c/a (stick/active) | c/a from positions | c/a Cattaneo-Mindlin | error (counts) | error (positions) | shear RMS / max dev. (of mu p0) | shift steps (cutbacks) | Newton its (shift stage) | wall s | c / c_CM(Hertz a) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for fam in ["Q1C1", "Q1N2", "Q1N2.1"]:
         for n in [64, 128, 256]:
             r, s, out = run("cattaneo_mindlin_2d.toml", [f"bodies.disk.element={fam}",
@@ -91,10 +92,13 @@ def cm():
             cut = sum(int(y["cutbacks"]) for y in sh)
             its = sum(int(y["newton_iterations"]) for y in sh)
             a, c, rms, mx = positions(out, q, p)
+            a_hertz = math.sqrt(4.0 * p * 1.0 / (math.pi * E_STAR))
             print(f"| {fam} | {n} | {ratio:.4f} | {int(ac)} | {int(st)} | {int(sl)} | {c_a:.4f} | "
                   f"{c / a:.4f} | {c_cm:.4f} | {100 * (c_a / c_cm - 1):+.1f} % | "
                   f"{100 * (c / a / c_cm - 1):+.1f} % | {rms:.3f} / {mx:.3f} | {len(sh)} ({cut}) | "
-                  f"{its} | {s['wall_time']['total']:.2f} |", flush=True)
+                  f"{its} | {s['wall_time']['total']:.2f} | "
+                  f"{100 * (c / (a_hertz * c_cm) - 1):+.1f} % (a {100 * (a / a_hertz - 1):+.1f} %) |",
+                  flush=True)
 
 
 EXTRA = []
