@@ -89,6 +89,16 @@ impl Harness {
     }
 
     /// Global displacement from a function of the reference position and body index.
+    /// Every body shifted rigidly by `shift`, plus a reproducible perturbation of 2e-3 per unknown
+    /// (unknown `i` draws from seed `i + seed`): a generic state near contact for tangent checks.
+    pub fn shifted_noisy(&self, shift: &[f64], seed: u64) -> Vec<f64> {
+        self.displacement(&|_, _| shift.to_vec())
+            .iter()
+            .enumerate()
+            .map(|(i, v)| v + 2e-3 * rnd(&mut (i as u64 + seed)))
+            .collect()
+    }
+
     pub fn displacement(&self, f: &dyn Fn(usize, &[f64]) -> Vec<f64>) -> Vec<f64> {
         let dim = self.model.dim;
         let mut u = vec![0.0; self.n()];
@@ -500,12 +510,7 @@ fn penalty_tangent_against_rigid_partners_matches_central_differences() {
     for fam in FAMILIES_2D {
         for r in rigid_2d {
             let mut h = Harness::new(&case_rigid(2, fam, r));
-            let u = h
-                .displacement(&|_, _| vec![0.05, -0.06])
-                .iter()
-                .enumerate()
-                .map(|(i, v)| v + 2e-3 * rnd(&mut (i as u64 + 1)))
-                .collect::<Vec<_>>();
+            let u = h.shifted_noisy(&[0.05, -0.06], 1);
             let (err, kmax) = tangent_error(&mut h, &u);
             assert!(kmax > 1.0, "{fam} {r}: no contact stiffness ({kmax})");
             assert!(err < 1e-6, "{fam} {r}: tangent error {err:e}");
@@ -519,12 +524,7 @@ fn penalty_tangent_against_rigid_partners_matches_central_differences() {
     for fam in ["Q1C1", "Q1N2"] {
         for r in rigid_3d {
             let mut h = Harness::new(&case_rigid(3, fam, r));
-            let u = h
-                .displacement(&|_, _| vec![0.02, 0.01, -0.05])
-                .iter()
-                .enumerate()
-                .map(|(i, v)| v + 2e-3 * rnd(&mut (i as u64 + 7)))
-                .collect::<Vec<_>>();
+            let u = h.shifted_noisy(&[0.02, 0.01, -0.05], 7);
             let (err, kmax) = tangent_error(&mut h, &u);
             assert!(kmax > 1.0, "{fam} {r}: no contact stiffness ({kmax})");
             assert!(err < 1e-6, "{fam} {r}: tangent error {err:e}");
@@ -792,12 +792,7 @@ fn van_der_waals_tangent_against_rigid_partners_matches_central_differences() {
     for fam in FAMILIES_2D {
         for r in rigid_2d {
             let mut h = Harness::new(&case_rigid_law(2, fam, r, law));
-            let u = h
-                .displacement(&|_, _| vec![0.05, 0.12])
-                .iter()
-                .enumerate()
-                .map(|(i, v)| v + 2e-3 * rnd(&mut (i as u64 + 3)))
-                .collect::<Vec<_>>();
+            let u = h.shifted_noisy(&[0.05, 0.12], 3);
             let (err, kmax) = tangent_error(&mut h, &u);
             assert!(kmax > 1e-3, "{fam} {r}: no adhesion stiffness ({kmax})");
             assert!(err < 1e-6, "{fam} {r}: tangent error {err:e}");
@@ -810,12 +805,7 @@ fn van_der_waals_tangent_against_rigid_partners_matches_central_differences() {
     for fam in ["Q1C1", "Q1N2"] {
         for r in rigid_3d {
             let mut h = Harness::new(&case_rigid_law(3, fam, r, law));
-            let u = h
-                .displacement(&|_, _| vec![0.02, 0.01, 0.15])
-                .iter()
-                .enumerate()
-                .map(|(i, v)| v + 2e-3 * rnd(&mut (i as u64 + 5)))
-                .collect::<Vec<_>>();
+            let u = h.shifted_noisy(&[0.02, 0.01, 0.15], 5);
             let (err, kmax) = tangent_error(&mut h, &u);
             assert!(kmax > 1e-3, "{fam} {r}: no adhesion stiffness ({kmax})");
             assert!(err < 1e-6, "{fam} {r}: tangent error {err:e}");
@@ -1021,12 +1011,7 @@ fn friction_tangent_against_rigid_partners_matches_central_differences() {
                     } else {
                         vec![0.02, 0.01, -0.05]
                     };
-                    let u0 = h
-                        .displacement(&|_, _| down.clone())
-                        .iter()
-                        .enumerate()
-                        .map(|(i, v)| v + 2e-3 * rnd(&mut (i as u64 + 1)))
-                        .collect::<Vec<_>>();
+                    let u0 = h.shifted_noisy(&down, 1);
                     // rigid shift along x (the partner moves too: its anchors with it)
                     let u1 = shifted(&h, &u0, &|_| {
                         let mut v = vec![0.0; dim];
@@ -1159,12 +1144,7 @@ fn element_mean_gap_tangent_matches_central_differences() {
         } else {
             vec![0.02, 0.01, -0.05]
         };
-        let u = h
-            .displacement(&|_, _| shift.clone())
-            .iter()
-            .enumerate()
-            .map(|(i, v)| v + 2e-3 * rnd(&mut (i as u64 + 3)))
-            .collect::<Vec<_>>();
+        let u = h.shifted_noisy(&shift, 3);
         let (err, kmax) = tangent_error(&mut h, &u);
         assert!(kmax > 1.0, "{fam} {r}: no contact stiffness ({kmax})");
         assert!(err < 1e-6, "{fam} {r}: tangent error {err:e}");
