@@ -9,7 +9,9 @@ cm - Cattaneo-Mindlin, 2D (cases/cattaneo_mindlin_2d.toml): the Hertz half disk 
      midway between the last active and the first inactive point, c midway between the last
      sticking and the first slipping point, both sides averaged; and the shear traction at the
      active points against Cattaneo-Mindlin's distribution for the measured a and P, Q (RMS and
-     largest deviation relative to mu p0).
+     largest deviation relative to mu p0); and what the point spacing resolves: the brackets of a
+     and c (between the half-width through the last point in and through the first point out)
+     and whether Cattaneo-Mindlin's c for some a in a's bracket lies in c's bracket.
 Times are from summary.json (wall_time)."""
 import csv, json, math, os, re, subprocess, sys, tempfile
 
@@ -72,12 +74,16 @@ def positions(out, q, p_total):
             t -= (cq / a) * MU * p0 * math.sqrt(1.0 - (xi / cq) ** 2)
         dev.append((-pts[i][3] - t) / (MU * p0))
     rms = math.sqrt(sum(d * d for d in dev) / len(dev))
-    return a, c, rms, max(abs(d) for d in dev)
+    # what the point spacing can resolve: the half-widths lie between the innermost and the
+    # outermost estimate the point states allow (the last point in / the first point out)
+    a_br = (0.5 * (pts[hi][0] - pts[lo][0]), 0.5 * (pts[hi + 1][0] - pts[lo - 1][0]))
+    c_br = (0.5 * (pts[s_hi][0] - pts[s_lo][0]), 0.5 * (pts[s_hi + 1][0] - pts[s_lo - 1][0]))
+    return a, c, rms, max(abs(d) for d in dev), a_br, c_br
 
 
 def cm():
-    print("| family | n_arc | Q/(mu P) | active points | stick | slip | c/a (stick/active) | c/a from positions | c/a Cattaneo-Mindlin | error (counts) | error (positions) | shear RMS / max dev. (of mu p0) | shift steps (cutbacks) | Newton its (shift stage) | wall s | c / c_CM(Hertz a) |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("| family | n_arc | Q/(mu P) | active points | stick | slip | c/a (stick/active) | c/a from positions | c/a Cattaneo-Mindlin | error (counts) | error (positions) | shear RMS / max dev. (of mu p0) | shift steps (cutbacks) | Newton its (shift stage) | wall s | c / c_CM(Hertz a) | c bracket | C-M c for the a bracket | consistent |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for fam in ["Q1C1", "Q1N2", "Q1N2.1"]:
         for n in [64, 128, 256]:
             r, s, out = run("cattaneo_mindlin_2d.toml", [f"bodies.disk.element={fam}",
@@ -91,13 +97,17 @@ def cm():
             sh = [y for y in r if y["stage"] == "1"]
             cut = sum(int(y["cutbacks"]) for y in sh)
             its = sum(int(y["newton_iterations"]) for y in sh)
-            a, c, rms, mx = positions(out, q, p)
+            a, c, rms, mx, a_br, c_br = positions(out, q, p)
+            # Cattaneo-Mindlin's c for any a the points allow; consistent if it meets c's bracket
+            cm_br = (c_cm * a_br[0], c_cm * a_br[1])
+            ok = "yes" if cm_br[0] <= c_br[1] and c_br[0] <= cm_br[1] else "no"
             a_hertz = math.sqrt(4.0 * p * 1.0 / (math.pi * E_STAR))
             print(f"| {fam} | {n} | {ratio:.4f} | {int(ac)} | {int(st)} | {int(sl)} | {c_a:.4f} | "
                   f"{c / a:.4f} | {c_cm:.4f} | {100 * (c_a / c_cm - 1):+.1f} % | "
                   f"{100 * (c / a / c_cm - 1):+.1f} % | {rms:.3f} / {mx:.3f} | {len(sh)} ({cut}) | "
                   f"{its} | {s['wall_time']['total']:.2f} | "
-                  f"{100 * (c / (a_hertz * c_cm) - 1):+.1f} % (a {100 * (a / a_hertz - 1):+.1f} %) |",
+                  f"{100 * (c / (a_hertz * c_cm) - 1):+.1f} % (a {100 * (a / a_hertz - 1):+.1f} %) | "
+                  f"{c_br[0]:.4f}..{c_br[1]:.4f} | {cm_br[0]:.4f}..{cm_br[1]:.4f} | {ok} |",
                   flush=True)
 
 

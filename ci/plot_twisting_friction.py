@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """M_z and P_z of the frictional twisting benchmark against the twist angle, as two SVG files,
 with the published points (Sauer & De Lorenzis 2015, digitised) and FEBio's (Zimmerman & Ateshian
-2018). Usage: python3 ci/plot_twisting_friction.py OUTDIR LABEL=RUNDIR [LABEL=RUNDIR ...]
+2018). Usage: python3 ci/plot_twisting_friction.py [--p-range LO:HI] OUT LABEL=RUNDIR [LABEL=RUNDIR ...]
+OUT: a folder (OUT/twisting_friction_mz.svg and _pz.svg) or a path prefix (OUT_mz.svg, OUT_pz.svg).
 RUNDIR: the output directory of a `nurbs-contact run cases/twisting_friction_3d.toml` (its
 history.csv: load_factor, M_shell_rim_z, R_shell_rim_z; magnitudes are plotted)."""
 import csv, os, sys
@@ -61,10 +62,18 @@ def svg(path, title, ylab, curves, pts, ylim):
 
 
 if __name__ == "__main__":
-    out, runs = sys.argv[1], [a.split("=", 1) for a in sys.argv[2:]]
-    svg(os.path.join(out, "twisting_friction_mz.svg"), "Frictional twisting: M_z", "M_z",
+    args = sys.argv[1:]
+    p_lim = (0.9, 1.6)
+    if "--p-range" in args:  # --p-range LO:HI, the P_z axis
+        i = args.index("--p-range")
+        p_lim = tuple(float(v) for v in args[i + 1].split(":"))
+        del args[i:i + 2]
+    # OUT: a folder (OUT/twisting_friction_mz.svg, ..._pz.svg) or a path prefix (OUT_mz.svg, ...)
+    out, runs = args[0], [a.split("=", 1) for a in args[1:]]
+    prefix = os.path.join(out, "twisting_friction") if os.path.isdir(out) else out
+    svg(prefix + "_mz.svg", "Frictional twisting: M_z", "M_z",
         [(l, series(d, "M_shell_rim_z")) for l, d in runs],
         [(("published", "o"), PUB["M"]), (("FEBio", "s"), FEBIO["M"])], (0.0, 0.6))
-    svg(os.path.join(out, "twisting_friction_pz.svg"), "Frictional twisting: P_z", "P_z",
+    svg(prefix + "_pz.svg", "Frictional twisting: P_z", "P_z",
         [(l, series(d, "R_shell_rim_z")) for l, d in runs],
-        [(("published", "o"), PUB["P"])], (0.9, 1.6))
+        [(("published", "o"), PUB["P"])], p_lim)

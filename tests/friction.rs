@@ -214,17 +214,22 @@ fn cattaneo_mindlin_stick_zone_of_the_hertz_half_disk() {
         .map(|i| (x0[3 * i] + u[3 * i], p_pt[i], state[i]))
         .collect();
     pts.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap());
-    let half_width = |inside: &dyn Fn(&(f64, f64, f64)) -> bool| {
+    // (the half-width through the last points in, through the first points out)
+    let bracket = |inside: &dyn Fn(&(f64, f64, f64)) -> bool| {
         let lo = pts.iter().position(inside).expect("a point inside");
         let hi = pts.len() - 1 - pts.iter().rev().position(inside).unwrap();
         assert!(
             lo > 0 && hi + 1 < pts.len(),
             "the zone reaches the end of the points"
         );
-        0.25 * (pts[hi].0 + pts[hi + 1].0 - pts[lo].0 - pts[lo - 1].0)
+        (
+            0.5 * (pts[hi].0 - pts[lo].0),
+            0.5 * (pts[hi + 1].0 - pts[lo - 1].0),
+        )
     };
-    let a = half_width(&|q| q.1 > 0.0);
-    let c = half_width(&|q| q.2 == 1.0);
+    let (a_in, a_out) = bracket(&|q| q.1 > 0.0);
+    let (c_in, c_out) = bracket(&|q| q.2 == 1.0);
+    let (a, c) = (0.5 * (a_in + a_out), 0.5 * (c_in + c_out));
     assert_eq!(
         pts.iter().filter(|q| q.2 == 1.0).count() as f64,
         stick[n],
@@ -240,6 +245,15 @@ fn cattaneo_mindlin_stick_zone_of_the_hertz_half_disk() {
         err.abs() < 0.12,
         "c/a = {c_a:.4} against Cattaneo-Mindlin {cm:.4} ({:+.1} %)",
         100.0 * err
+    );
+    // to the resolution of the points: Cattaneo-Mindlin's c for some a the points allow lies
+    // where the points allow c (measured: c in 0.0507..0.0600, C-M 0.0587..0.0639; Q1C1 at
+    // n_arc = 64 fails this, 0.0379..0.0583 against 0.0598..0.0741)
+    assert!(
+        cm * a_in <= c_out && c_in <= cm * a_out,
+        "c in {c_in:.4}..{c_out:.4}, Cattaneo-Mindlin's c in {:.4}..{:.4}",
+        cm * a_in,
+        cm * a_out
     );
 }
 
