@@ -1,17 +1,19 @@
 #!/usr/bin/env python3
-"""Friction benchmarks (BENCHMARKS.md, issue 10). Usage: python3 ci/bench_friction.py [cm]
+"""Friction benchmarks (BENCHMARKS.md, issue 10).
+Usage: python3 ci/bench_friction.py [--families F1,F2,...] [cm] [SET ...]
 
-cm - Cattaneo-Mindlin, 2D (cases/cattaneo_mindlin_2d.toml): the Hertz half disk pressed onto a rigid
-     flat, then shifted with mu = 0.3, for Q1C1, Q1N2, Q1N2.1 at n_arc 64, 128, 256 (n_radial =
-     n_arc / 4): the stick zone's half-width estimated from the point counts, c/a = stick / active
-     at the last step, against c/a = sqrt(1 - Q/(mu P)) for the computed Q and P; and from the
-     points' positions in results.h5 (grid contact_points, read with h5dump): on each side, a
-     midway between the last active and the first inactive point, c midway between the last
-     sticking and the first slipping point, both sides averaged; and the shear traction at the
-     active points against Cattaneo-Mindlin's distribution for the measured a and P, Q (RMS and
-     largest deviation relative to mu p0); and what the point spacing resolves: the brackets of a
-     and c (between the half-width through the last point in and through the first point out)
-     and whether Cattaneo-Mindlin's c for some a in a's bracket lies in c's bracket.
+cm - Cattaneo-Mindlin, 2D (cases/cattaneo_mindlin_2d.toml): the Hertz half disk pressed onto a
+     rigid flat, then shifted with mu = 0.3, for every 2D family (or those of --families) at
+     n_arc 64, 128, 256 (n_radial = n_arc / 4): the stick zone's half-width estimated from the
+     point counts, c/a = stick / active at the last step, against c/a = sqrt(1 - Q/(mu P)) for
+     the computed Q and P; and from the points' positions in results.h5 (grid contact_points,
+     read with h5dump): on each side, a midway between the last active and the first inactive
+     point, c midway between the last sticking and the first slipping point, both sides averaged;
+     the shear traction at the active points against Cattaneo-Mindlin's distribution for the
+     measured a and P, Q (RMS and largest deviation relative to mu p0); and what the point spacing
+     resolves: the brackets of a and c (between the half-width through the last point in and
+     through the first point out) and whether Cattaneo-Mindlin's c for some a in a's bracket lies
+     in c's bracket.
 Times are from summary.json (wall_time)."""
 import csv, json, math, os, re, subprocess, sys, tempfile
 
@@ -84,7 +86,7 @@ def positions(out, q, p_total):
 def cm():
     print("| family | n_arc | Q/(mu P) | active points | stick | slip | c/a (stick/active) | c/a from positions | c/a Cattaneo-Mindlin | error (counts) | error (positions) | shear RMS / max dev. (of mu p0) | shift steps (cutbacks) | Newton its (shift stage) | wall s | c / c_CM(Hertz a) | c bracket | C-M c for the a bracket | consistent |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for fam in ["Q1C1", "Q1N2", "Q1N2.1"]:
+    for fam in FAMILIES:
         for n in [64, 128, 256]:
             r, s, out = run("cattaneo_mindlin_2d.toml", [f"bodies.disk.element={fam}",
                                                          f"meshes.disk.n_arc={n}",
@@ -112,8 +114,14 @@ def cm():
 
 
 EXTRA = []
+FAMILIES = ["Q1C1", "Q1N2", "Q1N3", "Q1N4", "Q1N2.1", "Q1N2.2", "Q1N3.1", "Q1C2", "Q1CH"]
 
 if __name__ == "__main__":
-    what = sys.argv[1] if len(sys.argv) > 1 else "cm"
-    EXTRA = [a for a in sys.argv[2:]]  # further --set values, e.g. contact.0.eps_t=1e3
+    args = sys.argv[1:]
+    if "--families" in args:  # --families Q1C1,Q1N2 (default: every 2D family)
+        i = args.index("--families")
+        FAMILIES = args[i + 1].split(",")
+        del args[i:i + 2]
+    what = args[0] if args else "cm"
+    EXTRA = args[1:]  # further --set values, e.g. contact.0.eps_t=1e3
     {"cm": cm}[what]()
