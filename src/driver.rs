@@ -1518,36 +1518,74 @@ fn contact_history(asm: &Assembler, dim: usize) -> Vec<f64> {
     out
 }
 
-/// Nodal contact pressure (per current area), nominal contact pressure (per reference area) and
-/// normal gap [n_nodes] on rank 0 (L2 projections of the pointwise values on each contact surface,
-/// Sauer 2013), in this order; `None` without contact or off rank 0. A node shared by two contact
-/// surfaces shows the last surface's value.
+/// The contact fields on rank 0 as (name, components, nodal values [n_nodes * components]): the
+/// contact pressure (per current area), the nominal contact pressure (per reference area) and the
+/// normal gap, and with friction the tangential traction (`dim` components, on the surface's body)
+/// and the fractions of sticking and slipping contact; all L2 projections of the pointwise values
+/// on each contact surface's own interpolation (Sauer 2013; [`ContactSystem::l2_rhs`],
+/// [`ContactSystem::l2_rhs_friction`]). `None` without contact or off rank 0. A node shared by two
+/// contact surfaces shows the last surface's value.
 ///
 /// Collective.
-fn contact_fields(asm: &Assembler, n_nodes: usize, root: bool) -> Option<[Vec<f64>; 3]> {
+fn contact_fields(
+    asm: &Assembler,
+    n_nodes: usize,
+    root: bool,
+) -> Option<Vec<(&'static str, usize, Vec<f64>)>> {
     let c = asm.contact()?;
     let (fp, fg) = c.l2_rhs();
+    let frictional = c.frictional().iter().any(|&f| f);
+    let ff = if frictional {
+        c.l2_rhs_friction()
+    } else {
+        Vec::new()
+    };
     let comm = asm.comm();
-    let (mut sp, mut sg) = (vec![0.0; fp.len()], vec![0.0; fg.len()]);
-    comm.all_reduce_into(&fp[..], &mut sp[..], SystemOperation::sum());
-    comm.all_reduce_into(&fg[..], &mut sg[..], SystemOperation::sum());
+    let sum = |f: &[f64]| {
+        let mut s = vec![0.0; f.len()];
+        comm.all_reduce_into(f, &mut s[..], SystemOperation::sum());
+        s
+    };
+    let (sp, sg, sf) = (sum(&fp), sum(&fg), sum(&ff));
     if !root {
         return None;
     }
     let nt = c.n_table();
-    let (mut p, mut pn, mut g) = (vec![0.0; n_nodes], vec![0.0; n_nodes], vec![0.0; n_nodes]);
+    let dim = asm.dofs.dim;
+    let mut out = vec![
+        ("contact_pressure", 1, vec![0.0; n_nodes]),
+        ("contact_pressure_nominal", 1, vec![0.0; n_nodes]),
+        ("contact_gap", 1, vec![0.0; n_nodes]),
+    ];
+    if frictional {
+        out.push(("tangential_traction", dim, vec![0.0; n_nodes * dim]));
+        out.push(("stick_fraction", 1, vec![0.0; n_nodes]));
+        out.push(("slip_fraction", 1, vec![0.0; n_nodes]));
+    }
+    let nb = dim + 2;
     for s in 0..c.surfaces().len() {
-        let ps = c.l2_project(s, &sp[s * nt..(s + 1) * nt], false);
-        let pns = c.l2_project(s, &sp[s * nt..(s + 1) * nt], true);
-        let gs = c.l2_project(s, &sg[s * nt..(s + 1) * nt], false);
+        let rhs = |v: &[f64], b: usize| v[b * nt..(b + 1) * nt].to_vec();
+        // (field, component, projection)
+        let mut proj = vec![
+            (0, 0, c.l2_project(s, &rhs(&sp, s), false)),
+            (1, 0, c.l2_project(s, &rhs(&sp, s), true)),
+            (2, 0, c.l2_project(s, &rhs(&sg, s), false)),
+        ];
+        if frictional {
+            for b in 0..nb {
+                let (field, comp) = if b < dim { (3, b) } else { (b + 4 - dim, 0) };
+                proj.push((field, comp, c.l2_project(s, &rhs(&sf, s * nb + b), false)));
+            }
+        }
         for t in c.surface_nodes(s) {
             let node = c.table()[t as usize] as usize;
-            p[node] = ps[t as usize];
-            pn[node] = pns[t as usize];
-            g[node] = gs[t as usize];
+            for (field, comp, v) in &proj {
+                let (_, w, vals) = &mut out[*field];
+                vals[node * *w + comp] = v[t as usize];
+            }
         }
     }
-    Some([p, pn, g])
+    Some(out)
 }
 
 /// The contact quadrature points of all ranks on rank 0, [`POINT_RECORD`] values each (see
@@ -1858,7 +1896,7 @@ impl<'p> Output<'p> {
         &mut self,
         load: f64,
         cell_measures: &[f64],
-        contact: Option<&[Vec<f64>; 3]>,
+        contact: Option<&Vec<(&'static str, usize, Vec<f64>)>>,
         points: Option<&[f64]>,
         offsets: &NodeOffsets,
     ) -> Result<(), Error> {
@@ -1895,26 +1933,21 @@ impl<'p> Output<'p> {
         for (g, v) in self.sampled.iter().zip(&sampled_u) {
             fields.push(FieldData::node_vector(g.name, "displacement", self.dim, v));
         }
-        // contact pressure and gap: nodal values of the L2 projection on the contact surfaces'
-        // own interpolation, shown on the bulk grid (display nodes interpolated) and sampled grids
+        // contact pressure, gap and friction: nodal values of the L2 projections on the contact
+        // surfaces' own interpolation, shown on the bulk grid (display nodes interpolated) and the
+        // sampled grids
         let mut contact_nodal = Vec::new();
-        if let Some(fs) = contact {
-            for f in fs {
-                let mut v = f.clone();
-                crate::model::apply_display(&self.display, 1, &mut v);
-                let sampled: Vec<Vec<f64>> =
-                    self.sampled.iter().map(|s| s.interpolate(1, &v)).collect();
-                contact_nodal.push((v, sampled));
-            }
+        for (name, w, v) in contact.into_iter().flatten() {
+            let mut v = v.clone();
+            crate::model::apply_display(&self.display, *w, &mut v);
+            let sampled: Vec<Vec<f64>> =
+                self.sampled.iter().map(|g| g.interpolate(*w, &v)).collect();
+            contact_nodal.push((*name, *w, v, sampled));
         }
-        for ((v, sampled), name) in contact_nodal.iter().zip([
-            "contact_pressure",
-            "contact_pressure_nominal",
-            "contact_gap",
-        ]) {
-            fields.push(FieldData::node_vector("bulk", name, 1, v));
+        for (name, w, v, sampled) in &contact_nodal {
+            fields.push(FieldData::node_vector("bulk", name, *w, v));
             for (g, sv) in self.sampled.iter().zip(sampled) {
-                fields.push(FieldData::node_vector(g.name, name, 1, sv));
+                fields.push(FieldData::node_vector(g.name, name, *w, sv));
             }
         }
         // the contact quadrature points: displacement from the reference position, pressure, gap,

@@ -157,6 +157,16 @@ fn friction_is_rank_invariant() {
         &h5_last(&d2, "contact_points", "displacement"),
     );
     assert!(e < 1e-10, "contact points: 1 vs 2 ranks differ by {e:e}");
+    // the friction fields on the sampled surface (sums over the ranks' points): tractions are
+    // penalty values like the resultants above, the fractions are not
+    for (f, tol) in [
+        ("tangential_traction", 1e-8),
+        ("stick_fraction", 1e-12),
+        ("slip_fraction", 1e-12),
+    ] {
+        let e = rel_diff(&h5_last(&d1, "surface", f), &h5_last(&d2, "surface", f));
+        assert!(e < tol, "surface {f}: 1 vs 2 ranks differ by {e:e}");
+    }
     // some frictional steps mix stick and slip
     let stick = history_col(&d2, "stick_fric_block_bottom");
     assert!(stick.iter().any(|&v| v > 0.0));
@@ -378,6 +388,65 @@ fn contact_points_in_results_carry_the_stick_slip_state_and_the_tangential_tract
         }
     }
     assert!(mixed >= 1, "no step with both stick and slip");
+}
+
+#[test]
+fn friction_on_the_sampled_surface_is_the_l2_projection_of_the_points() {
+    // the pushed block, Q1N2: its enriched bottom is sampled (grid `surface`)
+    let d = run_block("friction-surface-q1n2", 1, &["bodies.block.element=Q1N2"]);
+    let n_steps = h5_steps(&d);
+    let xdmf = std::fs::read_to_string(d.join("results.xdmf")).unwrap();
+    for f in ["tangential_traction", "stick_fraction", "slip_fraction"] {
+        assert!(xdmf.contains(f), "{f} not in results.xdmf");
+    }
+    let x0 = {
+        let f = hdf5::File::open(d.join("results.h5")).expect("open results.h5");
+        f.dataset("grids/surface/coordinates")
+            .unwrap()
+            .read_raw::<f64>()
+            .unwrap()
+    };
+    // the end of the frictionless press: no friction anywhere
+    for f in ["tangential_traction", "stick_fraction", "slip_fraction"] {
+        let v = h5_step(&d, 1, "surface", f);
+        assert!(v.iter().all(|&x| x == 0.0), "press: {f} not zero");
+    }
+    // the last step slides: every point slips, t_T = -mu p at each point, and the projections
+    // (linear in the pointwise values, the same mass matrix) keep that relation at the nodes
+    // (up to the tangential traction's tiny component along the deformed surface's own normal,
+    // which the pressure includes)
+    let k = n_steps - 1;
+    let p = h5_step(&d, k, "surface", "contact_pressure");
+    let tt = h5_step(&d, k, "surface", "tangential_traction");
+    let stick = h5_step(&d, k, "surface", "stick_fraction");
+    let slip = h5_step(&d, k, "surface", "slip_fraction");
+    let n = p.len();
+    assert_eq!(tt.len(), 3 * n, "vectors are written with three components");
+    let p_max = p.iter().cloned().fold(0.0, f64::max);
+    assert!(p_max > 0.01, "pressed: {p_max}");
+    let mut interior = 0;
+    for i in 0..n {
+        assert!(
+            (tt[3 * i] + MU * p[i]).abs() <= 2e-3 * p_max
+                && tt[3 * i + 1].abs() <= 1e-12
+                && tt[3 * i + 2] == 0.0,
+            "node {i}: t_T {:?} against -mu p = {}",
+            &tt[3 * i..3 * i + 3],
+            -MU * p[i]
+        );
+        // away from the ends (where the projection of an indicator ripples): all slip
+        if x0[3 * i].abs() < 0.3 {
+            interior += 1;
+            assert!(
+                (slip[i] - 1.0).abs() < 0.1 && stick[i].abs() < 0.05,
+                "node {i} at x {}: slip {} stick {}",
+                x0[3 * i],
+                slip[i],
+                stick[i]
+            );
+        }
+    }
+    assert!(interior >= 10, "{interior} interior nodes");
 }
 
 #[test]

@@ -1341,6 +1341,50 @@ impl ContactSystem {
         (fp, fg)
     }
 
+    /// This rank's right-hand sides of the L2 projections of friction onto each surface's own
+    /// interpolation: `int N_A t_T,c da` per component `c < dim` of the tangential traction on the
+    /// surface's body (as [`POINT_RECORD`]'s), then `int N_A chi_stick da` and `int N_A chi_slip da`
+    /// with `chi` the indicator of the points that stick / slip (so the projections are the local
+    /// fractions of sticking and slipping contact, both 0 out of contact). Indexed
+    /// `[surface][block][table node]` with `dim + 2` blocks per surface, flattened; zero for
+    /// frictionless pairs. Sum over ranks before [`ContactSystem::l2_project`].
+    pub fn l2_rhs_friction(&self) -> Vec<f64> {
+        let (dim, m, nt) = (self.dim, self.dim - 1, self.table.len());
+        let nb = dim + 2;
+        let mut f = vec![0.0; self.surfaces.len() * nb * nt];
+        let (mut N, mut dN, mut ddN) = (
+            [0.0; MAX_FACE_NODES],
+            [0.0; 2 * MAX_FACE_NODES],
+            [0.0; 4 * MAX_FACE_NODES],
+        );
+        for pair in self.pairs.iter().filter(|p| p.def.friction.is_some()) {
+            for pass in &pair.passes {
+                let k = pass.k;
+                for oe in &pass.elems {
+                    let e = oe.e as usize;
+                    let el = &self.surfaces[k].elements[e];
+                    for q in oe.first..oe.first + oe.n {
+                        let qp = &pass.points[q];
+                        el.basis.eval(&qp.xi[..m], &mut N, &mut dN, &mut ddN);
+                        let (_, _, nu) =
+                            crate::contact::surface::frame(el, dim, self.pos[k].of(e), &qp.xi);
+                        let jw = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt() * qp.w;
+                        let mut v = [0.0; 5];
+                        v[..dim].copy_from_slice(&qp.t_t[..dim]);
+                        v[dim] = (qp.slip == SlipState::Stick) as u8 as f64;
+                        v[dim + 1] = (qp.slip == SlipState::Slip) as u8 as f64;
+                        for (b, &t) in self.slots[k][e].iter().enumerate() {
+                            for (c, vc) in v[..nb].iter().enumerate() {
+                                f[(k * nb + c) * nt + t as usize] += N[b] * vc * jw;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        f
+    }
+
     /// Solves `M x = f` on surface `s` with the consistent mass matrix `M_AB = int N_A N_B da` of its
     /// own interpolation in the current configuration (conjugate gradients, Jacobi-preconditioned,
     /// matrix-free over the surface's elements). `f`: `[table node]` (the slice of
