@@ -307,9 +307,9 @@ fn solve_resuming<'p>(
 /// one, so Newton from it diverges however small the step. Damped solves of
 /// `F(u) + c D (u - u_prev) = 0` (`D` the stiffness diagonal at the converged state, `c` adapted:
 /// divided by 2 after a damped solve converges, multiplied by 8 after one fails) let the state
-/// flow towards the next equilibrium, one `u_prev` after another; after each, an undamped Newton
-/// solve is tried from there, and the first that converges ends the rescue with a true
-/// equilibrium. Returns that solve and the number of damped solves, or `None` when `max_steps`
+/// flow towards the next equilibrium, one `u_prev` after another; when the flow slows down past
+/// the snap ([`UndampedTrigger`]), an undamped Newton solve is tried from there, and the first
+/// that converges ends the rescue with a true equilibrium. Returns that solve and the number of damped solves, or `None` when `max_steps`
 /// damped solves did not reach one (`x` is then back at the converged state; the run stops).
 ///
 /// Collective.
@@ -330,7 +330,7 @@ fn rescue<'p>(
     let mut c = 1.0;
     let mut total_iterations = 0;
     let mut outcome = None;
-    let mut last_force = f64::INFINITY;
+    let mut trigger = UndampedTrigger::default();
     let debug = std::env::var_os("NURBS_CONTACT_DEBUG_RESCUE").is_some();
     for k in 1..=max_steps {
         asm.set_damping(c, &u_prev)?;
@@ -360,11 +360,7 @@ fn rescue<'p>(
                 damped.iterations
             );
         }
-        // While the flow speeds up (the state leaves the vanished equilibrium, the damping force
-        // grows) no equilibrium is near: only try an undamped solve while it slows down.
-        let slowing = force < last_force || k == max_steps;
-        last_force = force;
-        if !slowing {
+        if !trigger.observe(force, k == max_steps) {
             continue;
         }
         asm.set_damping(0.0, &u_prev)?;
@@ -390,6 +386,37 @@ fn rescue<'p>(
         x_conv.copy_to(x)?;
     }
     Ok(outcome)
+}
+
+/// When the rescue tries an undamped Newton solve, from the damping force `c D (u - u_prev)` after
+/// each damped solve (the flow's speed). Near the vanished equilibrium the flow first slows down
+/// (it creeps past the ghost of the fold) and no equilibrium is there: undamped solves fail. Then
+/// it speeds up (the snap) and slows down again as it nears the next equilibrium. So an undamped
+/// solve is tried only while the flow slows down after having sped up at least once, or once it
+/// has nearly stopped (the force below [`Self::NEAR_REST`] of its first value: an equilibrium
+/// close by, no snap), and at the last pseudo-step. (Trying at every slowing pseudo-step, as
+/// before, spent up to a third of a hard run's Newton iterations in undamped solves that failed,
+/// for the same equilibria: BENCHMARKS.md, "The pseudo-transient rescue".)
+#[derive(Debug, Clone, Default)]
+struct UndampedTrigger {
+    first: Option<f64>,
+    last: Option<f64>,
+    sped_up: bool,
+}
+
+impl UndampedTrigger {
+    const NEAR_REST: f64 = 1e-3;
+
+    /// Takes the damping force after a converged damped solve; true: try an undamped solve now.
+    fn observe(&mut self, force: f64, last_step: bool) -> bool {
+        let first = *self.first.get_or_insert(force);
+        let slowing = self.last.is_some_and(|l| force < l);
+        if self.last.is_some_and(|l| force > l) {
+            self.sped_up = true;
+        }
+        self.last = Some(force);
+        (slowing && self.sped_up) || force < Self::NEAR_REST * first || last_step
+    }
 }
 
 /// The step-size logic of the load stepping, apart from any solver so it can be tested alone.
@@ -501,6 +528,34 @@ impl StepSizer {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The pseudo-steps at which the trigger tries an undamped solve, for a sequence of damping
+    /// forces (the last one is the rescue's last pseudo-step).
+    fn tries(forces: &[f64]) -> Vec<usize> {
+        let mut t = UndampedTrigger::default();
+        (0..forces.len())
+            .filter(|&k| t.observe(forces[k], k + 1 == forces.len()))
+            .collect()
+    }
+
+    #[test]
+    fn undamped_solves_are_tried_once_the_flow_slows_down_after_a_snap() {
+        // damping forces of a measured rescue (frictional ironing, Q1N2): the flow creeps past the
+        // vanished equilibrium, speeds up, and slows down towards the next one
+        let snap = [
+            4.35e-4, 3.42e-4, 2.44e-4, 1.62e-4, 1.09e-4, 1.17e-5, 1.21e-5, 1.44e-4, 2.90e-3,
+            1.43e-2, 2.13e-2, 1.91e-2, 1.5e-2, 1.6e-2,
+        ];
+        // not while it creeps (every step before the rise), from the first slowing after it
+        assert_eq!(tries(&snap), vec![11, 12, 13]);
+        // a flow that only slows down: when it has nearly stopped, and at the last pseudo-step
+        let rest = [1e-3, 5e-4, 1e-4, 1e-5, 2e-6, 9e-7, 1e-7, 5e-8];
+        assert_eq!(tries(&rest), vec![5, 6, 7]);
+        let creep = [1e-3, 9e-4, 8e-4, 7e-4];
+        assert_eq!(tries(&creep), vec![3]);
+        // a single pseudo-step is the last one
+        assert_eq!(tries(&[1e-3]), vec![0]);
+    }
 
     fn control(steps: Vec<usize>, max_cutbacks: usize) -> StepControl {
         StepControl {
