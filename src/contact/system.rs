@@ -1304,41 +1304,58 @@ impl ContactSystem {
     /// `g_n` capped at the search distance where no partner is within reach. Indexed
     /// `[surface][table node]`, flattened; sum over ranks before [`ContactSystem::l2_project`].
     pub fn l2_rhs(&self) -> (Vec<f64>, Vec<f64>) {
-        let (dim, m, nt) = (self.dim, self.dim - 1, self.table.len());
+        let (dim, nt) = (self.dim, self.table.len());
         let mut fp = vec![0.0; self.surfaces.len() * nt];
         let mut fg = vec![0.0; self.surfaces.len() * nt];
+        self.each_surface_point(false, |pair, k, e, qp, N, nu| {
+            let el = &self.surfaces[k].elements[e];
+            let J = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt();
+            let p = -el.sign * (0..dim).map(|c| qp.force[c] * nu[c]).sum::<f64>() / J;
+            let g = qp
+                .gap
+                .unwrap_or(pair.def.search_distance)
+                .min(pair.def.search_distance);
+            for (b, &t) in self.slots[k][e].iter().enumerate() {
+                fp[k * nt + t as usize] += N[b] * p;
+                fg[k * nt + t as usize] += N[b] * g * J * qp.w;
+            }
+        });
+        (fp, fg)
+    }
+
+    /// Calls `f(pair, surface, element, point, basis values, raw normal)` for every quadrature
+    /// point this rank integrates (of the frictional pairs only with `frictional_only`), with the
+    /// surface's own basis and raw normal (length: the area factor) at the point's current
+    /// position.
+    fn each_surface_point(
+        &self,
+        frictional_only: bool,
+        mut f: impl FnMut(&Pair, usize, usize, &QPoint, &[f64], [f64; 3]),
+    ) {
+        let (dim, m) = (self.dim, self.dim - 1);
         let (mut N, mut dN, mut ddN) = (
             [0.0; MAX_FACE_NODES],
             [0.0; 2 * MAX_FACE_NODES],
             [0.0; 4 * MAX_FACE_NODES],
         );
         for pair in &self.pairs {
+            if frictional_only && pair.def.friction.is_none() {
+                continue;
+            }
             for pass in &pair.passes {
                 let k = pass.k;
                 for oe in &pass.elems {
                     let e = oe.e as usize;
                     let el = &self.surfaces[k].elements[e];
-                    for q in oe.first..oe.first + oe.n {
-                        let qp = &pass.points[q];
+                    for qp in &pass.points[oe.first..oe.first + oe.n] {
                         el.basis.eval(&qp.xi[..m], &mut N, &mut dN, &mut ddN);
-                        let (_, a, nu) =
+                        let (_, _, nu) =
                             crate::contact::surface::frame(el, dim, self.pos[k].of(e), &qp.xi);
-                        let _ = a;
-                        let J = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt();
-                        let p = -el.sign * (0..dim).map(|c| qp.force[c] * nu[c]).sum::<f64>() / J;
-                        let g = qp
-                            .gap
-                            .unwrap_or(pair.def.search_distance)
-                            .min(pair.def.search_distance);
-                        for (b, &t) in self.slots[k][e].iter().enumerate() {
-                            fp[k * nt + t as usize] += N[b] * p;
-                            fg[k * nt + t as usize] += N[b] * g * J * qp.w;
-                        }
+                        f(pair, k, e, qp, &N[..el.basis.n_nodes()], nu);
                     }
                 }
             }
         }
-        (fp, fg)
     }
 
     /// This rank's right-hand sides of the L2 projections of friction onto each surface's own
@@ -1349,39 +1366,21 @@ impl ContactSystem {
     /// `[surface][block][table node]` with `dim + 2` blocks per surface, flattened; zero for
     /// frictionless pairs. Sum over ranks before [`ContactSystem::l2_project`].
     pub fn l2_rhs_friction(&self) -> Vec<f64> {
-        let (dim, m, nt) = (self.dim, self.dim - 1, self.table.len());
+        let (dim, nt) = (self.dim, self.table.len());
         let nb = dim + 2;
         let mut f = vec![0.0; self.surfaces.len() * nb * nt];
-        let (mut N, mut dN, mut ddN) = (
-            [0.0; MAX_FACE_NODES],
-            [0.0; 2 * MAX_FACE_NODES],
-            [0.0; 4 * MAX_FACE_NODES],
-        );
-        for pair in self.pairs.iter().filter(|p| p.def.friction.is_some()) {
-            for pass in &pair.passes {
-                let k = pass.k;
-                for oe in &pass.elems {
-                    let e = oe.e as usize;
-                    let el = &self.surfaces[k].elements[e];
-                    for q in oe.first..oe.first + oe.n {
-                        let qp = &pass.points[q];
-                        el.basis.eval(&qp.xi[..m], &mut N, &mut dN, &mut ddN);
-                        let (_, _, nu) =
-                            crate::contact::surface::frame(el, dim, self.pos[k].of(e), &qp.xi);
-                        let jw = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt() * qp.w;
-                        let mut v = [0.0; 5];
-                        v[..dim].copy_from_slice(&qp.t_t[..dim]);
-                        v[dim] = (qp.slip == SlipState::Stick) as u8 as f64;
-                        v[dim + 1] = (qp.slip == SlipState::Slip) as u8 as f64;
-                        for (b, &t) in self.slots[k][e].iter().enumerate() {
-                            for (c, vc) in v[..nb].iter().enumerate() {
-                                f[(k * nb + c) * nt + t as usize] += N[b] * vc * jw;
-                            }
-                        }
-                    }
+        self.each_surface_point(true, |_, k, e, qp, N, nu| {
+            let jw = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt() * qp.w;
+            let mut v = [0.0; 5];
+            v[..dim].copy_from_slice(&qp.t_t[..dim]);
+            v[dim] = (qp.slip == SlipState::Stick) as u8 as f64;
+            v[dim + 1] = (qp.slip == SlipState::Slip) as u8 as f64;
+            for (b, &t) in self.slots[k][e].iter().enumerate() {
+                for (c, vc) in v[..nb].iter().enumerate() {
+                    f[(k * nb + c) * nt + t as usize] += N[b] * vc * jw;
                 }
             }
-        }
+        });
         f
     }
 
