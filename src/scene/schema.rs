@@ -521,8 +521,9 @@ pub struct StepControl {
     /// Pseudo-transient rescue of a step that fails at the smallest increment (a snap-through, e.g.
     /// a peeling front jumping): at that load, up to this many damped solves (a viscous term
     /// `c D (u - u_prev)`, `D` the diagonal of the element stiffness) let the state flow towards
-    /// the next equilibrium, each followed by an undamped Newton solve; the step is accepted only
-    /// when an undamped solve converges, so accepted states are equilibria. 0 disables it.
+    /// the next equilibrium; an undamped Newton solve is tried once the flow slows down past the
+    /// snap (or has nearly stopped), and the step is accepted only when an undamped solve
+    /// converges, so accepted states are equilibria. 0 disables it.
     /// Default: 200.
     #[serde(default = "default_pseudo_steps")]
     pub pseudo_steps: u32,
