@@ -1564,17 +1564,23 @@ fn contact_fields(
     }
     let nb = dim + 2;
     for s in 0..c.surfaces().len() {
-        let rhs = |v: &[f64], b: usize| v[b * nt..(b + 1) * nt].to_vec();
-        // (field, component, projection)
+        // (field in `out`, component, projection)
+        let (ps, gs) = (&sp[s * nt..(s + 1) * nt], &sg[s * nt..(s + 1) * nt]);
         let mut proj = vec![
-            (0, 0, c.l2_project(s, &rhs(&sp, s), false)),
-            (1, 0, c.l2_project(s, &rhs(&sp, s), true)),
-            (2, 0, c.l2_project(s, &rhs(&sg, s), false)),
+            (0, 0, c.l2_project(s, ps, false)),
+            (1, 0, c.l2_project(s, ps, true)),
+            (2, 0, c.l2_project(s, gs, false)),
         ];
         if frictional {
+            // blocks of `sf` per surface: the traction's components, stick, slip
             for b in 0..nb {
-                let (field, comp) = if b < dim { (3, b) } else { (b + 4 - dim, 0) };
-                proj.push((field, comp, c.l2_project(s, &rhs(&sf, s * nb + b), false)));
+                let (field, comp) = match b {
+                    _ if b < dim => (3, b),
+                    _ if b == dim => (4, 0),
+                    _ => (5, 0),
+                };
+                let f = &sf[(s * nb + b) * nt..(s * nb + b + 1) * nt];
+                proj.push((field, comp, c.l2_project(s, f, false)));
             }
         }
         for t in c.surface_nodes(s) {

@@ -309,8 +309,9 @@ fn solve_resuming<'p>(
 /// divided by 2 after a damped solve converges, multiplied by 8 after one fails) let the state
 /// flow towards the next equilibrium, one `u_prev` after another; when the flow slows down past
 /// the snap ([`UndampedTrigger`]), an undamped Newton solve is tried from there, and the first
-/// that converges ends the rescue with a true equilibrium. Returns that solve and the number of damped solves, or `None` when `max_steps`
-/// damped solves did not reach one (`x` is then back at the converged state; the run stops).
+/// that converges ends the rescue with a true equilibrium. Returns that solve and the number of
+/// damped solves, or `None` when `max_steps` damped solves did not reach one (`x` is then back at
+/// the converged state; the run stops).
 ///
 /// Collective.
 fn rescue<'p>(
