@@ -4,10 +4,13 @@
 set -euo pipefail
 
 PKGS=(build-essential pkg-config libclang-dev petsc-dev libopenmpi-dev openmpi-bin
-      libhdf5-openmpi-dev libmetis-dev hdf5-tools libopenblas0-serial fonts-dejavu-core)
+      libhdf5-openmpi-dev libmetis-dev hdf5-tools libopenblas0-serial libblas3 liblapack3
+      fonts-dejavu-core)
 # fonts-dejavu-core: the font of the study's PNG plots (rendered by resvg).
 # libopenblas0-serial replaces the reference BLAS/LAPACK that petsc-dev pulls in (through Debian's
 # alternatives): MUMPS factorises ~7x faster with it. Serial, so that MPI ranks do not oversubscribe cores.
+# libblas3, liblapack3: Debian's reference BLAS/LAPACK, which ci/blas-variants.sh selects for a while
+# to show that no test depends on OpenBLAS's kernels.
 
 missing=()
 for p in "${PKGS[@]}"; do

@@ -9,7 +9,12 @@ ci/install-deps.sh
 cargo fmt --check
 cargo clippy --release --all-targets -- -D warnings
 log=$(mktemp)
-cargo test --release 2>&1 | tee "$log"
-# One closing line for the whole suite, summed over the test binaries.
+status=0
+# --no-fail-fast: one failing test binary does not hide the others' results.
+cargo test --release --no-fail-fast 2>&1 | tee "$log" || status=1
+# The tests that judge numbers again under other BLAS kernels (see the script).
+bash ci/blas-variants.sh 2>&1 | tee -a "$log" || status=1
+# One closing line for the whole suite, summed over the test binaries and BLAS variants.
 awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i } }
      END { printf "%d passed, %d failed\n", p, f }' "$log"
+exit $status

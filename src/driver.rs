@@ -588,8 +588,34 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
     let solve_wall = t_solve.elapsed().as_secs_f64();
     let observer_signal = observer.interrupted;
     finish_and_report(petsc, &case, &model, &solver, observer, &result, solve_wall)?;
+    // Pictures of what happened (rank 0, from the files just finished): a failed run's too, for
+    // the steps it converged; an interrupted run stops at once.
+    let pictures = if case.output.plots
+        && rank0(petsc)
+        && !matches!(result, Err(SolverError::Interrupted { .. }))
+    {
+        match io::plots::write_plots(&out_dir) {
+            Ok(p) => p,
+            Err(e) => {
+                eprintln!("warning: no pictures of the run: {e}");
+                Vec::new()
+            }
+        }
+    } else {
+        Vec::new()
+    };
     // Only a converged run announces its results: a failed one's error must be the last word.
     if result.is_ok() {
+        let pngs: Vec<String> = pictures
+            .iter()
+            .filter(|p| p.extension().is_some_and(|e| e == "png"))
+            .map(|p| p.display().to_string())
+            .collect();
+        if !pngs.is_empty() {
+            log(comm_rank(petsc), opts.verbosity, Verbosity::Normal, || {
+                format!("pictures: {}", pngs.join(", "))
+            });
+        }
         log(comm_rank(petsc), opts.verbosity, Verbosity::Normal, || {
             format!("results in {}", out_dir.display())
         });
@@ -615,6 +641,10 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
                 ),
             }
         }
+        source @ SolverError::FreeTranslation { .. } => Error::IllPosed {
+            file: case.file.clone(),
+            message: source.to_string(),
+        },
         source => Error::Solver {
             file: case.file.clone(),
             source,
@@ -677,6 +707,8 @@ struct Numbered {
     sets: Vec<Box<dyn crate::assembly::ElementSet>>,
     /// Bodies that the conditions may leave free (named if the tangent turns out singular).
     suspects: Vec<String>,
+    /// Translations that only contact may hold, checked on the tangent of every converged step.
+    probes: Vec<crate::solver::TranslationProbe>,
 }
 
 /// Phase 2: partitions the cells (METIS on rank 0, broadcast, so all ranks agree even if METIS
@@ -708,6 +740,7 @@ fn number_and_partition(petsc: &Petsc, case: &Case, model: &Model) -> Result<Num
             eprintln!("warning: {w}");
         }
     }
+    let probes = translation_probes(&holds.free_translations, &dofs);
     let sets = agree(
         comm,
         model
@@ -719,7 +752,34 @@ fn number_and_partition(petsc: &Petsc, case: &Case, model: &Model) -> Result<Num
         dofs,
         sets,
         suspects: holds.suspects,
+        probes,
     })
+}
+
+/// This rank's part of each translation that only contact may hold: its owned rows.
+fn translation_probes(
+    free: &[crate::model::FreeTranslation],
+    dofs: &DofMap,
+) -> Vec<crate::solver::TranslationProbe> {
+    let (lo, hi) = (dofs.rank_start[dofs.rank], dofs.rank_start[dofs.rank + 1]);
+    free.iter()
+        .map(|f| {
+            let mut rows: Vec<_> = f
+                .nodes
+                .iter()
+                .filter_map(|&n| dofs.global(n, f.axis))
+                .map(|g| g.0)
+                .filter(|g| (lo..hi).contains(g))
+                .collect();
+            rows.sort_unstable();
+            rows.dedup();
+            crate::solver::TranslationProbe {
+                what: f.what.clone(),
+                axis: f.axis,
+                rows,
+            }
+        })
+        .collect()
 }
 
 /// The solver's state: unknowns, assembler (with contact), Jacobian, SNES and step control.
@@ -750,6 +810,7 @@ fn set_up_solver<'p>(
         dofs,
         sets,
         suspects,
+        probes,
     } = numbered;
     let (n_global, n_owned) = (dofs.n_global(), dofs.n_owned());
     log(rank, opts.verbosity, Verbosity::Normal, || {
@@ -827,6 +888,7 @@ fn set_up_solver<'p>(
         growth: case.steps.growth,
         easy_iterations: case.steps.easy_iterations as usize,
         pseudo_steps: case.steps.pseudo_steps as usize,
+        translation_probes: probes,
     };
     Ok(Solver {
         suspects,

@@ -15,6 +15,7 @@ pub mod error;
 pub mod hdf5_xdmf;
 pub mod history;
 pub mod outdir;
+pub mod plots;
 pub mod summary;
 
 pub use atomic::{commit, partial_path, write_atomic};

@@ -18,6 +18,22 @@ pub struct HoldReport {
     pub warnings: Vec<String>,
     /// Bodies named in errors or warnings (the likely free bodies of a singular tangent).
     pub suspects: Vec<String>,
+    /// Translations that no Dirichlet condition holds, of bodies (alone, and joined by contact
+    /// or ties) that touch a contact pair: whether contact holds them shows only in the tangent,
+    /// which load stepping checks ([`crate::solver::TranslationProbe`]).
+    pub free_translations: Vec<FreeTranslation>,
+}
+
+/// A rigid translation of a set of nodes that no Dirichlet condition holds.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FreeTranslation {
+    /// The set in words, e.g. "body `disk`" or "bodies `a`, `b` together".
+    pub what: String,
+    /// The translation's axis (0: x, 1: y, 2: z).
+    pub axis: usize,
+    /// Global nodes whose unknowns are positions (no Hermite tangent pseudo-nodes, no display
+    /// nodes), sorted.
+    pub nodes: Vec<u32>,
 }
 
 struct UnionFind(Vec<u32>);
@@ -298,5 +314,97 @@ pub fn holds(model: &Model, has_unknowns: impl Fn(u32) -> bool) -> HoldReport {
     }
     report.suspects.sort();
     report.suspects.dedup();
+    report.free_translations = free_translations(model, &has_unknowns, &mut alone, &mut uf);
     report
+}
+
+/// The translations no Dirichlet condition holds, of each body part alone and of each set of parts
+/// that contact or ties join, among those that touch a contact pair (see
+/// [`HoldReport::free_translations`]). Sets that touch a skew condition are left out: their
+/// unknowns at those nodes are not Cartesian components.
+fn free_translations(
+    model: &Model,
+    has_unknowns: &impl Fn(u32) -> bool,
+    alone: &mut UnionFind,
+    joint: &mut UnionFind,
+) -> Vec<FreeTranslation> {
+    let dim = model.dim;
+    let n_nodes = model.n_nodes();
+    if model.contact_pairs.is_empty() {
+        return Vec::new();
+    }
+    // position unknowns: not a Hermite tangent pseudo-node, not a display node, in some cell
+    let mut position = vec![false; n_nodes];
+    for c in 0..model.cell_offsets.len().saturating_sub(1) {
+        for &n in &model.cell_nodes[model.cell_offsets[c]..model.cell_offsets[c + 1]] {
+            position[n as usize] = has_unknowns(n);
+        }
+    }
+    for b in &model.bodies {
+        if let Some(e) = &b.enrichment {
+            for &p in &e.pseudo_nodes {
+                position[(p + b.node_offset) as usize] = false;
+            }
+        }
+    }
+    let mut contact_node = vec![false; n_nodes];
+    for s in &model.contact_surfaces {
+        for e in &s.elements {
+            for &n in &e.nodes {
+                contact_node[n as usize] = true;
+            }
+        }
+    }
+    let mut out: Vec<FreeTranslation> = Vec::new();
+    for uf in [alone, joint] {
+        let mut groups: std::collections::BTreeMap<u32, Vec<u32>> = Default::default();
+        for n in 0..n_nodes as u32 {
+            if position[n as usize] {
+                groups.entry(uf.find(n)).or_default().push(n);
+            }
+        }
+        let mut skewed = std::collections::BTreeSet::new();
+        for sk in &model.skews {
+            for &n in &sk.nodes {
+                skewed.insert(uf.find(n));
+            }
+        }
+        let mut held: std::collections::BTreeMap<u32, [bool; 3]> = Default::default();
+        for bc in &model.bcs {
+            for &n in bc.nodes.iter().filter(|&&n| has_unknowns(n)) {
+                let h = held.entry(uf.find(n)).or_default();
+                for &c in &bc.components {
+                    h[c] = true;
+                }
+            }
+        }
+        for (root, nodes) in groups {
+            if skewed.contains(&root) || !nodes.iter().any(|&n| contact_node[n as usize]) {
+                continue;
+            }
+            if out.iter().any(|t| t.nodes == nodes) {
+                continue;
+            }
+            let mut bodies: Vec<String> = Vec::new();
+            for b in &model.bodies {
+                let range = b.node_offset..b.node_offset + b.n_nodes() as u32;
+                if nodes.iter().any(|n| range.contains(n)) {
+                    bodies.push(format!("`{}`", b.name));
+                }
+            }
+            let what = match bodies.len() {
+                1 => format!("body {}", bodies[0]),
+                _ => format!("bodies {} together", bodies.join(", ")),
+            };
+            let h = held.get(&root).copied().unwrap_or_default();
+            for axis in (0..dim).filter(|&a| !h[a]) {
+                out.push(FreeTranslation {
+                    what: what.clone(),
+                    axis,
+                    nodes: nodes.clone(),
+                });
+            }
+        }
+    }
+    out
 }

@@ -17,5 +17,5 @@ mod sampling;
 
 pub use build::{enriched_tl_element, tied_tl_element, Body, Model, ModelError};
 pub use enrich::{EnrichError, EnrichedBasis, EnrichedCell, Enrichment, ExactSurface, TiedCell};
-pub use holds::{holds, HoldReport};
+pub use holds::{holds, FreeTranslation, HoldReport};
 pub use sampling::{apply_display, SampledGrid};

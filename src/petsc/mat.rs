@@ -234,6 +234,16 @@ impl<'p> Matrix<'p> {
         Ok(info.nz_used)
     }
 
+    /// The infinity norm (largest absolute row sum) of the assembled matrix.
+    ///
+    /// Collective.
+    pub fn norm_inf(&self) -> Result<f64, PetscError> {
+        let mut n = 0.0;
+        // SAFETY: valid, assembled handle; writes one value.
+        unsafe { call!(MatNorm(self.raw, sys::NormType::NORM_INFINITY, &mut n))? };
+        Ok(n)
+    }
+
     /// `y = A x`.
     ///
     /// Collective.

@@ -614,6 +614,15 @@ pub struct OutputSpec {
     /// Node sets whose reaction force sums go to history.csv. Default: none.
     #[serde(default)]
     pub reactions: Vec<ReactionSpec>,
+    /// Pictures of the run beside its results (`history.png`, `moments.png` with moments,
+    /// `deformed.png`; SVG sources too), made from history.csv and results.h5 when the run ends
+    /// (see `crate::io::plots`). Default: true.
+    #[serde(default = "default_plots")]
+    pub plots: bool,
+}
+
+fn default_plots() -> bool {
+    true
 }
 
 fn default_every() -> usize {
@@ -629,6 +638,7 @@ impl Default for OutputSpec {
             every: default_every(),
             fields: default_fields(),
             reactions: Vec::new(),
+            plots: default_plots(),
         }
     }
 }

@@ -29,6 +29,64 @@ pub struct StepControl {
     /// Damped (pseudo-transient) solves allowed to rescue a step that fails at the minimum
     /// increment; 0: none (see [`rescue`]).
     pub pseudo_steps: usize,
+    /// Rigid translations that no Dirichlet condition holds, checked on the tangent of every step
+    /// that Newton converges: a translation the tangent does not resist stops the run.
+    pub translation_probes: Vec<TranslationProbe>,
+}
+
+/// A rigid translation that only contact may hold (a body pressed onto a frictionless plane is
+/// free along it): `rows` are this rank's owned unknowns that move with it.
+///
+/// MUMPS's null-pivot count catches a singular tangent only when roundoff leaves the pivot below
+/// its threshold, which depends on the factorisation and on the BLAS kernels. A free translation
+/// `t` is in the kernel of the tangent `K` exactly (the internal forces do not change under a
+/// translation, nor does a contact that cannot hold it), so `|K t| / (|K|_inf |t|)` is at
+/// roundoff level (1e-16) when nothing holds it, and at least the share of the contact rows when
+/// contact does (1e-4 and more in the shipped cases): [`FREE_TRANSLATION_TOL`] between the two.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TranslationProbe {
+    /// What moves, e.g. "body `disk`".
+    pub what: String,
+    /// The axis (0: x, 1: y, 2: z).
+    pub axis: usize,
+    /// Owned global rows of the unknowns along `axis` of the nodes that move.
+    pub rows: Vec<crate::petsc::PetscInt>,
+}
+
+/// The largest `|K t| / (|K|_inf |t|)` of a translation `t` that the tangent is taken not to
+/// resist (see [`TranslationProbe`]).
+pub const FREE_TRANSLATION_TOL: f64 = 1e-10;
+
+/// `|K t| / (|K|_inf |t|)` for the probe's translation `t` on the assembled tangent `jac`; `like`
+/// gives the vector layout.
+///
+/// Collective.
+pub fn translation_resistance<'p>(
+    jac: &Matrix<'p>,
+    like: &Vector<'p>,
+    probe: &TranslationProbe,
+) -> Result<f64, PetscError> {
+    let mut t = like.duplicate()?;
+    t.set(0.0)?;
+    let (lo, _) = t.ownership_range()?;
+    {
+        let mut w = t.write()?;
+        for &g in &probe.rows {
+            w[(g - lo) as usize] = 1.0;
+        }
+    }
+    let t_norm = t.norm2()?;
+    if t_norm == 0.0 {
+        return Ok(f64::INFINITY);
+    }
+    let mut kt = like.duplicate()?;
+    jac.mult(&t, &mut kt)?;
+    let scale = jac.norm_inf()? * t_norm;
+    Ok(if scale > 0.0 {
+        kt.norm2()? / scale
+    } else {
+        0.0
+    })
 }
 
 /// One converged load step.
@@ -108,6 +166,21 @@ pub enum SolverError {
         load: f64,
         /// Null pivots.
         pivots: usize,
+    },
+    /// The tangent does not resist a rigid translation that no Dirichlet condition holds: the
+    /// contact pairs do not hold it either.
+    #[error("load step {step} (load {load:.6}): the tangent stiffness is singular: nothing resists the translation along {axis} of {what} (|K t| = {ratio:.1e} |K| |t|); the contact pairs cannot hold it, so a Dirichlet condition (or friction) must", axis = ["x", "y", "z"][*axis])]
+    FreeTranslation {
+        /// The step (1-based).
+        step: usize,
+        /// The load it reached.
+        load: f64,
+        /// What moves freely.
+        what: String,
+        /// The axis.
+        axis: usize,
+        /// `|K t| / (|K|_inf |t|)`.
+        ratio: f64,
     },
     /// PETSc failed.
     #[error(transparent)]
@@ -203,8 +276,35 @@ pub fn run_load_steps_from<'p>(
             }
             asm.refresh_pattern(x, jac)?;
             let out = super::settle::solve_settled(asm, snes, x, jac)?;
-            // A singular tangent (a body nothing holds) would give an arbitrary answer: MUMPS's
-            // null-pivot count (-mat_mumps_icntl_24 1) stops the run instead.
+            // A singular tangent (a body nothing holds) would give an arbitrary answer. A
+            // translation that only contact could hold is checked on the tangent itself (exact,
+            // whatever the factorisation's roundoff); any other rigid motion through MUMPS's
+            // null-pivot count (-mat_mumps_icntl_24 1) in the last factorisation. (Not in every
+            // factorisation of the attempt: the first tangent of a step is singular wherever
+            // contact holds a body only once it closes during the step, e.g. a disk pressed into
+            // a cradle, and Newton goes on correctly from MUMPS's treatment of the null pivot.)
+            if out.converged {
+                for probe in &control.translation_probes {
+                    let ratio = translation_resistance(jac, x, probe)?;
+                    if std::env::var_os("NURBS_CONTACT_DEBUG_PROBES").is_some() {
+                        eprintln!(
+                            "probe: step {} translation {} of {}: |K t| / (|K| |t|) = {ratio:.3e}",
+                            step + 1,
+                            ["x", "y", "z"][probe.axis],
+                            probe.what
+                        );
+                    }
+                    if ratio <= FREE_TRANSLATION_TOL {
+                        return Err(SolverError::FreeTranslation {
+                            step: step + 1,
+                            load: target,
+                            what: probe.what.clone(),
+                            axis: probe.axis,
+                            ratio,
+                        });
+                    }
+                }
+            }
             if let Some(pivots) = snes.null_pivots()?.filter(|&p| p > 0) {
                 return Err(SolverError::Singular {
                     step: step + 1,
@@ -560,6 +660,7 @@ mod tests {
 
     fn control(steps: Vec<usize>, max_cutbacks: usize) -> StepControl {
         StepControl {
+            translation_probes: Vec::new(),
             stage_steps: steps,
             max_cutbacks,
             growth: 2.0,

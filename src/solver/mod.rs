@@ -5,6 +5,6 @@ pub mod load_stepping;
 mod settle;
 
 pub use load_stepping::{
-    run_load_steps, run_load_steps_from, AfterStep, LoadPosition, SolverError, StepControl,
-    StepRecord, StepSizer,
+    run_load_steps, run_load_steps_from, translation_resistance, AfterStep, LoadPosition,
+    SolverError, StepControl, StepRecord, StepSizer, TranslationProbe, FREE_TRANSLATION_TOL,
 };
