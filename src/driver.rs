@@ -594,8 +594,14 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
         && rank0(petsc)
         && !matches!(result, Err(SolverError::Interrupted { .. }))
     {
+        let t_plots = Instant::now();
         match io::plots::write_plots(&out_dir) {
-            Ok(p) => p,
+            Ok(p) => {
+                log(comm_rank(petsc), opts.verbosity, Verbosity::Verbose, || {
+                    format!("pictures drawn in {:.2} s", t_plots.elapsed().as_secs_f64())
+                });
+                p
+            }
             Err(e) => {
                 eprintln!("warning: no pictures of the run: {e}");
                 Vec::new()

@@ -292,6 +292,9 @@ fn hex((r, g, b): (u8, u8, u8)) -> String {
 /// lowest colour): the L2-projected pressure rings slightly around the contact edge.
 const NO_CONTACT: f64 = 0.01;
 
+/// 2D meshes of more cells are drawn as their outline (drawing 6,000 cells takes 0.8 s).
+const MAX_CELLS_DRAWN: usize = 50_000;
+
 /// Shapes in drawing coordinates (y up), drawn in order: filled polygons and thick lines.
 #[derive(Default)]
 struct Scene {
@@ -382,9 +385,31 @@ fn fill_of(p: f64, p_max: f64, shade: f64) -> String {
 fn scene_2d(bulk: &GridFrame, surface: Option<&GridFrame>, p_max: f64) -> Scene {
     let xy = |x: &[f64; 3]| [x[0], x[1]];
     let mut sc = Scene::default();
-    for c in &bulk.cells {
-        let poly = c.iter().map(|&n| xy(&bulk.x[n])).collect();
-        sc.polygons.push((poly, fill_of(0.0, p_max, 0.6), 0.5));
+    if bulk.cells.len() <= MAX_CELLS_DRAWN {
+        for c in &bulk.cells {
+            let poly = c.iter().map(|&n| xy(&bulk.x[n])).collect();
+            sc.polygons.push((poly, fill_of(0.0, p_max, 0.6), 0.5));
+        }
+    } else {
+        // too many cells to draw one by one (the picture would take longer than a small run):
+        // the mesh's outline, the edges that belong to one cell only
+        let mut count: std::collections::HashMap<(usize, usize), usize> = Default::default();
+        for c in &bulk.cells {
+            for i in 0..c.len() {
+                let (a, b) = (c[i], c[(i + 1) % c.len()]);
+                *count.entry((a.min(b), a.max(b))).or_default() += 1;
+            }
+        }
+        let mut outline: Vec<(usize, usize)> = count
+            .into_iter()
+            .filter(|&(_, k)| k == 1)
+            .map(|(e, _)| e)
+            .collect();
+        outline.sort_unstable();
+        for (a, b) in outline {
+            sc.lines
+                .push((xy(&bulk.x[a]), xy(&bulk.x[b]), "#404040".into(), 1.0));
+        }
     }
     // cell edges whose both nodes carry pressure: the contact zone of surfaces without a smooth
     // `surface` grid (Q1C1), under the smooth curves of the enriched ones
