@@ -122,3 +122,78 @@ fn run_killed_while_writing_leaves_no_truncated_results() {
         "a killed run left summary.json behind"
     );
 }
+
+/// Issue 23: the shipped block pushed down by 5 (500 % of its height) used to end "converged" with
+/// its top face below the clamped base (det J < 0 at element corners, > 0 at every Gauss point).
+/// Now the run stops at the first step whose converged states are all folded over, naming the
+/// element and the corner, and the output directory holds complete results that end at the last
+/// valid step (results, history, checkpoint), on 1 and 2 ranks.
+#[test]
+fn a_tangled_state_is_never_accepted_and_the_results_end_at_the_last_valid_step() {
+    let c = case("block_compression_3d.toml");
+    for np in [1, 2] {
+        let d = scratch(&format!("tangled-np{np}"));
+        let out = run(
+            np,
+            &[
+                "run",
+                c.to_str().unwrap(),
+                "--out",
+                d.to_str().unwrap(),
+                "--set",
+                "bcs.1.value=[[-5.0]]",
+                "--checkpoint-every",
+                "1",
+            ],
+        );
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert!(
+            err.contains(
+                "the converged state is tangled, an element is folded over: block element"
+            ) && err.contains("at corner")
+                && !err.contains("results in"),
+            "{err}"
+        );
+        // "the results end at the last valid step, N (load L)"
+        let tail = err
+            .split("the last valid step, ")
+            .nth(1)
+            .unwrap_or_else(|| panic!("no last valid step in: {err}"));
+        let last_step: usize = tail.split(' ').next().unwrap().parse().unwrap();
+        let last_load: f64 = tail
+            .split("(load ")
+            .nth(1)
+            .and_then(|t| t.split(')').next())
+            .unwrap()
+            .parse()
+            .unwrap();
+        assert!(last_step >= 1, "{err}");
+        // complete files only, and they end at that step
+        for f in std::fs::read_dir(&d).unwrap() {
+            let name = f.unwrap().file_name().to_string_lossy().into_owned();
+            assert!(!name.ends_with(".partial"), "{name} left in {d:?}");
+        }
+        let steps = history_col(&d, "step");
+        let loads = history_col(&d, "load_factor");
+        assert_eq!(steps.len(), last_step, "one history row per valid step");
+        assert_eq!(*steps.last().unwrap() as usize, last_step);
+        assert!((loads.last().unwrap() - last_load).abs() < 1e-6);
+        assert_eq!(h5_steps(&d), last_step, "one results step per valid step");
+        assert!(h5_last(&d, "bulk", "displacement")
+            .iter()
+            .all(|v| v.is_finite()));
+        let xdmf = std::fs::read_to_string(d.join("results.xdmf")).unwrap();
+        assert!(xdmf.contains(&format!("/steps/{:06}/", last_step - 1)));
+        assert!(!xdmf.contains(&format!("/steps/{:06}/", last_step)));
+        let s = summary(&d);
+        assert_eq!(s["status"], "failed", "{s}");
+        assert!(s["reason"].as_str().unwrap().contains("tangled"), "{s}");
+        // the checkpoint is the last valid step's, complete
+        let cps: Vec<String> = std::fs::read_dir(d.join("checkpoints"))
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(cps, vec![format!("step-{last_step:06}")], "{cps:?}");
+    }
+}

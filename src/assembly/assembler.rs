@@ -1025,6 +1025,63 @@ impl<'p> Assembler<'p> {
         Ok(out)
     }
 
+    /// The first element, in (body, body-local cell) order over all ranks, whose map at `x` is
+    /// folded over somewhere ([`ElementSet::check_untangled`]): its failure's message (body,
+    /// cell, family, where), the same on every rank whatever the partition; `None` when there is
+    /// none. Run on a converged state before it is accepted (once per step, not per residual).
+    ///
+    /// Collective.
+    pub fn find_tangled(&mut self, x: &Vector) -> Result<Option<String>, PetscError> {
+        self.scatter.gather(x, &mut self.x_local)?;
+        let mut first: Option<((usize, usize), ElementFailure)> = None;
+        {
+            let xl = self.x_local.read()?;
+            for (si, (set, r)) in self.sets.iter().zip(&self.restrict).enumerate() {
+                for e in 0..set.len() {
+                    let key = set.cell_id(e);
+                    if first.as_ref().is_some_and(|(k, _)| *k <= key) {
+                        continue;
+                    }
+                    let (a, b) = (r.offsets[e], r.offsets[e + 1]);
+                    for (k, &l) in r.local[a..b].iter().enumerate() {
+                        self.u_e[k] = xl[l as usize];
+                    }
+                    if !self.offsets.is_empty() {
+                        add_offsets(&self.offsets, &self.rslot[si][a..b], &mut self.u_e[..b - a]);
+                    }
+                    if let Err(f) = set.check_untangled(e, &self.u_e[..b - a]) {
+                        first = Some((key, f));
+                    }
+                }
+            }
+        }
+        // the lowest (body, cell) over the ranks; the rank that has it sends its message
+        let comm = self.petsc.comm();
+        let mine = first
+            .as_ref()
+            .map_or(u64::MAX, |((b, c), _)| ((*b as u64) << 40) | *c as u64);
+        let mut lowest = u64::MAX;
+        comm.all_reduce_into(&mine, &mut lowest, SystemOperation::min());
+        if lowest == u64::MAX {
+            return Ok(None);
+        }
+        let candidate = if mine == lowest {
+            comm.rank()
+        } else {
+            i32::MAX
+        };
+        let mut root = 0i32;
+        comm.all_reduce_into(&candidate, &mut root, SystemOperation::min());
+        let mut bytes = first
+            .map(|(_, f)| f.to_string().into_bytes())
+            .unwrap_or_default();
+        let mut len = bytes.len() as u64;
+        comm.process_at_rank(root).broadcast_into(&mut len);
+        bytes.resize(len as usize, 0);
+        comm.process_at_rank(root).broadcast_into(&mut bytes[..]);
+        Ok(Some(String::from_utf8_lossy(&bytes).into_owned()))
+    }
+
     /// Tells every element set and the contact state that the current state is converged.
     pub fn commit(&mut self) {
         for s in &mut self.sets {

@@ -36,6 +36,10 @@ pub trait ElementSet: Send {
         r_e: &mut [f64],
         k_e: Option<&mut [f64]>,
     ) -> Result<(), ElementFailure>;
+    /// Checks that element `e`'s current map is not folded over anywhere (see
+    /// `crate::fem::untangle`), not only at the quadrature points that `evaluate` sees; run on a
+    /// converged state before the load stepping accepts it. `u_e` as in `evaluate`.
+    fn check_untangled(&self, e: usize, u_e: &[f64]) -> Result<(), ElementFailure>;
     /// Stress measures of element `e` for output: (tr sigma, von Mises), averaged over the element.
     fn stress_measures(&self, e: usize, u_e: &[f64]) -> Result<(f64, f64), ElementFailure>;
     /// Called once a load step has converged (e.g. to keep enhanced-strain parameters as warm start).

@@ -6,6 +6,8 @@
 //! the tangent with the pointwise material of `crate::material`. [`q1e4`] is the enhanced assumed strain quad of
 //! Simo & Armero 1992 built on the same kernel, with its 4 internal parameters condensed per element.
 //!
+//! [`untangle`] checks a converged state's element maps between the quadrature points (folded corners).
+//!
 //! [`sets`] groups a body's elements on this rank behind the assembly's `ElementSet` trait.
 //!
 //! Conventions: element dofs are node-major (`dof a*D + i` = node `a`, component `i`); element matrices are
@@ -19,6 +21,7 @@ pub mod q1e4;
 pub mod quad4;
 pub mod quadrature;
 pub mod sets;
+pub mod untangle;
 
 #[cfg(test)]
 pub(crate) mod test_support;

@@ -3,6 +3,7 @@
 
 use super::kernel::TlElement;
 use super::q1e4::Q1e4Element;
+use super::untangle::MapCheck;
 use crate::assembly::{ElementFailure, ElementSet};
 use crate::material::Material;
 
@@ -20,6 +21,8 @@ pub struct TlSet {
     /// Body-local cell id of each element. [n_el]
     cells: Vec<usize>,
     elements: Vec<TlElement>,
+    /// The tangle check of each element. [n_el]
+    checks: Vec<MapCheck>,
 }
 
 impl TlSet {
@@ -34,15 +37,26 @@ impl TlSet {
             offsets: vec![0],
             cells: Vec::new(),
             elements: Vec::new(),
+            checks: Vec::new(),
         }
     }
 
-    /// Adds an element: body-local `cell`, its global `nodes`, its precomputed kernel data.
-    pub fn push(&mut self, cell: usize, nodes: &[u32], element: TlElement) {
+    /// Adds an element: body-local `cell`, its global `nodes`, its precomputed kernel data and
+    /// its tangle check.
+    pub fn push(&mut self, cell: usize, nodes: &[u32], element: TlElement, check: MapCheck) {
         self.nodes.extend_from_slice(nodes);
         self.offsets.push(self.nodes.len());
         self.cells.push(cell);
         self.elements.push(element);
+        self.checks.push(check);
+    }
+
+    /// The tangle check of element `e` at `u_e`; a small-strain material accepts any map.
+    fn untangled(&self, e: usize, u_e: &[f64]) -> Result<(), ElementFailure> {
+        if !self.material.finite_strain() {
+            return Ok(());
+        }
+        self.checks[e].check(u_e).map_err(|t| self.failure(e, t))
     }
 
     fn failure(&self, e: usize, reason: impl ToString) -> ElementFailure {
@@ -74,6 +88,10 @@ impl ElementSet for TlSet {
         self.elements[e]
             .residual_tangent(&self.material, u_e, r_e, k_e)
             .map_err(|err| self.failure(e, err))
+    }
+
+    fn check_untangled(&self, e: usize, u_e: &[f64]) -> Result<(), ElementFailure> {
+        self.untangled(e, u_e)
     }
 
     fn stress_measures(&self, e: usize, u_e: &[f64]) -> Result<(f64, f64), ElementFailure> {
@@ -109,11 +127,12 @@ impl Q1e4Set {
         }
     }
 
-    /// Adds an element (4 nodes in quad4 order).
-    pub fn push(&mut self, cell: usize, nodes: &[u32], element: Q1e4Element) {
+    /// Adds an element (4 nodes in quad4 order) with its tangle check.
+    pub fn push(&mut self, cell: usize, nodes: &[u32], element: Q1e4Element, check: MapCheck) {
         self.base.nodes.extend_from_slice(nodes);
         self.base.offsets.push(self.base.nodes.len());
         self.base.cells.push(cell);
+        self.base.checks.push(check);
         self.elements.push(element);
         self.alpha.push([0.0; 4]);
         self.alpha_committed.push([0.0; 4]);
@@ -169,6 +188,11 @@ impl ElementSet for Q1e4Set {
         result.map_err(|err| self.base.failure(e, err))
     }
 
+    fn check_untangled(&self, e: usize, u_e: &[f64]) -> Result<(), ElementFailure> {
+        // the enhanced modes change F at the points, not the element's map of its nodes
+        self.base.untangled(e, u_e)
+    }
+
     fn stress_measures(&self, e: usize, u_e: &[f64]) -> Result<(f64, f64), ElementFailure> {
         let u: [f64; 8] = as_array(u_e);
         self.elements[e]
@@ -214,7 +238,12 @@ mod tests {
         let mat: Material = NeoHookean::from_young_poisson(1.0, 0.3).unwrap().into();
         let mut set = Q1e4Set::new(0, "b", mat);
         let x = [0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0, 1.0];
-        set.push(0, &[0, 1, 2, 3], Q1e4Element::new(&x).unwrap());
+        set.push(
+            0,
+            &[0, 1, 2, 3],
+            Q1e4Element::new(&x).unwrap(),
+            MapCheck::linear(2, &x),
+        );
         assert_eq!(set.history_width(), 4);
         let u = [0.0, 0.0, 0.1, 0.0, 0.12, -0.05, 0.0, -0.05];
         let (mut r, mut k) = ([0.0; 8], [0.0; 64]);
@@ -225,7 +254,12 @@ mod tests {
         let alpha = set.history(0).to_vec();
         assert!(alpha.iter().any(|a| a.abs() > 1e-6), "{alpha:?}");
         let mut other = Q1e4Set::new(0, "b", mat);
-        other.push(0, &[0, 1, 2, 3], Q1e4Element::new(&x).unwrap());
+        other.push(
+            0,
+            &[0, 1, 2, 3],
+            Q1e4Element::new(&x).unwrap(),
+            MapCheck::linear(2, &x),
+        );
         other.set_history(0, &alpha);
         other.rollback();
         assert_eq!(other.history(0), &alpha[..]);

@@ -39,6 +39,13 @@ impl From<LinearElastic> for Material {
 
 #[allow(non_snake_case)]
 impl Material {
+    /// True for a finite-strain law, which needs `det F > 0` everywhere (an inverted element is
+    /// an error). A small-strain law (`linear_elastic`) answers in the reference configuration and
+    /// accepts any `F`, so its displaced mesh may overlap itself without the answer being wrong.
+    pub fn finite_strain(&self) -> bool {
+        matches!(self, Material::NeoHookean(_))
+    }
+
     /// Shear modulus `mu` (a Lame parameter of every law).
     pub fn mu(&self) -> f64 {
         match self {

@@ -15,6 +15,10 @@ pub enum MeshError {
         xi: [f64; 3],
         det: f64,
     },
+    /// A node coordinate is not finite or too large for the geometry (see
+    /// [`super::MAX_COORDINATE`]).
+    #[error("node {node} has the coordinates {x:?}: {why}")]
+    BadCoordinate { node: u32, x: Vec<f64>, why: String },
     #[error("cell {cell} refers to node {node}, but the mesh has only {n_nodes} nodes")]
     NodeIndexOutOfRange {
         cell: usize,

@@ -551,6 +551,22 @@ pub fn parse_gmsh_with_warnings<'a>(
 
     let mut mesh = Mesh::new(dim);
     for (n, p) in xyz.chunks(3).enumerate() {
+        // before any geometric check, which a non-finite or huge coordinate would mislead
+        if let Some((k, &v)) = p
+            .iter()
+            .enumerate()
+            .find(|(_, v)| !super::coordinate_in_range(**v))
+        {
+            return Err(err(
+                xyz_lines[n],
+                format!(
+                    "node {}: coordinate {} = {}",
+                    node_tags[n],
+                    ["x", "y", "z"][k],
+                    super::coordinate_problem(v)
+                ),
+            ));
+        }
         if dim == 2 && p[2] != 0.0 {
             return Err(err(
                 xyz_lines[n],

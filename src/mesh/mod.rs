@@ -60,9 +60,32 @@ pub struct Mesh {
 /// counts as zero rather than negative (degenerate corners, see [`Mesh::validate`]).
 const DEGENERATE_CORNER_TOL: f64 = 1e-10;
 
+/// Largest coordinate magnitude a mesh may hold (any length unit from nanometres to light years
+/// fits far inside). Squared distances, cell volumes `h^3` and forces built from them must stay
+/// finite: at 1e300 a squared distance overflows to infinity and every tolerance built on it
+/// with it, so geometric checks would blame the wrong thing (two far-apart nodes "at the same
+/// point").
+pub const MAX_COORDINATE: f64 = 1e30;
+
 /// Relative distance, in units of the cell diameter, below which two different nodes of one cell
 /// count as the same point (see [`MeshError::CoincidentNodes`]).
 const COINCIDENT_NODE_TOL: f64 = 1e-10;
+
+/// True for a finite coordinate within [`MAX_COORDINATE`] in magnitude.
+pub fn coordinate_in_range(v: f64) -> bool {
+    v.is_finite() && v.abs() <= MAX_COORDINATE
+}
+
+/// What is wrong with a coordinate `v` that is not finite or beyond [`MAX_COORDINATE`].
+pub fn coordinate_problem(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v:e} is beyond the largest coordinate accepted, {MAX_COORDINATE:e} in magnitude")
+    } else {
+        format!(
+            "{v} is not a finite number (a value beyond 1.8e308, such as 1e999, reads as infinite)"
+        )
+    }
+}
 
 impl Mesh {
     /// An empty mesh of dimension `dim`.
@@ -160,6 +183,16 @@ impl Mesh {
                 self.coords.len(),
                 self.dim
             )));
+        }
+        // before anything geometric: a non-finite or huge coordinate breaks every tolerance
+        for (node, x) in self.coords.chunks_exact(self.dim).enumerate() {
+            if let Some(v) = x.iter().find(|v| !coordinate_in_range(**v)) {
+                return Err(MeshError::BadCoordinate {
+                    node: node as u32,
+                    x: x.to_vec(),
+                    why: coordinate_problem(*v),
+                });
+            }
         }
         let n_cells = self.n_cells();
         if self.cell_offsets.len() != n_cells + 1
@@ -616,6 +649,31 @@ impl Mesh {
 mod tests {
     use super::rectangle::rectangle;
     use super::*;
+
+    #[test]
+    fn validate_names_non_finite_and_huge_coordinates_before_any_geometric_check() {
+        for (v, words) in [
+            (f64::INFINITY, "inf is not a finite number"),
+            (f64::NAN, "NaN is not a finite number"),
+            (
+                -1e300,
+                "-1e300 is beyond the largest coordinate accepted, 1e30",
+            ),
+        ] {
+            let mut m = rectangle([0.0, 0.0], [2.0, 1.0], [2, 1]).unwrap();
+            m.coords[2 * 4 + 1] = v;
+            match m.validate() {
+                Err(e @ MeshError::BadCoordinate { node: 4, .. }) => {
+                    assert!(e.to_string().contains(words), "{e}")
+                }
+                other => panic!("expected BadCoordinate for node 4, got {other:?}"),
+            }
+        }
+        // the largest accepted magnitude passes this check (and reaches the geometric ones)
+        let mut m = rectangle([0.0, 0.0], [2.0, 1.0], [2, 1]).unwrap();
+        m.coords.iter_mut().for_each(|c| *c *= 1e29);
+        m.validate().unwrap();
+    }
 
     #[test]
     fn validate_catches_inverted_cell() {

@@ -6,6 +6,7 @@ use crate::fem::kernel::TlElement;
 use crate::fem::q1e4::Q1e4Element;
 use crate::fem::quadrature::tensor_rule;
 use crate::fem::sets::{Q1e4Set, TlSet};
+use crate::fem::untangle::{Corners, MapCheck};
 use crate::fem::{hex8, quad4};
 use crate::material::{LinearElastic, Material, NeoHookean};
 use crate::mesh::{self, CellKind, Mesh, MeshError};
@@ -311,16 +312,48 @@ pub fn tied_tl_element(body: &Body, tc: &TiedCell) -> Result<TlElement, crate::f
     TlElement::new(dim, &X, &tc.expand(&table, dim), &rule.weights)
 }
 
-/// The Q1E4 element of linear quad `c` of body `b` and its global nodes.
+/// The Q1E4 element of linear quad `c` of body `b`, its global nodes and its tangle check.
 #[allow(non_snake_case)]
-fn q1e4_element(b: &Body, c: usize) -> Result<(Q1e4Element, Vec<u32>), String> {
+fn q1e4_element(b: &Body, c: usize) -> Result<(Q1e4Element, Vec<u32>, MapCheck), String> {
     let nodes = b.mesh.cell(c);
     let mut X = [0.0; 8];
     for (a, &n) in nodes.iter().enumerate().take(4) {
         X[2 * a..2 * a + 2].copy_from_slice(b.mesh.node(n));
     }
     let el = Q1e4Element::new(&X).map_err(|e| e.to_string())?;
-    Ok((el, nodes.iter().map(|&n| n + b.node_offset).collect()))
+    Ok((
+        el,
+        nodes.iter().map(|&n| n + b.node_offset).collect(),
+        MapCheck::linear(2, &X),
+    ))
+}
+
+/// The tangle check of an enriched cell: its map sampled at the parent corners and on a grid
+/// finer than its control net (see [`crate::fem::untangle`]).
+#[allow(non_snake_case)]
+pub fn enriched_check(body: &Body, ec: &EnrichedCell) -> MapCheck {
+    let dim = body.mesh.dim;
+    let X: Vec<f64> = ec
+        .nodes
+        .iter()
+        .flat_map(|&a| body.node(a).to_vec())
+        .collect();
+    // the surface directions' point counts are the control points per direction (p + 1)
+    let n = ec.quadrature_counts();
+    let points = MapCheck::enriched_points(dim, &n[..dim - 1]);
+    MapCheck::sampled(dim, X, &points, |xi, N, dN| ec.shape(xi, N, dN))
+}
+
+/// The tangle check of a linear cell tied to an enriched surface: its linear map through its
+/// virtual corners, the tied ones following their control points.
+#[allow(non_snake_case)]
+pub fn tied_check(body: &Body, tc: &TiedCell) -> MapCheck {
+    let X: Vec<f64> = tc
+        .nodes
+        .iter()
+        .flat_map(|&a| body.node(a).to_vec())
+        .collect();
+    MapCheck::linear_with(body.mesh.dim, X, Corners::Tied(tc.map.clone()))
 }
 
 /// Adds the node sets a body selects by position (`[bodies.<body>.node_sets]`) to its mesh.
@@ -895,13 +928,14 @@ impl Model {
                         .then(|| Q1e4Set::new(bi, &b.name, b.material));
                     for c in mine {
                         if let (Some(q), None) = (q1e4.as_mut(), b.enriched_cell(c)) {
-                            let (el, g) = q1e4_element(b, c).map_err(|m| elem_err(c, m))?;
-                            q.push(c, &g, el);
+                            let (el, g, check) =
+                                q1e4_element(b, c).map_err(|m| elem_err(c, m))?;
+                            q.push(c, &g, el, check);
                             continue;
                         }
-                        let el = match (b.enriched_cell(c), b.tied_cell(c)) {
-                            (Some(ec), _) => enriched_tl_element(b, ec),
-                            (None, Some(tc)) => tied_tl_element(b, tc),
+                        let (el, check) = match (b.enriched_cell(c), b.tied_cell(c)) {
+                            (Some(ec), _) => (enriched_tl_element(b, ec), enriched_check(b, ec)),
+                            (None, Some(tc)) => (tied_tl_element(b, tc), tied_check(b, tc)),
                             (None, None) => {
                                 let X: Vec<f64> = b
                                     .mesh
@@ -909,16 +943,17 @@ impl Model {
                                     .iter()
                                     .flat_map(|&n| b.mesh.node(n).to_vec())
                                     .collect();
-                                match b.mesh.cell_kind[c] {
+                                let el = match b.mesh.cell_kind[c] {
                                     CellKind::Quad4 => quad4::tl_element(&X, 2),
                                     CellKind::Hex8 => hex8::tl_element(&X, 2),
-                                }
+                                };
+                                (el, MapCheck::linear(dim, &X))
                             }
                         };
                         let el = el.map_err(|e| elem_err(c, e.to_string()))?;
                         let g: Vec<u32> =
                             b.element_nodes(c).iter().map(|&n| n + b.node_offset).collect();
-                        set.push(c, &g, el);
+                        set.push(c, &g, el, check);
                     }
                     sets.push(Box::new(set));
                     if let Some(q) = q1e4 {
@@ -928,8 +963,8 @@ impl Model {
                 ElementFamily::Q1E4 if dim == 2 => {
                     let mut set = Q1e4Set::new(bi, &b.name, b.material);
                     for c in mine {
-                        let (el, g) = q1e4_element(b, c).map_err(|m| elem_err(c, m))?;
-                        set.push(c, &g, el);
+                        let (el, g, check) = q1e4_element(b, c).map_err(|m| elem_err(c, m))?;
+                        set.push(c, &g, el, check);
                     }
                     sets.push(Box::new(set));
                 }

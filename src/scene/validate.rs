@@ -2,6 +2,7 @@
 //! tables, counts that depend on the number of stages, dimension rules). All problems are collected and
 //! reported together, each with its key path.
 
+use crate::mesh::{coordinate_in_range, MAX_COORDINATE};
 use crate::scene::element_family::ElementFamily;
 use crate::scene::error::Issue;
 use crate::scene::schema::{BcSpec, Case, Component, EnrichedGeometry, Generator, MeshSpec};
@@ -206,6 +207,43 @@ impl Issues {
         }
     }
 
+    /// A point (`origin`, `center`): finite and within the mesh layer's coordinate range.
+    fn point(&mut self, key: String, xs: &[f64]) {
+        if let Some(x) = xs.iter().find(|x| !coordinate_in_range(**x)) {
+            self.push(key, format!("must be {}", range_problem(*x)));
+        }
+    }
+
+    /// Lengths (the components of a `size`, or one radius) added to a point `at` (its `origin`
+    /// or `center`, checked by [`Issues::point`]): positive, and the mesh they span within the
+    /// coordinate range (checked before any geometry: beyond it squared distances overflow and
+    /// the geometric checks blame the wrong thing). One issue per key at most.
+    fn extent(&mut self, key: String, lens: &[f64], at: &[f64]) {
+        if let Some(len) = lens.iter().find(|l| !(l.is_finite() && **l > 0.0)) {
+            self.push(key, format!("must be a positive number, got {len}"));
+            return;
+        }
+        let Some(len) = lens.iter().copied().reduce(f64::max) else {
+            return;
+        };
+        if let Some(x) = at
+            .iter()
+            .filter(|c| coordinate_in_range(**c))
+            .map(|c| c.abs() + len)
+            .chain([len])
+            .find(|x| !coordinate_in_range(*x))
+        {
+            self.push(
+                key,
+                format!(
+                    "is out of range: the mesh would reach the coordinate {x:e}, beyond the \
+                     largest accepted, {MAX_COORDINATE:e} in magnitude (squared distances and \
+                     volumes would overflow); use a smaller length unit"
+                ),
+            );
+        }
+    }
+
     fn divisions(&mut self, key: String, n: &[usize]) {
         if n.contains(&0) {
             self.push(key, format!("every division count must be > 0, got {n:?}"));
@@ -221,6 +259,18 @@ impl Issues {
                 issues: self.0,
             })
         }
+    }
+}
+
+/// What is wrong with a point coordinate `x`: not finite, or beyond [`MAX_COORDINATE`].
+fn range_problem(x: f64) -> String {
+    if x.is_finite() {
+        format!(
+            "at most {MAX_COORDINATE:e} in magnitude (squared distances and volumes would \
+             overflow), got {x:e}; use a smaller length unit"
+        )
+    } else {
+        format!("finite, got {x}")
     }
 }
 
@@ -262,18 +312,18 @@ fn check_meshes(case: &Case, dim_ok: bool, v: &mut Issues) {
                 }
                 match g {
                     Generator::Rectangle(p) => {
-                        v.finite(k("origin"), &p.origin);
-                        p.size.iter().for_each(|&s| v.positive(k("size"), s));
+                        v.point(k("origin"), &p.origin);
+                        v.extent(k("size"), &p.size, &p.origin);
                         v.divisions(k("divisions"), &p.divisions);
                     }
                     Generator::Box(p) => {
-                        v.finite(k("origin"), &p.origin);
-                        p.size.iter().for_each(|&s| v.positive(k("size"), s));
+                        v.point(k("origin"), &p.origin);
+                        v.extent(k("size"), &p.size, &p.origin);
                         v.divisions(k("divisions"), &p.divisions);
                     }
                     Generator::HalfDisk(p) => {
-                        v.finite(k("center"), &p.center);
-                        v.positive(k("radius"), p.radius);
+                        v.point(k("center"), &p.center);
+                        v.extent(k("radius"), &[p.radius], &p.center);
                         if p.n_arc < 4 {
                             v.push(
                                 k("n_arc"),
@@ -286,7 +336,7 @@ fn check_meshes(case: &Case, dim_ok: bool, v: &mut Issues) {
                         v.divisions(k("n_radial"), &[p.n_radial]);
                     }
                     Generator::Sector(p) => {
-                        v.finite(k("center"), &p.center);
+                        v.point(k("center"), &p.center);
                         v.finite(k("theta0_deg"), &[p.theta0_deg, p.theta1_deg]);
                         if !(p.r_inner.is_finite() && p.r_inner > 0.0) {
                             v.push(k("r_inner"), format!("must be > 0, got {}", p.r_inner));
@@ -296,6 +346,8 @@ fn check_meshes(case: &Case, dim_ok: bool, v: &mut Issues) {
                                 k("r_outer"),
                                 format!("must exceed r_inner = {}, got {}", p.r_inner, p.r_outer),
                             );
+                        } else {
+                            v.extent(k("r_outer"), &[p.r_outer], &p.center);
                         }
                         let span = p.theta1_deg - p.theta0_deg;
                         if !(span > 0.0 && span < 360.0) {
@@ -311,8 +363,8 @@ fn check_meshes(case: &Case, dim_ok: bool, v: &mut Issues) {
                         v.divisions(k("divisions"), &p.divisions);
                     }
                     Generator::Hemisphere(p) | Generator::HemisphereNurbs(p) => {
-                        v.finite(k("center"), &p.center);
-                        v.positive(k("outer_radius"), p.outer_radius);
+                        v.point(k("center"), &p.center);
+                        v.extent(k("outer_radius"), &[p.outer_radius], &p.center);
                         if !(p.thickness > 0.0 && p.thickness < p.outer_radius) {
                             v.push(
                                 k("thickness"),
@@ -805,6 +857,34 @@ mod tests {
         let o = ["bodies.strip.enriched_geometry=\"wavy\"".to_string()];
         let e = parse_case(STRIP_BENDING_2D, Path::new("c.toml"), &o).unwrap_err();
         assert!(e.to_string().contains("wavy"), "{e}");
+    }
+
+    #[test]
+    fn mesh_extents_beyond_the_coordinate_range_are_named_by_key() {
+        let i = issues(
+            BLOCK_COMPRESSION_3D,
+            &["meshes.block.size=[1e300, 1.0, 1.0]"],
+        );
+        assert!(has(&i, "meshes.block.size", "is out of range"), "{i:?}");
+        let i = issues(
+            BLOCK_COMPRESSION_3D,
+            &["meshes.block.origin=[0.0, -1e300, 0.0]"],
+        );
+        assert!(has(&i, "meshes.block.origin", "at most 1e30"), "{i:?}");
+        // a finite origin plus a finite size that together pass the range
+        let i = issues(
+            BLOCK_COMPRESSION_3D,
+            &[
+                "meshes.block.origin=[9e29, 0.0, 0.0]",
+                "meshes.block.size=[2e29, 1.0, 1.0]",
+            ],
+        );
+        assert!(has(&i, "meshes.block.size", "1.1e30"), "{i:?}");
+        let i = issues(IRONING_2D, &["meshes.cylinder.radius=1e300"]);
+        assert!(
+            has(&i, "meshes.cylinder.radius", "is out of range"),
+            "{i:?}"
+        );
     }
 
     #[test]

@@ -6,6 +6,11 @@
 //! increment; the increment never goes below `nominal / 2^max_cutbacks` (the minimum step), and a
 //! step that fails at the minimum stops the run with an error naming it. After an easy step the
 //! increment grows back by `growth`, never beyond the nominal one.
+//!
+//! A converged state is accepted only if no element is folded over between its quadrature points
+//! (`Assembler::find_tangled`, `crate::fem::untangle`): a tangled one is cut back like a failed
+//! attempt, refused by the rescue too, and a step whose every converged state is tangled ends the
+//! run with [`SolverError::Tangled`], the last valid step being the last one observed (written).
 
 use crate::assembly::{prescribed_values, Assembler, ConflictError, DirichletBc};
 use crate::petsc::{Matrix, PetscError, Snes, SolveOutcome, Vector};
@@ -199,6 +204,24 @@ pub enum SolverError {
     /// The observer (output writer) failed.
     #[error("while writing results: {0}")]
     Observer(String),
+    /// Every state this step converged to is folded over somewhere (`crate::fem::untangle`),
+    /// down to the smallest increment and through the rescue: the load drives the body through
+    /// itself (or the mesh is too coarse for the deformation). Nothing of it was written.
+    #[error("load step {step} (load {load:.6}): the converged state is tangled, an element is folded over: {fold}; no smaller increment reached an untangled equilibrium{}; the results end at the last valid step, {last_step} (load {last_load:.6})", .last_attempt.as_ref().map(|a| format!(" (last attempt: {a})")).unwrap_or_default())]
+    Tangled {
+        /// The step (1-based).
+        step: usize,
+        /// The load of the tangled state.
+        load: f64,
+        /// The first folded element: body, cell, family and where.
+        fold: String,
+        /// The last accepted (and written) step.
+        last_step: usize,
+        /// Its load.
+        last_load: f64,
+        /// Why the last attempt failed, when not for this fold.
+        last_attempt: Option<String>,
+    },
 }
 
 /// Runs all stages. `x` holds the initial displacement and ends with the last converged one.
@@ -262,6 +285,8 @@ pub fn run_load_steps_from<'p>(
         // iterations of solves that stopped for a new contact pattern and were resumed
         let mut resumed_iterations = 0;
         let mut pseudo = 0;
+        // the last attempt of this step that converged to a folded state: (load, where)
+        let mut tangled: Option<(f64, String)> = None;
         let (out, target) = loop {
             let target = sizer.target();
             let values = prescribed_values(bcs, &asm.dofs, coords, target)?;
@@ -313,9 +338,17 @@ pub fn run_load_steps_from<'p>(
                 });
             }
             if out.converged {
-                break (out, target);
+                // Step acceptance: the kernel saw det F > 0 at the quadrature points only; a
+                // state folded over between them is no equilibrium of the body and is refused
+                // like a failed attempt (cut back).
+                match asm.find_tangled(x)? {
+                    None => break (out, target),
+                    Some(fold) => tangled = Some((target, fold)),
+                }
             }
-            resume = asm.pattern_outdated() && pattern_retries < MAX_PATTERN_RETRIES;
+            let just_tangled = out.converged;
+            resume =
+                !just_tangled && asm.pattern_outdated() && pattern_retries < MAX_PATTERN_RETRIES;
             if resume {
                 pattern_retries += 1;
                 resumed_iterations += out.iterations;
@@ -324,19 +357,39 @@ pub fn run_load_steps_from<'p>(
             failed_iterations += out.iterations + resumed_iterations;
             resumed_iterations = 0;
             asm.rollback();
-            let why = out
-                .domain_error
-                .clone()
-                .unwrap_or_else(|| out.reason.clone());
-            failed_attempts.push((target, why));
+            let why = match (&tangled, just_tangled) {
+                (Some((_, fold)), true) => format!("converged to a tangled state: {fold}"),
+                _ => out
+                    .domain_error
+                    .clone()
+                    .unwrap_or_else(|| out.reason.clone()),
+            };
+            failed_attempts.push((target, why.clone()));
+            // what the final error adds to a fold: the last attempt, if it failed otherwise
+            let mut last_attempt = (!just_tangled).then_some(why);
             if let Err(min) = sizer.cut_back() {
                 if control.pseudo_steps > 0 {
-                    if let Some((out, k)) =
-                        rescue(asm, snes, x, &x_conv, jac, control.pseudo_steps)?
-                    {
-                        pseudo = k;
-                        break (out, target);
+                    match rescue(asm, snes, x, &x_conv, jac, control.pseudo_steps)? {
+                        Rescue::Found(out, k) => {
+                            pseudo = k;
+                            break (out, target);
+                        }
+                        Rescue::Tangled(fold) => {
+                            tangled = Some((target, fold));
+                            last_attempt = None;
+                        }
+                        Rescue::Failed => {}
                     }
+                }
+                if let Some((at, fold)) = tangled {
+                    return Err(SolverError::Tangled {
+                        step: step + 1,
+                        load: at,
+                        fold,
+                        last_step: step,
+                        last_load: sizer.position(step).lambda,
+                        last_attempt,
+                    });
                 }
                 return Err(SolverError::StepFailed {
                     step: step + 1,
@@ -409,9 +462,11 @@ fn solve_resuming<'p>(
 /// divided by 2 after a damped solve converges, multiplied by 8 after one fails) let the state
 /// flow towards the next equilibrium, one `u_prev` after another; when the flow slows down past
 /// the snap ([`UndampedTrigger`]), an undamped Newton solve is tried from there, and the first
-/// that converges ends the rescue with a true equilibrium. Returns that solve and the number of
-/// damped solves, or `None` when `max_steps` damped solves did not reach one (`x` is then back at
-/// the converged state; the run stops).
+/// that converges to an untangled state ends the rescue with a true equilibrium. Returns that
+/// solve and the number of damped solves; an undamped solve that converges to a folded state
+/// ends the rescue at once ([`Rescue::Tangled`]: the flow went through the body itself); after
+/// `max_steps` damped solves without an equilibrium, [`Rescue::Failed`]. Unless found, `x` is
+/// back at the converged state; the run stops.
 ///
 /// Collective.
 fn rescue<'p>(
@@ -421,16 +476,16 @@ fn rescue<'p>(
     x_conv: &Vector<'p>,
     jac: &mut Matrix<'p>,
     max_steps: usize,
-) -> Result<Option<(SolveOutcome, usize)>, SolverError> {
+) -> Result<Rescue, SolverError> {
     x_conv.copy_to(x)?;
     if asm.compute_damping_diagonal(x).is_err() {
-        return Ok(None);
+        return Ok(Rescue::Failed);
     }
     let mut u_prev = x_conv.duplicate()?;
     x_conv.copy_to(&mut u_prev)?;
     let mut c = 1.0;
     let mut total_iterations = 0;
-    let mut outcome = None;
+    let mut outcome = Rescue::Failed;
     let mut trigger = UndampedTrigger::default();
     let debug = std::env::var_os("NURBS_CONTACT_DEBUG_RESCUE").is_some();
     for k in 1..=max_steps {
@@ -474,19 +529,37 @@ fn rescue<'p>(
             );
         }
         if plain.converged {
+            // acceptance: an equilibrium folded over somewhere is refused
+            if let Some(fold) = asm.find_tangled(x)? {
+                if debug {
+                    eprintln!("  refused: {fold}");
+                }
+                outcome = Rescue::Tangled(fold);
+                break;
+            }
             plain.iterations = total_iterations;
-            outcome = Some((plain, k));
+            outcome = Rescue::Found(plain, k);
             break;
         }
         asm.rollback();
         u_prev.copy_to(x)?;
     }
     asm.set_damping(0.0, &u_prev)?;
-    if outcome.is_none() {
+    if !matches!(outcome, Rescue::Found(..)) {
         asm.rollback();
         x_conv.copy_to(x)?;
     }
     Ok(outcome)
+}
+
+/// How a [`rescue`] ended.
+enum Rescue {
+    /// An untangled equilibrium: the undamped solve that reached it and the damped solves taken.
+    Found(SolveOutcome, usize),
+    /// An undamped solve converged to a folded state (where, as a message); refused.
+    Tangled(String),
+    /// No equilibrium within the allowed damped solves.
+    Failed,
 }
 
 /// When the rescue tries an undamped Newton solve, from the damping force `c D (u - u_prev)` after
