@@ -37,6 +37,15 @@
 //! [plot]
 //! curves = ["P_ironing_cylinder_arc_x", "-P_ironing_block_top_x"]   # drawn for each run
 //! x = "load_factor"                                                  # their abscissa (default)
+//!
+//! [slurm]                            # only read by --launcher slurm; every key optional
+//! time = "04:00:00"                  # per array task (default: timeout + 1 min, else the estimate)
+//! mem_per_rank = "2G"                # --mem-per-cpu (default: the estimate)
+//! partition = "compute"
+//! account = "proj42"
+//! max_running = 4                    # array tasks at once (--array=...%4)
+//! mpi = "pmix"                       # srun --mpi= (default pmix)
+//! sbatch = ["--qos=short"]           # further #SBATCH lines
 //! ```
 //! Every combination of the axes' values is one run (the first axis varies slowest), named by its
 //! values joined with `_` (`Q1N2_mesh4`); a value's label is the string itself, a level's `name`, or
@@ -75,8 +84,9 @@
 //! (mpirun passes it to its ranks), then SIGKILL 10 s later.
 //!
 //! # Outputs (in OUT, default `out/study/<name>`)
-//! - `study.csv`: one row per run: `run`, the axis labels, `status`, `skipped` (1: finished by an
-//!   earlier invocation, not run again), `unknowns`, `steps`, `last_load`, `newton_total`,
+//! - `study.csv`: one row per run: `run`, the axis labels, `status` (`converged`, `failed`, and with
+//!   `--collect` `missing`), `skipped` (1: finished by an earlier invocation, not run again; with
+//!   `--collect`: in no recorded Slurm submission), `unknowns`, `steps`, `last_load`, `newton_total`,
 //!   `newton_max_per_step`, `cutbacks`, `wall_time` (s, summary.json's total), every metric, `reason`.
 //! - `study.md`: the runs table, then one table per metric with the series values as columns and
 //!   the other axes as rows, each value also in percent of the reference's.
@@ -89,8 +99,24 @@
 //! `nurbs-contact study --check STUDY.toml` validates the file, resolves every run's case and runs
 //! `check` on it (model, sets, numbering), without solving.
 //!
+//! # On a cluster: `--launcher slurm`, `--collect`
+//! `--launcher slurm` writes `OUT/study.sbatch`, one Slurm job array with a task per run that has
+//! no converged result of its current case (and is not still queued in an earlier submission):
+//! each task runs `srun --mpi=pmix --ntasks=ranks` followed by the local launcher's command (the
+//! same arguments, with absolute paths), its output in the same `OUT/logs/<run>.out|.err`, into
+//! the same run folder. It submits the script with `sbatch --parsable`, prints the job id and
+//! records which task holds which run in `OUT/slurm-jobs.json`; `--dry-run` only writes the script
+//! (and prints its path). Time and memory per task come from `[slurm]`, else from the size estimate
+//! of the largest run (see [`slurm::resources`]).
+//! `--collect` builds `study.csv`, `study.md` and the plots from the run folders as they are, runs
+//! nothing, and can be repeated: a run is `converged` (with the same resolved case), `failed` (its
+//! summary's reason, or a Slurm task that ended without a summary) or `missing`
+//! (`status` column; with what `squeue` says: `pending (Resources) in Slurm job 12_3`, running, not
+//! submitted). `--collect` with no result at all is an error naming every run's state.
+//!
 //! - [`spec`]: the file's schema and the runs it resolves to; [`metrics`]: metric kinds;
-//!   [`exec`]: launching, resuming; [`report`]: `study.csv`, `study.md`; [`svg`]: the plots.
+//!   [`exec`]: launching, resuming, collecting; [`slurm`]: the job script, sbatch, squeue;
+//!   [`report`]: `study.csv`, `study.md`; [`svg`]: the plots.
 
 pub mod exec;
 pub mod metrics;
