@@ -1,7 +1,8 @@
 //! `nurbs-contact study --launcher slurm` and `--collect`: the generated job script, the errors
 //! (sbatch missing, a bad `[slurm]` key, `--collect` before anything ran, misused options), and a
 //! 2-run study end to end on a real single-node Slurm cluster that `ci/slurm-cluster.sh` starts
-//! (munged + slurmctld + slurmd of Debian's slurm-wlm) and stops again, also when the test fails.
+//! (munged + slurmctld + slurmd of Debian's slurm-wlm) and stops again, also when the test fails;
+//! then a run stopped by its time limit.
 //!
 //! The end-to-end test needs the Slurm and munge daemons installed (`ci/slurm-cluster.sh install`).
 //! Without them it fails when `NURBS_CONTACT_SLURM=require` (ci/test.sh sets it: CI expects Slurm)
@@ -86,6 +87,7 @@ fn dry_run_writes_one_srun_task_per_run_with_the_local_command() {
         "#SBATCH --ntasks=2",
         "#SBATCH --cpus-per-task=1",
         "#SBATCH --time=1-02:00:00",
+        "#SBATCH --signal=TERM@600",
         "#SBATCH --partition=compute",
         "#SBATCH --account=proj42",
         "#SBATCH --qos=short",
@@ -498,6 +500,47 @@ fn a_study_runs_as_a_slurm_job_array_and_is_collected() {
     assert!(out.join(format!("logs/slurm-{job2}_0.out")).is_file());
     // the Q1N2 result is the one of the first job, unchanged
     assert_eq!(rows["Q1N2_m16"]["Pmax"], good["Pmax"]);
+
+    // a run longer than its time limit: Slurm's one SIGTERM before the limit (--signal) lets it
+    // finish its load step and write its summary; --collect reports it interrupted
+    let slow = d.join("slow");
+    std::fs::create_dir_all(&slow).unwrap();
+    let file = slow.join("study.toml");
+    std::fs::write(
+        &file,
+        format!(
+            "case = \"{}\"\nset = [\"stages.0.steps=400\", \"meshes.disk.n_arc=256\", \"meshes.disk.n_radial=64\"]\n\
+             [[axes]]\nname = \"family\"\nkeys = [\"bodies.disk.element\"]\nvalues = [\"Q1C1\"]\n\
+             [slurm]\ntime = \"2\"\nstop_before = 90\n",
+            case("hertz_2d.toml").display()
+        ),
+    )
+    .unwrap();
+    let slow_out = slow.join("out");
+    let (f, so) = (file.to_str().unwrap(), slow_out.to_str().unwrap());
+    let o = study_env(&[f, "--out", so, "--launcher", "slurm"], &env);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let job3 = stdout(&o).trim().to_string();
+    let script = std::fs::read_to_string(slow_out.join("study.sbatch")).unwrap();
+    assert!(script.contains("#SBATCH --signal=TERM@90\n"), "{script}");
+    cluster.wait(&job3, 0);
+    let o = study_env(&[f, "--out", so, "--collect"], &env);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r = &study_rows(&slow_out)["Q1C1"];
+    assert_eq!(r["status"], "failed", "{r:?}");
+    assert!(
+        r["reason"].contains("interrupted by SIGTERM after"),
+        "{r:?}"
+    );
+    let dir = slow_out.join("Q1C1");
+    assert_eq!(summary(&dir)["status"], "interrupted");
+    assert!(
+        dir.join("results.h5").is_file(),
+        "results renamed into place"
+    );
+    let steps: usize = r["steps"].parse().unwrap();
+    assert!((1..400).contains(&steps), "{r:?}");
+
     eprintln!(
         "Slurm end-to-end: {:.1} s (cluster start not included)",
         t0.elapsed().as_secs_f64()

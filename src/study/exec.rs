@@ -1,6 +1,6 @@
 //! Executing the runs of a study: resolving each run's case, skipping runs finished earlier with the
 //! same resolved case, launching the others (`jobs` at a time, each on `ranks` MPI ranks), and
-//! collecting what each left behind; [`collect`] reads the same from the run folders alone, for runs
+//! collecting what each left behind; [`collect_one`] reads the same from the run folders alone, for runs
 //! that another launcher (Slurm) started.
 
 use crate::io::{RunStatus, Summary};
@@ -339,7 +339,7 @@ fn failure_of(s: &Summary) -> Option<String> {
 /// Where `--collect` stands on a run without a result: what the scheduler says of it.
 #[derive(Debug, Clone)]
 pub enum Queue {
-    /// Listed by the scheduler: `state` (`PENDING`, `RUNNING`, ...) of task `task` (`123_4`).
+    /// Listed by the scheduler: `state` (`pending (Resources)`, `running`, ...) of task `task` (`123_4`).
     Listed { task: String, state: String },
     /// Submitted as task `task`, no longer listed: it ended; `log` is the scheduler's output of it.
     Ended { task: String, log: PathBuf },

@@ -44,6 +44,7 @@
 //! partition = "compute"
 //! account = "proj42"
 //! max_running = 4                    # array tasks at once (--array=...%4)
+//! stop_before = 300                  # seconds before the limit: one SIGTERM to the runs
 //! mpi = "pmix"                       # srun --mpi= (default pmix)
 //! sbatch = ["--qos=short"]           # further #SBATCH lines
 //! ```

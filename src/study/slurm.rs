@@ -1,7 +1,7 @@
 //! `nurbs-contact study FILE --launcher slurm`: the study's runs as one Slurm job array, one array
 //! task per run, each task running under `srun` exactly the `nurbs-contact run` command the local
 //! launcher starts, into the same run folder and logs; `--collect` later builds the study's outputs
-//! from the folders (see [`crate::study::exec::collect`]).
+//! from the folders (see [`crate::study::exec::collect_one`]).
 //!
 //! - [`SlurmSpec`]: the study file's optional `[slurm]` table;
 //! - [`resources`]: time and memory per task, from the table or from the case's size estimate
@@ -44,6 +44,11 @@ pub struct SlurmSpec {
     /// Array tasks running at once (`--array=...%N`). Default: as many as Slurm allows.
     #[serde(default)]
     pub max_running: Option<usize>,
+    /// Seconds before the time limit at which each run gets one SIGTERM (`--signal=TERM@N`), so
+    /// that it finishes its load step and writes `summary.json` as interrupted. Default: a tenth of
+    /// the time limit, within 60..600 s (Slurm sends it up to 60 s early).
+    #[serde(default)]
+    pub stop_before: Option<u64>,
     /// srun's `--mpi` plugin. Default `pmix` (what Debian's Open MPI needs; see the module doc).
     #[serde(default)]
     pub mpi: Option<String>,
@@ -94,6 +99,9 @@ impl SlurmSpec {
         }
         if self.max_running == Some(0) {
             return bad("max_running", "must be at least 1".into());
+        }
+        if self.stop_before == Some(0) {
+            return bad("stop_before", "must be at least 1 (seconds)".into());
         }
         for (i, line) in self.sbatch.iter().enumerate() {
             if !line.starts_with('-') || line.chars().any(char::is_control) {
@@ -174,6 +182,8 @@ pub struct Resources {
     pub time: String,
     /// `--mem-per-cpu` (one CPU per rank).
     pub mem_per_rank: String,
+    /// Seconds before the limit at which the runs get SIGTERM (`--signal=TERM@N`).
+    pub stop_before: u64,
     /// One line per choice: given, from the timeout, or the estimate and its inputs.
     pub basis: Vec<String>,
 }
@@ -314,9 +324,14 @@ pub fn resources(study: &Study, cases: &[(&str, &Case)]) -> Resources {
             "2G".into()
         }
     };
+    let stop_before = spec.stop_before.unwrap_or_else(|| {
+        let limit = time_minutes(&time).unwrap_or(60.0) * 60.0;
+        (limit / 10.0).clamp(60.0, 600.0) as u64
+    });
     Resources {
         time,
         mem_per_rank,
+        stop_before,
         basis,
     }
 }
@@ -376,6 +391,10 @@ pub fn script(study: &Study, out: &Path, tasks: &[Task], res: &Resources) -> Str
     s += &format!("#SBATCH --ntasks={ranks}\n#SBATCH --cpus-per-task=1\n");
     s += &format!("#SBATCH --time={}\n", res.time);
     s += &format!("#SBATCH --mem-per-cpu={}\n", res.mem_per_rank);
+    // One SIGTERM to the runs before the limit: each finishes its load step and writes its summary.
+    // At the limit itself the run would get two (Slurm's, and srun's when Slurm signals srun) and
+    // the second one ends it at once, without a summary.
+    s += &format!("#SBATCH --signal=TERM@{}\n", res.stop_before);
     s += &format!(
         "#SBATCH --output={}\n",
         q(&out.join("logs").join("slurm-%A_%a.out"))
@@ -677,6 +696,10 @@ mod tests {
             (r.time.as_str(), r.mem_per_rank.as_str()),
             ("2:00:00", "3G")
         );
+        // the SIGTERM before the limit: a tenth of it within 60..600 s
+        assert_eq!(r.stop_before, 600);
+        let (s, cases) = study("block_compression_3d.toml", "timeout = 600");
+        assert_eq!(named(&s, &cases).stop_before, 66);
         // a mesh file has no estimate: stated defaults
         let (s, cases) = study("block_compression_gmsh_3d.toml", "");
         let r = named(&s, &cases);
@@ -694,6 +717,7 @@ mod tests {
             ("mem_per_rank = \"2GB\"", "slurm.mem_per_rank"),
             ("partition = \"a b\"", "slurm.partition"),
             ("max_running = 0", "slurm.max_running"),
+            ("stop_before = 0", "slurm.stop_before"),
             ("sbatch = [\"qos=x\"]", "slurm.sbatch.0"),
             ("sbatch = [\"--qos=x\", \"--array=1-3\"]", "slurm.sbatch.1"),
         ];
