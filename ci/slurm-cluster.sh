@@ -113,8 +113,7 @@ SwitchType=switch/none
 MpiDefault=none
 ReturnToService=2
 SlurmdParameters=config_overrides
-# quick turnaround for tests: no minimum job age before purging, fast scheduling
-MinJobAge=300
+# quick turnaround for tests: the main scheduler every second (default 60 s)
 SchedulerParameters=sched_interval=1
 NodeName=$host NodeAddr=127.0.0.1 CPUs=$cpus RealMemory=$mem State=UNKNOWN
 PartitionName=debug Nodes=$host Default=YES MaxTime=INFINITE State=UP
