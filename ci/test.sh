@@ -6,6 +6,12 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 source ci/env.sh
 ci/install-deps.sh
+# tests/slurm.rs runs a study through a throwaway single-node Slurm cluster (ci/slurm-cluster.sh); here
+# Slurm is expected, so that test fails instead of skipping when the daemons are missing.
+ci/slurm-cluster.sh install
+export NURBS_CONTACT_SLURM=require
+# the test stops its cluster itself, also when it fails; this catches a test process that was killed
+trap 'ci/slurm-cluster.sh stop target/slurm-cluster' EXIT
 cargo fmt --check
 cargo clippy --release --all-targets -- -D warnings
 log=$(mktemp)

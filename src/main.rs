@@ -80,7 +80,24 @@ enum Command {
         /// Only errors and failed runs.
         #[arg(short, long)]
         quiet: bool,
+        /// Where the runs execute: `local` (subprocesses, `jobs` at a time) or `slurm` (writes
+        /// OUT/study.sbatch, a job array with one task per run, and submits it with sbatch).
+        #[arg(long, value_enum, default_value_t = LauncherArg::Local)]
+        launcher: LauncherArg,
+        /// With --launcher slurm: write the job script but do not submit it.
+        #[arg(long)]
+        dry_run: bool,
+        /// Build study.csv, study.md and plots from the runs that have finished (e.g. under Slurm),
+        /// naming those that failed or have no result yet; runs nothing.
+        #[arg(long, conflicts_with_all = ["check", "dry_run"])]
+        collect: bool,
     },
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum LauncherArg {
+    Local,
+    Slurm,
 }
 
 /// Splits the command line into our arguments and PETSc's: a PETSc option is a single dash followed by
@@ -152,7 +169,11 @@ fn main() -> ExitCode {
             check,
             jobs,
             quiet,
+            launcher,
+            dry_run,
+            collect,
         } => {
+            use nurbs_contact::study::Launcher;
             let opts = nurbs_contact::study::StudyOptions {
                 file: study,
                 out,
@@ -160,6 +181,12 @@ fn main() -> ExitCode {
                 jobs,
                 quiet,
                 petsc_args,
+                launcher: match launcher {
+                    LauncherArg::Local => Launcher::Local,
+                    LauncherArg::Slurm => Launcher::Slurm,
+                },
+                dry_run,
+                collect,
             };
             return match nurbs_contact::study::study_main(&opts) {
                 Ok(()) => ExitCode::SUCCESS,

@@ -4,47 +4,7 @@
 
 mod common;
 use common::*;
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-
-/// Parses a CSV with quoted cells (the reasons hold commas) into header and rows.
-fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
-    let text = std::fs::read_to_string(path).expect("read csv");
-    let mut rows = Vec::new();
-    for line in text.lines() {
-        let mut cells = Vec::new();
-        let mut cur = String::new();
-        let mut quoted = false;
-        let mut chars = line.chars().peekable();
-        while let Some(c) = chars.next() {
-            match c {
-                '"' if quoted && chars.peek() == Some(&'"') => {
-                    cur.push('"');
-                    chars.next();
-                }
-                '"' => quoted = !quoted,
-                ',' if !quoted => cells.push(std::mem::take(&mut cur)),
-                _ => cur.push(c),
-            }
-        }
-        cells.push(cur);
-        rows.push(cells);
-    }
-    let header = rows.remove(0);
-    (header, rows)
-}
-
-/// study.csv rows by run name, each a map column -> cell.
-fn study_rows(out: &Path) -> HashMap<String, HashMap<String, String>> {
-    let (header, rows) = read_csv(&out.join("study.csv"));
-    rows.into_iter()
-        .map(|r| {
-            assert_eq!(r.len(), header.len(), "row {r:?}");
-            let m: HashMap<String, String> = header.iter().cloned().zip(r).collect();
-            (m["run"].clone(), m)
-        })
-        .collect()
-}
 
 fn study(args: &[&str]) -> std::process::Output {
     let mut a = vec!["study"];

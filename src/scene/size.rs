@@ -12,7 +12,7 @@
 //! It leaves out the linear solver's own memory (a direct factorisation fills in far more), so it
 //! is a lower bound of what a run needs: a case refused by it cannot run here.
 
-use crate::scene::schema::Generator;
+use crate::scene::schema::{Case, Generator, MeshSpec};
 
 /// Largest number of unknowns PETSc can index with its 32-bit `PetscInt` (the build used here).
 pub const MAX_UNKNOWNS: f64 = i32::MAX as f64;
@@ -82,6 +82,55 @@ impl MeshSize {
         let n = (1usize << self.dim) as f64;
         let nnz = self.unknowns() * 3f64.powi(self.dim as i32) * d;
         12.0 * nnz + 24.0 * self.cells * (n * d).powi(2)
+    }
+}
+
+/// The size of a whole case: the sum over its bodies' generated meshes (a mesh that two bodies use
+/// is built twice, so it counts twice).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CaseSize {
+    /// Node and cell totals (`dim` of the first body's mesh; all are the case's).
+    pub total: MeshSize,
+    /// [`MeshSize::mesh_bytes`] summed: held by every rank.
+    pub mesh_bytes: f64,
+    /// [`MeshSize::matrix_bytes`] summed: shared by the ranks.
+    pub matrix_bytes: f64,
+    /// The key of the largest mesh's size parameter (`meshes.block.divisions`), where a too-large
+    /// case is reported.
+    pub largest_key: String,
+}
+
+impl CaseSize {
+    /// `None` when no body has a generated mesh (Gmsh files are sized only by reading them).
+    pub fn of(case: &Case) -> Option<CaseSize> {
+        let mut total: Option<CaseSize> = None;
+        let mut largest = 0.0;
+        for b in case.bodies.values() {
+            let Some(MeshSpec::Generated(g)) = case.meshes.get(&b.mesh) else {
+                continue;
+            };
+            let s = MeshSize::of(g);
+            let key = format!("meshes.{}.{}", b.mesh, g.size_key());
+            let t = total.get_or_insert_with(|| CaseSize {
+                total: MeshSize {
+                    dim: s.dim,
+                    nodes: 0.0,
+                    cells: 0.0,
+                },
+                mesh_bytes: 0.0,
+                matrix_bytes: 0.0,
+                largest_key: key.clone(),
+            });
+            if s.unknowns() > largest {
+                largest = s.unknowns();
+                t.largest_key = key;
+            }
+            t.total.nodes += s.nodes;
+            t.total.cells += s.cells;
+            t.mesh_bytes += s.mesh_bytes();
+            t.matrix_bytes += s.matrix_bytes();
+        }
+        total
     }
 }
 

@@ -75,34 +75,14 @@ fn check_case_name(name: &str, v: &mut Issues) {
 /// more memory (mesh arrays plus Jacobian, see [`crate::scene::size`]) than this machine has. Runs
 /// before any mesh is built, from the parameters alone.
 fn check_sizes(case: &Case, v: &mut Issues) {
-    use crate::scene::size::{human_bytes, machine_memory_bytes, MeshSize, MAX_UNKNOWNS};
-    // every body builds its mesh (two bodies on one mesh build it twice)
-    let mut total: Option<(MeshSize, f64, f64)> = None;
-    let mut largest: Option<(f64, String)> = None;
-    for b in case.bodies.values() {
-        let Some(MeshSpec::Generated(g)) = case.meshes.get(&b.mesh) else {
-            continue;
-        };
-        let s = MeshSize::of(g);
-        let key = format!("meshes.{}.{}", b.mesh, g.size_key());
-        if largest.as_ref().is_none_or(|(u, _)| s.unknowns() > *u) {
-            largest = Some((s.unknowns(), key));
-        }
-        let t = total.get_or_insert((
-            MeshSize {
-                dim: s.dim,
-                nodes: 0.0,
-                cells: 0.0,
-            },
-            0.0,
-            0.0,
-        ));
-        t.0.nodes += s.nodes;
-        t.0.cells += s.cells;
-        t.1 += s.mesh_bytes();
-        t.2 += s.matrix_bytes();
-    }
-    let (Some((s, mesh_bytes, matrix_bytes)), Some((_, key))) = (total, largest) else {
+    use crate::scene::size::{human_bytes, machine_memory_bytes, CaseSize, MAX_UNKNOWNS};
+    let Some(CaseSize {
+        total: s,
+        mesh_bytes,
+        matrix_bytes,
+        largest_key: key,
+    }) = CaseSize::of(case)
+    else {
         return;
     };
     let what = format!(

@@ -1,10 +1,12 @@
 //! Executing the runs of a study: resolving each run's case, skipping runs finished earlier with the
 //! same resolved case, launching the others (`jobs` at a time, each on `ranks` MPI ranks), and
-//! collecting what each left behind.
+//! collecting what each left behind; [`collect_one`] reads the same from the run folders alone, for runs
+//! that another launcher (Slurm) started.
 
 use crate::io::{RunStatus, Summary};
 use crate::study::metrics::Table;
 use crate::study::spec::{RunSpec, Study};
+use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -17,6 +19,8 @@ pub enum Status {
     Converged,
     /// The run stopped (or its case could not be resolved): the reason.
     Failed(String),
+    /// `--collect` found no result of the run yet (queued, running, never submitted): why.
+    Missing(String),
 }
 
 /// What one run of the study left: its status and results.
@@ -54,6 +58,12 @@ pub fn finished_earlier(dir: &Path, case_toml: &str) -> Option<Summary> {
     }
     let summary = read_summary(dir)?;
     matches!(summary.status, RunStatus::Converged).then_some(summary)
+}
+
+/// The summary of `dir` if the run there was of exactly `case_toml` (converged or not).
+fn summary_of_case(dir: &Path, case_toml: &str) -> Option<Summary> {
+    let written = std::fs::read_to_string(dir.join("case.toml")).ok()?;
+    (written == case_toml).then(|| read_summary(dir)).flatten()
 }
 
 fn read_summary(dir: &Path) -> Option<Summary> {
@@ -171,6 +181,7 @@ fn describe(o: &Outcome, elapsed: Duration) -> String {
             )
         }
         (Status::Failed(r), _) => format!("FAILED: {}", r.lines().next().unwrap_or("")),
+        (Status::Missing(r), _) => format!("missing: {r}"),
     }
 }
 
@@ -233,24 +244,16 @@ fn launch_run(
         std::fs::File::create(p).map_err(|e| format!("cannot create the log {}: {e}", p.display()))
     };
     let (out_file, err_file) = (open(&out_log)?, open(&err_log)?);
-    let ranks = study.spec.ranks;
-    let mut cmd = if ranks == 1 {
+    let args = run_args(study, run, dir, launch);
+    let mut cmd = if study.spec.ranks == 1 {
         Command::new(&launch.exe)
     } else {
         let mut c = Command::new("mpirun");
-        c.args(["--oversubscribe", "-np", &ranks.to_string()])
+        c.args(["--oversubscribe", "-np", &study.spec.ranks.to_string()])
             .arg(&launch.exe);
         c
     };
-    cmd.arg("run")
-        .arg(&study.case)
-        .arg("--out")
-        .arg(dir)
-        .arg("-q");
-    for s in &run.sets {
-        cmd.arg("--set").arg(s);
-    }
-    cmd.args(launch.petsc_args);
+    cmd.args(args);
     mpi_env(&mut cmd);
     cmd.stdin(Stdio::null())
         .stdout(Stdio::from(out_file))
@@ -291,8 +294,38 @@ fn launch_run(
     if status.success() {
         return Ok(());
     }
-    let summary_reason = read_summary(dir).and_then(|s| match s.status {
-        RunStatus::Failed { reason } => Some(reason),
+    Err(format!(
+        "{}{}",
+        read_summary(dir)
+            .and_then(|s| failure_of(&s))
+            .unwrap_or_else(|| format!("exited with {status}")),
+        tail_suffix(&err_log)
+    ))
+}
+
+/// The arguments of `nurbs-contact` for one run, after the program: `run CASE --out DIR -q --set ...`
+/// and the study command's PETSc options. The local launcher starts the program with them (under
+/// `mpirun` for more than one rank), the Slurm job script under `srun`.
+pub fn run_args(study: &Study, run: &RunSpec, dir: &Path, launch: &Launch<'_>) -> Vec<OsString> {
+    let mut a: Vec<OsString> = vec![
+        "run".into(),
+        study.case.clone().into(),
+        "--out".into(),
+        dir.into(),
+        "-q".into(),
+    ];
+    for s in &run.sets {
+        a.push("--set".into());
+        a.push(s.into());
+    }
+    a.extend(launch.petsc_args.iter().map(OsString::from));
+    a
+}
+
+/// Why a run whose summary says so did not converge.
+fn failure_of(s: &Summary) -> Option<String> {
+    match &s.status {
+        RunStatus::Failed { reason } => Some(reason.clone()),
         RunStatus::Interrupted {
             signal,
             converged_steps,
@@ -300,16 +333,91 @@ fn launch_run(
             "interrupted by {signal} after {converged_steps} converged steps"
         )),
         RunStatus::Converged => None,
-    });
-    Err(format!(
-        "{}{}",
-        summary_reason.unwrap_or_else(|| format!("exited with {status}")),
-        tail_suffix(&err_log)
-    ))
+    }
+}
+
+/// Where `--collect` stands on a run without a result: what the scheduler says of it.
+#[derive(Debug, Clone)]
+pub enum Queue {
+    /// Listed by the scheduler: `state` (`pending (Resources)`, `running`, ...) of task `task` (`123_4`).
+    Listed { task: String, state: String },
+    /// Submitted as task `task`, no longer listed: it ended; `log` is the scheduler's output of it.
+    Ended { task: String, log: PathBuf },
+    /// In no recorded submission.
+    NotSubmitted,
+    /// The scheduler could not be asked: why.
+    Unknown(String),
+}
+
+/// `--collect`'s view of one run, from its folder alone: converged (with the same resolved case),
+/// failed (its summary says why, or its Slurm task ended without one), or missing (queued,
+/// running, never submitted). `submitted`: the run is in a recorded submission (else `skipped`).
+/// Also returns whether the run left any result (a summary, or an ended task).
+pub fn collect_one(
+    study: &Study,
+    run: &RunSpec,
+    out: &Path,
+    queue: &Queue,
+    submitted: bool,
+) -> (Outcome, bool) {
+    let dir = out.join(&run.name);
+    let (_, err_log) = log_paths(out, run);
+    let outcome = |status: Status| Outcome {
+        status,
+        skipped: !submitted,
+        summary: read_summary(&dir),
+        history: read_history(&dir),
+        dir: dir.clone(),
+    };
+    let case_toml = match resolved_case(study, run) {
+        Ok(t) => t,
+        Err(e) => return (outcome(Status::Failed(format!("case: {e}"))), false),
+    };
+    if finished_earlier(&dir, &case_toml).is_some() {
+        return (outcome(Status::Converged), true);
+    }
+    let failure = summary_of_case(&dir, &case_toml).and_then(|s| failure_of(&s));
+    match (queue, failure) {
+        // listed first: a failed run submitted again is waiting for its second chance
+        (Queue::Listed { task, state }, _) => (
+            outcome(Status::Missing(format!("{state} in Slurm job {task}"))),
+            false,
+        ),
+        (_, Some(reason)) => (
+            outcome(Status::Failed(format!("{reason}{}", tail_suffix(&err_log)))),
+            true,
+        ),
+        (Queue::Ended { task, log }, None) => (
+            outcome(Status::Failed(format!(
+                "Slurm task {task} ended without a summary.json of this case (stopped at its time \
+                 or memory limit, cancelled, or the program did not start){}{}",
+                tail_suffix(&err_log),
+                tail(log, "slurm")
+            ))),
+            true,
+        ),
+        (Queue::NotSubmitted, None) => (
+            outcome(Status::Missing(
+                "no result, and no recorded Slurm submission holds this run".into(),
+            )),
+            false,
+        ),
+        (Queue::Unknown(why), None) => (
+            outcome(Status::Missing(format!(
+                "no result yet; whether it is still queued is unknown ({why})"
+            ))),
+            false,
+        ),
+    }
 }
 
 /// `"; stderr: <last lines>"` of a log, or nothing when it is empty.
 fn tail_suffix(log: &Path) -> String {
+    tail(log, "stderr")
+}
+
+/// `"; <label>: <last lines>"` of a log, or nothing when it is empty or missing.
+fn tail(log: &Path, label: &str) -> String {
     let text = std::fs::read_to_string(log).unwrap_or_default();
     let lines: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
     if lines.is_empty() {
@@ -322,5 +430,5 @@ fn tail_suffix(log: &Path) -> String {
     } else {
         tail
     };
-    format!("; stderr: {tail}")
+    format!("; {label}: {tail}")
 }

@@ -37,6 +37,16 @@
 //! [plot]
 //! curves = ["P_ironing_cylinder_arc_x", "-P_ironing_block_top_x"]   # drawn for each run
 //! x = "load_factor"                                                  # their abscissa (default)
+//!
+//! [slurm]                            # only read by --launcher slurm; every key optional
+//! time = "04:00:00"                  # per array task (default: timeout + 1 min, else the estimate)
+//! mem_per_rank = "2G"                # --mem-per-cpu (default: the estimate)
+//! partition = "compute"
+//! account = "proj42"
+//! max_running = 4                    # array tasks at once (--array=...%4)
+//! stop_before = 300                  # seconds before the limit: one SIGTERM to the runs
+//! mpi = "pmix"                       # srun --mpi= (default pmix)
+//! sbatch = ["--qos=short"]           # further #SBATCH lines
 //! ```
 //! Every combination of the axes' values is one run (the first axis varies slowest), named by its
 //! values joined with `_` (`Q1N2_mesh4`); a value's label is the string itself, a level's `name`, or
@@ -75,8 +85,9 @@
 //! (mpirun passes it to its ranks), then SIGKILL 10 s later.
 //!
 //! # Outputs (in OUT, default `out/study/<name>`)
-//! - `study.csv`: one row per run: `run`, the axis labels, `status`, `skipped` (1: finished by an
-//!   earlier invocation, not run again), `unknowns`, `steps`, `last_load`, `newton_total`,
+//! - `study.csv`: one row per run: `run`, the axis labels, `status` (`converged`, `failed`, and with
+//!   `--collect` `missing`), `skipped` (1: finished by an earlier invocation, not run again; with
+//!   `--collect`: in no recorded Slurm submission), `unknowns`, `steps`, `last_load`, `newton_total`,
 //!   `newton_max_per_step`, `cutbacks`, `wall_time` (s, summary.json's total), every metric, `reason`.
 //! - `study.md`: the runs table, then one table per metric with the series values as columns and
 //!   the other axes as rows, each value also in percent of the reference's.
@@ -89,13 +100,30 @@
 //! `nurbs-contact study --check STUDY.toml` validates the file, resolves every run's case and runs
 //! `check` on it (model, sets, numbering), without solving.
 //!
+//! # On a cluster: `--launcher slurm`, `--collect`
+//! `--launcher slurm` writes `OUT/study.sbatch`, one Slurm job array with a task per run that has
+//! no converged result of its current case (and is not still queued in an earlier submission):
+//! each task runs `srun --mpi=pmix --ntasks=ranks` followed by the local launcher's command (the
+//! same arguments, with absolute paths), its output in the same `OUT/logs/<run>.out|.err`, into
+//! the same run folder. It submits the script with `sbatch --parsable`, prints the job id and
+//! records which task holds which run in `OUT/slurm-jobs.json`; `--dry-run` only writes the script
+//! (and prints its path). Time and memory per task come from `[slurm]`, else from the size estimate
+//! of the largest run (see [`slurm::resources`]).
+//! `--collect` builds `study.csv`, `study.md` and the plots from the run folders as they are, runs
+//! nothing, and can be repeated: a run is `converged` (with the same resolved case), `failed` (its
+//! summary's reason, or a Slurm task that ended without a summary) or `missing`
+//! (`status` column; with what `squeue` says: `pending (Resources) in Slurm job 12_3`, running, not
+//! submitted). `--collect` with no result at all is an error naming every run's state.
+//!
 //! - [`spec`]: the file's schema and the runs it resolves to; [`metrics`]: metric kinds;
-//!   [`exec`]: launching, resuming; [`report`]: `study.csv`, `study.md`; [`svg`]: the plots.
+//!   [`exec`]: launching, resuming, collecting; [`slurm`]: the job script, sbatch, squeue;
+//!   [`report`]: `study.csv`, `study.md`; [`svg`]: the plots.
 
 pub mod exec;
 pub mod metrics;
 pub mod png;
 pub mod report;
+pub mod slurm;
 pub mod spec;
 pub mod svg;
 
@@ -130,6 +158,12 @@ pub enum StudyError {
     },
     #[error(transparent)]
     Output(#[from] crate::io::IoError),
+    /// Submitting to Slurm failed (sbatch missing or refusing the job).
+    #[error("{message}")]
+    Slurm { message: String },
+    /// `--collect` found no run with a result.
+    #[error("{}: nothing to collect: {detail}", .out.display())]
+    NothingToCollect { out: PathBuf, detail: String },
     /// `--check` found runs whose case does not pass: one line per run.
     #[error("{}: {count} of {total} runs do not pass check:\n{lines}", .file.display())]
     Check {
@@ -138,6 +172,16 @@ pub enum StudyError {
         total: usize,
         lines: String,
     },
+}
+
+/// How the runs of a study are started.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Launcher {
+    /// Subprocesses on this machine, `jobs` at a time (`mpirun` for more than one rank).
+    #[default]
+    Local,
+    /// One Slurm job array, a task per run, each under `srun` (see [`slurm`]).
+    Slurm,
 }
 
 /// What `nurbs-contact study` was asked to do.
@@ -153,20 +197,39 @@ pub struct StudyOptions {
     pub quiet: bool,
     /// PETSc options of the command line, passed to every run.
     pub petsc_args: Vec<String>,
+    pub launcher: Launcher,
+    /// With [`Launcher::Slurm`]: write the job script, do not submit it.
+    pub dry_run: bool,
+    /// Build the outputs from the run folders as they are, running nothing.
+    pub collect: bool,
 }
 
 /// `nurbs-contact study`.
 pub fn study_main(opts: &StudyOptions) -> Result<(), StudyError> {
     let mut study = Study::load(&opts.file)?;
+    let usage = |key: &str, message: &str| StudyError::Invalid {
+        file: opts.file.clone(),
+        key: key.into(),
+        message: message.into(),
+    };
     if let Some(j) = opts.jobs {
         if j == 0 {
-            return Err(StudyError::Invalid {
-                file: opts.file.clone(),
-                key: "jobs".into(),
-                message: "--jobs must be at least 1".into(),
-            });
+            return Err(usage("jobs", "--jobs must be at least 1"));
+        }
+        if opts.launcher == Launcher::Slurm {
+            return Err(usage(
+                "jobs",
+                "--jobs sets how many runs this machine starts at once; with --launcher slurm \
+                 Slurm decides (limit it with [slurm] max_running)",
+            ));
         }
         study.spec.jobs = j;
+    }
+    if opts.dry_run && opts.launcher != Launcher::Slurm {
+        return Err(usage(
+            "dry-run",
+            "--dry-run writes a Slurm job script without submitting it: give it with --launcher slurm",
+        ));
     }
     let exe = std::env::current_exe().map_err(|source| StudyError::Io {
         path: PathBuf::from("nurbs-contact"),
@@ -187,6 +250,12 @@ pub fn study_main(opts: &StudyOptions) -> Result<(), StudyError> {
         .out
         .clone()
         .unwrap_or_else(|| Path::new("out/study").join(&study.name));
+    if opts.collect {
+        return collect(&study, &out, opts);
+    }
+    if opts.launcher == Launcher::Slurm {
+        return submit_slurm(&mut study, &out, &launch, opts);
+    }
     let logs = out.join("logs");
     std::fs::create_dir_all(&logs).map_err(|source| StudyError::Io {
         path: logs.clone(),
@@ -204,35 +273,276 @@ pub fn study_main(opts: &StudyOptions) -> Result<(), StudyError> {
         );
     }
     let outcomes = exec::execute(&study, &out, &launch);
-    let rows = report::rows(&study, &outcomes);
-    write_atomic(
-        &out.join("study.csv"),
-        report::csv(&study, &rows).as_bytes(),
-    )?;
     let command = format!("nurbs-contact study {}", opts.file.display());
+    let rows = write_outputs(&study, &out, &outcomes, &command)?;
+    report_rows(&study, &rows, &out, opts.quiet);
+    Ok(())
+}
+
+/// `study.csv`, `study.md` and the plots from the outcomes; the rows.
+fn write_outputs(
+    study: &Study,
+    out: &Path,
+    outcomes: &[Outcome],
+    command: &str,
+) -> Result<Vec<Row>, StudyError> {
+    let rows = report::rows(study, outcomes);
+    write_atomic(&out.join("study.csv"), report::csv(study, &rows).as_bytes())?;
     write_atomic(
         &out.join("study.md"),
-        report::markdown(&study, &rows, &command).as_bytes(),
+        report::markdown(study, &rows, command).as_bytes(),
     )?;
-    write_plots(&study, &rows, &outcomes, &out.join("plots"))?;
-    let failed: Vec<&Row> = rows.iter().filter(|r| !r.converged).collect();
-    let skipped = rows.iter().filter(|r| r.skipped).count();
+    write_plots(study, &rows, outcomes, &out.join("plots"))?;
+    Ok(rows)
+}
+
+/// Prints the failed and missing runs and a closing line.
+fn report_rows(study: &Study, rows: &[Row], out: &Path, quiet: bool) {
     for r in rows.iter().filter(|r| r.converged && !r.reason.is_empty()) {
         eprintln!("warning: {}: {}", r.run, r.reason);
     }
-    for r in &failed {
-        eprintln!("failed: {}: {}", r.run, r.reason);
+    for r in rows.iter().filter(|r| !r.converged) {
+        eprintln!("{}: {}: {}", r.status(), r.run, r.reason);
     }
-    if !opts.quiet {
+    if !quiet {
+        let count = |s: &str| rows.iter().filter(|r| r.status() == s).count();
+        let missing = count("missing");
         eprintln!(
-            "study {}: {} converged ({} not run again), {} failed; study.csv, study.md and plots/ in {}",
+            "study {}: {} converged ({} not run again), {} failed{}; study.csv, study.md and plots/ in {}",
             study.name,
-            rows.len() - failed.len(),
-            skipped,
-            failed.len(),
+            count("converged"),
+            rows.iter().filter(|r| r.converged && r.skipped).count(),
+            count("failed"),
+            if missing > 0 {
+                format!(", {missing} missing (collect again when they have run)")
+            } else {
+                String::new()
+            },
             out.display()
         );
     }
+}
+
+/// An absolute form of `p` (the job script runs elsewhere, from another folder).
+fn absolute(p: &Path) -> Result<PathBuf, StudyError> {
+    std::path::absolute(p).map_err(|source| StudyError::Io {
+        path: p.to_path_buf(),
+        op: "make the path absolute",
+        source,
+    })
+}
+
+/// `--launcher slurm`: writes `OUT/study.sbatch`, a job array of the runs that have no result of
+/// their current case yet (and are not queued in an earlier submission), and submits it unless
+/// `--dry-run`; records the job in `OUT/slurm-jobs.json`.
+fn submit_slurm(
+    study: &mut Study,
+    out: &Path,
+    launch: &exec::Launch<'_>,
+    opts: &StudyOptions,
+) -> Result<(), StudyError> {
+    let out = absolute(out)?;
+    study.case = absolute(&study.case)?;
+    let logs = out.join("logs");
+    std::fs::create_dir_all(&logs).map_err(|source| StudyError::Io {
+        path: logs.clone(),
+        op: "create the study's output folder",
+        source,
+    })?;
+    let mut subs = slurm::Submissions::load(&out)?;
+    // runs of earlier submissions that are still queued or running are not submitted twice
+    let queued = if subs.jobs.is_empty() {
+        Default::default()
+    } else {
+        slurm::queue(&subs).unwrap_or_else(|e| {
+            eprintln!(
+                "warning: cannot tell which runs of earlier submissions are still queued: {e}"
+            );
+            Default::default()
+        })
+    };
+    let mut tasks = Vec::new();
+    let mut cases = Vec::new();
+    let (mut finished, mut waiting) = (Vec::new(), Vec::new());
+    for (i, run) in study.runs.iter().enumerate() {
+        let dir = out.join(&run.name);
+        let case = match crate::scene::load_case(&study.case, &run.sets) {
+            Ok(c) => c,
+            Err(e) => {
+                eprintln!("failed: {}: case: {e}", run.name);
+                continue;
+            }
+        };
+        let Ok(case_toml) = case.to_toml_string() else {
+            eprintln!("failed: {}: case cannot be written back as TOML", run.name);
+            continue;
+        };
+        if exec::finished_earlier(&dir, &case_toml).is_some() {
+            finished.push(run.name.clone());
+            continue;
+        }
+        if let Some((job, idx)) = subs.latest_for(&run.name) {
+            if let Some(state) = queued.get(&(job.to_string(), idx)) {
+                waiting.push(format!("{} ({} in job {job}_{idx})", run.name, state));
+                continue;
+            }
+        }
+        let (out_log, err_log) = exec::log_paths(&out, run);
+        let mut command = vec![launch.exe.to_string_lossy().into_owned()];
+        command.extend(
+            exec::run_args(study, run, &dir, launch)
+                .iter()
+                .map(|a| a.to_string_lossy().into_owned()),
+        );
+        tasks.push(slurm::Task {
+            index: i,
+            run: run.name.clone(),
+            command,
+            out_log,
+            err_log,
+        });
+        cases.push((run.name.clone(), case));
+    }
+    if !opts.quiet {
+        if !finished.is_empty() {
+            eprintln!(
+                "not submitted, finished earlier with the same case: {}",
+                finished.join(", ")
+            );
+        }
+        if !waiting.is_empty() {
+            eprintln!(
+                "not submitted, still in an earlier job: {}",
+                waiting.join(", ")
+            );
+        }
+    }
+    if tasks.is_empty() {
+        eprintln!(
+            "study {}: nothing to submit; collect the results with `nurbs-contact study {} --out {} --collect`",
+            study.name,
+            opts.file.display(),
+            out.display()
+        );
+        return Ok(());
+    }
+    let named: Vec<(&str, &crate::scene::schema::Case)> =
+        cases.iter().map(|(n, c)| (n.as_str(), c)).collect();
+    let res = slurm::resources(study, &named);
+    let script_path = out.join("study.sbatch");
+    write_atomic(
+        &script_path,
+        slurm::script(study, &out, &tasks, &res).as_bytes(),
+    )?;
+    let what = format!(
+        "{} array task(s) of {} rank(s), --time={} --mem-per-cpu={}",
+        tasks.len(),
+        study.spec.ranks,
+        res.time,
+        res.mem_per_rank
+    );
+    if opts.dry_run {
+        println!("{}", script_path.display());
+        if !opts.quiet {
+            eprintln!(
+                "study {}: wrote {} ({what}); not submitted (--dry-run). A job submitted by hand \
+                 is not recorded: --collect then cannot tell a queued run from a lost one.",
+                study.name,
+                script_path.display()
+            );
+        }
+        return Ok(());
+    }
+    let job_id = slurm::submit(&script_path)?;
+    subs.jobs.push(slurm::Submission {
+        job_id: job_id.clone(),
+        submitted: std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_secs()),
+        script: script_path.clone(),
+        tasks: tasks.iter().map(|t| (t.index, t.run.clone())).collect(),
+    });
+    subs.save(&out)?;
+    println!("{job_id}");
+    if !opts.quiet {
+        eprintln!(
+            "study {}: submitted Slurm job {job_id}: {what}; logs in {}; collect the results with \
+             `nurbs-contact study {} --out {} --collect`",
+            study.name,
+            logs.display(),
+            opts.file.display(),
+            out.display()
+        );
+    }
+    Ok(())
+}
+
+/// `--collect`: the study's outputs from the run folders as they are, running nothing. Runs without
+/// a result are `missing`, with what Slurm says of them; an error when no run has a result.
+fn collect(study: &Study, out: &Path, opts: &StudyOptions) -> Result<(), StudyError> {
+    if !out.is_dir() {
+        return Err(StudyError::NothingToCollect {
+            out: out.to_path_buf(),
+            detail: format!(
+                "the folder does not exist: run or submit the study first (`nurbs-contact study {} \
+                 --launcher slurm`), with the same --out",
+                opts.file.display()
+            ),
+        });
+    }
+    let subs = slurm::Submissions::load(out)?;
+    // squeue before the folders: a task that ends in between has then left its summary
+    let states = if subs.jobs.is_empty() {
+        Ok(Default::default())
+    } else {
+        slurm::queue(&subs)
+    };
+    let mut outcomes = Vec::new();
+    let mut any = false;
+    for run in &study.runs {
+        let latest = subs.latest_for(&run.name);
+        let queue = match (latest, &states) {
+            (None, _) => exec::Queue::NotSubmitted,
+            (Some(_), Err(e)) => exec::Queue::Unknown(e.clone()),
+            (Some((job, idx)), Ok(states)) => match states.get(&(job.to_string(), idx)) {
+                Some(state) => exec::Queue::Listed {
+                    task: format!("{job}_{idx}"),
+                    state: state.clone(),
+                },
+                None => exec::Queue::Ended {
+                    task: format!("{job}_{idx}"),
+                    log: out.join("logs").join(format!("slurm-{job}_{idx}.out")),
+                },
+            },
+        };
+        let (o, ran) = exec::collect_one(study, run, out, &queue, latest.is_some());
+        any |= ran;
+        outcomes.push(o);
+    }
+    if !any {
+        let lines: Vec<String> = study
+            .runs
+            .iter()
+            .zip(&outcomes)
+            .map(|(r, o)| match &o.status {
+                exec::Status::Failed(m) | exec::Status::Missing(m) => {
+                    format!("\n  {}: {m}", r.name)
+                }
+                exec::Status::Converged => String::new(),
+            })
+            .collect();
+        return Err(StudyError::NothingToCollect {
+            out: out.to_path_buf(),
+            detail: format!(
+                "none of the {} runs has a result yet:{}",
+                study.runs.len(),
+                lines.concat()
+            ),
+        });
+    }
+    let command = format!("nurbs-contact study {} --collect", opts.file.display());
+    let rows = write_outputs(study, out, &outcomes, &command)?;
+    report_rows(study, &rows, out, opts.quiet);
     Ok(())
 }
 

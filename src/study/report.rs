@@ -10,6 +10,8 @@ pub struct Row {
     pub run: String,
     pub labels: Vec<String>,
     pub converged: bool,
+    /// No result yet (`--collect`: queued, running, never submitted); neither converged nor failed.
+    pub missing: bool,
     pub skipped: bool,
     pub unknowns: Option<u64>,
     /// Converged load steps.
@@ -37,7 +39,7 @@ pub fn rows(study: &Study, outcomes: &[Outcome]) -> Vec<Row> {
         .map(|(run, o)| {
             let s = o.summary.as_ref();
             let mut reasons = Vec::new();
-            if let Status::Failed(r) = &o.status {
+            if let Status::Failed(r) | Status::Missing(r) = &o.status {
                 reasons.push(r.clone());
             }
             let converged = o.status == Status::Converged;
@@ -62,6 +64,7 @@ pub fn rows(study: &Study, outcomes: &[Outcome]) -> Vec<Row> {
                 run: run.name.clone(),
                 labels: run.labels.clone(),
                 converged,
+                missing: matches!(o.status, Status::Missing(_)),
                 skipped: o.skipped,
                 unknowns: s.map(|s| s.unknowns),
                 steps: s.map(|s| s.newton.steps),
@@ -75,6 +78,17 @@ pub fn rows(study: &Study, outcomes: &[Outcome]) -> Vec<Row> {
             }
         })
         .collect()
+}
+
+impl Row {
+    /// `converged`, `failed` or `missing` (no result yet).
+    pub fn status(&self) -> &'static str {
+        match (self.converged, self.missing) {
+            (true, _) => "converged",
+            (false, true) => "missing",
+            (false, false) => "failed",
+        }
+    }
 }
 
 fn opt<T: ToString>(v: Option<T>) -> String {
@@ -119,7 +133,7 @@ pub fn csv(study: &Study, rows: &[Row]) -> String {
         let mut cells = vec![r.run.clone()];
         cells.extend(r.labels.iter().cloned());
         cells.extend([
-            if r.converged { "converged" } else { "failed" }.to_string(),
+            r.status().to_string(),
             u8::from(r.skipped).to_string(),
             opt(r.unknowns),
             opt(r.steps),
@@ -141,7 +155,8 @@ pub fn csv(study: &Study, rows: &[Row]) -> String {
     out
 }
 
-fn fmt_num(v: f64) -> String {
+/// A number for tables: up to 5 decimals, scientific beyond 1e4 or below 1e-3.
+pub fn fmt_num(v: f64) -> String {
     if v == 0.0 {
         "0".into()
     } else if v.abs() >= 1e4 || v.abs() < 1e-3 {
@@ -173,12 +188,18 @@ pub fn markdown(study: &Study, rows: &[Row], command: &str) -> String {
         study.case.display()
     );
     let conv = rows.iter().filter(|r| r.converged).count();
+    let missing = rows.iter().filter(|r| r.missing).count();
     md += &format!(
-        "{} runs: {} converged ({} of them finished by an earlier invocation), {} failed.\n\n",
+        "{} runs: {} converged ({} of them finished by an earlier invocation), {} failed{}.\n\n",
         rows.len(),
         conv,
-        rows.iter().filter(|r| r.skipped).count(),
-        rows.len() - conv
+        rows.iter().filter(|r| r.converged && r.skipped).count(),
+        rows.len() - conv - missing,
+        if missing > 0 {
+            format!(", {missing} without a result yet (queued, running or not submitted)")
+        } else {
+            String::new()
+        }
     );
     // runs table
     md += "## Runs\n\n| run | status | unknowns | steps | Newton total | Newton max/step | cutbacks | wall time (s) |\n";
@@ -186,6 +207,8 @@ pub fn markdown(study: &Study, rows: &[Row], command: &str) -> String {
     for r in rows {
         let status = if r.converged {
             "converged".to_string()
+        } else if r.missing {
+            format!("missing: {}", md_cell(&r.reason))
         } else {
             format!(
                 "failed at load {}: {}",

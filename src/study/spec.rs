@@ -50,6 +50,9 @@ pub struct StudySpec {
     /// Curves drawn for each run (its `history.csv` columns; a leading `-` negates).
     #[serde(default)]
     pub plot: PlotSpec,
+    /// `[slurm]`: what the job script of `--launcher slurm` asks for (time, memory, partition, ...).
+    #[serde(default)]
+    pub slurm: Option<crate::study::slurm::SlurmSpec>,
 }
 
 fn one() -> usize {
@@ -328,6 +331,11 @@ impl Study {
         }
         crate::study::metrics::validate(&spec.metrics)
             .map_err(|(key, message)| invalid(&key, message))?;
+        if let Some(slurm) = &spec.slurm {
+            slurm
+                .validate()
+                .map_err(|(key, message)| invalid(&key, message))?;
+        }
         for (i, c) in spec.plot.curves.iter().enumerate() {
             if c.trim_start_matches('-').is_empty() {
                 return Err(invalid(

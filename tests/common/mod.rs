@@ -225,3 +225,45 @@ pub fn run_case(name: &str, case_file: &str, np: usize, sets: &[&str]) -> PathBu
 pub fn last(dir: &Path, col: &str) -> f64 {
     *history_col(dir, col).last().expect("a converged step")
 }
+
+/// Parses a CSV with quoted cells (the reasons hold commas) into header and rows.
+pub fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
+    let text = std::fs::read_to_string(path).expect("read csv");
+    let mut rows = Vec::new();
+    for line in text.lines() {
+        let mut cells = Vec::new();
+        let mut cur = String::new();
+        let mut quoted = false;
+        let mut chars = line.chars().peekable();
+        while let Some(c) = chars.next() {
+            match c {
+                '"' if quoted && chars.peek() == Some(&'"') => {
+                    cur.push('"');
+                    chars.next();
+                }
+                '"' => quoted = !quoted,
+                ',' if !quoted => cells.push(std::mem::take(&mut cur)),
+                _ => cur.push(c),
+            }
+        }
+        cells.push(cur);
+        rows.push(cells);
+    }
+    let header = rows.remove(0);
+    (header, rows)
+}
+
+/// study.csv rows by run name, each a map column -> cell.
+pub fn study_rows(
+    out: &Path,
+) -> std::collections::HashMap<String, std::collections::HashMap<String, String>> {
+    let (header, rows) = read_csv(&out.join("study.csv"));
+    rows.into_iter()
+        .map(|r| {
+            assert_eq!(r.len(), header.len(), "row {r:?}");
+            let m: std::collections::HashMap<String, String> =
+                header.iter().cloned().zip(r).collect();
+            (m["run"].clone(), m)
+        })
+        .collect()
+}
