@@ -26,6 +26,23 @@
 //!   body's contact surface, `model::enrich`); [`solver`], [`driver`], [`io`].
 //! - [`study`]: `nurbs-contact study`, refinement studies over many runs of one case, with metrics,
 //!   tables and plots.
+//!
+//! ## Where the paper's concepts live (Corbett & Sauer 2014)
+//! | concept | where |
+//! | --- | --- |
+//! | enriched contact elements Q1Np, Q1Cp, Q1CH (section 3.1) | `fem::enriched`, the enriched layer `model::enrich` |
+//! | NURBS / Bezier extraction of the contact surface (section 2.2) | `geometry`, face bases `contact::basis` |
+//! | contact surface as plain data | [`contact::surface`] |
+//! | closest-point projection, eq. (3) | [`contact::projection`], global search [`contact::search`] |
+//! | penalty, van der Waals, cohesive laws, eqs. (5)-(7) | [`contact::law`] |
+//! | contact residual and consistent tangent at a point (section 3.2) | [`contact::kernel`] |
+//! | two-half-pass / one-pass, one pass over a surface's points | [`contact::half_pass`] |
+//! | gap modes (pointwise, element mean) | `contact::half_pass::gap` |
+//! | Coulomb friction (Sauer & De Lorenzis 2015) | return mapping in [`contact::kernel`], anchors in `contact::half_pass::friction` |
+//! | rigid partners | [`contact::rigid`] |
+//! | a pair's declaration (law, passes, friction) | [`contact::pair`] |
+//! | pair state on a rank, commit/rollback, coupling pattern, L2 pressure (Sauer 2013) | [`contact::system`] |
+//! | Neo-Hookean bulk, eq. (21) | [`material`] |
 
 pub mod assembly;
 pub mod checkpoint;

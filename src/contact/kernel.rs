@@ -247,40 +247,41 @@ fn projected_normal(
     }
 }
 
-/// Evaluates one point: adds its residual to `r` [n_k*dim] and, if given, its tangent to `K`
-/// [n_k*dim][n_cols] row-major, `n_cols = (n_k + n_l) * dim` (own unknowns first, then the partner
-/// element's; `n_l = 0` for a rigid partner). `law(g, n)` gives the traction.
-#[allow(clippy::too_many_arguments)]
-pub fn contact_point(
-    dim: usize,
-    own: &OwnPoint,
-    partner: &PartnerPoint,
-    law: &dyn Fn(&[f64; 3], &[f64; 3]) -> Traction,
-    area: Area,
-    r: &mut [f64],
-    K: Option<&mut [f64]>,
-    s: &mut Scratch,
-) -> PointResult {
-    contact_point_pass(dim, own, partner, law, None, area, false, r, K, s)
+/// The inputs of one point's evaluation.
+pub struct PointIn<'a> {
+    pub dim: usize,
+    pub own: &'a OwnPoint<'a>,
+    pub partner: &'a PartnerPoint<'a>,
+    /// `law(g, n)`: the traction.
+    pub law: &'a dyn Fn(&[f64; 3], &[f64; 3]) -> Traction,
+    /// Coulomb friction on top of the law's traction (the anchor's own unknowns are not among the
+    /// columns: their block is `-N_a w J dt_dxa N_b(xi_a)`, see [`FrictionOut`]).
+    pub friction: Option<&'a FrictionIn>,
+    /// The area the law's traction is measured on.
+    pub area: Area,
+    /// One-pass: the partner element's rows follow the own rows in `r` [(n_k + n_l) * dim] and
+    /// `K` [(n_k + n_l) * dim][n_cols] (no effect for a rigid partner).
+    pub one_pass: bool,
 }
 
-/// [`contact_point`], with `one_pass`: the partner element's rows follow the own rows in `r`
-/// [(n_k + n_l) * dim] and `K` [(n_k + n_l) * dim][n_cols] (no effect for a rigid partner); and
-/// with `friction`, Coulomb friction on top of the law's traction (the anchor's own unknowns are
-/// not among the columns: their block is `-N_a w J dt_dxa N_b(xi_a)`, see [`FrictionOut`]).
-#[allow(clippy::too_many_arguments)]
+/// Evaluates one point: adds its residual to `r` [n_k*dim] and, if given, its tangent to `K`
+/// [n_k*dim][n_cols] row-major, `n_cols = (n_k + n_l) * dim` (own unknowns first, then the partner
+/// element's; `n_l = 0` for a rigid partner); see [`PointIn`] for one-pass rows and friction.
 pub fn contact_point_pass(
-    dim: usize,
-    own: &OwnPoint,
-    partner: &PartnerPoint,
-    law: &dyn Fn(&[f64; 3], &[f64; 3]) -> Traction,
-    friction: Option<&FrictionIn>,
-    area: Area,
-    one_pass: bool,
+    input: &PointIn,
     r: &mut [f64],
     K: Option<&mut [f64]>,
     s: &mut Scratch,
 ) -> PointResult {
+    let PointIn {
+        dim,
+        own,
+        partner,
+        law,
+        friction,
+        area,
+        one_pass,
+    } = *input;
     let m = dim - 1;
     let nk = own.N.len();
     // own point, tangents and area element
@@ -327,44 +328,9 @@ pub fn contact_point_pass(
     let p_n = dot(&tr.t, &n);
     let mut fric = None;
     if let Some(f) = friction.filter(|_| p_n > 0.0 && !tr.is_zero()) {
-        let d = [0, 1, 2].map(|k| xk[k] - f.anchor[k]);
-        let nd = dot(&n, &d);
-        let gt = [0, 1, 2].map(|k| d[k] - n[k] * nd);
-        let gl = dot(&gt, &gt).sqrt();
-        fr.g_t = gt;
-        // On the cone (within round-off; where a point that slipped in the last step starts the
-        // next one), the slip branch: the traction is the same on both, and its tangent is the
-        // one that holds while the point keeps sliding.
-        if f.eps_t * gl < f.mu * p_n * (1.0 - 1e-8) {
-            fr.state = SlipState::Stick;
-            fr.t_t = gt.map(|c| -f.eps_t * c);
-            for i in 0..3 {
-                for j in 0..3 {
-                    // d g_T / d x_a = -(I - n n)
-                    let pij = if i == j { 1.0 } else { 0.0 } - n[i] * n[j];
-                    fr.dt_dxa[3 * i + j] = f.eps_t * pij;
-                }
-            }
-        } else {
-            fr.state = SlipState::Slip;
-            let sv = gt.map(|c| -c / gl);
-            fr.t_t = sv.map(|c| f.mu * p_n * c);
-            let ratio = f.mu * p_n / (f.eps_t * gl);
-            fr.slip_target = [0, 1, 2].map(|k| f.anchor[k] + gt[k] * (1.0 - ratio));
-            // d s / d x_a = (I - s s)(I - n n) / |g_T|
-            for i in 0..3 {
-                for j in 0..3 {
-                    let mut v = 0.0;
-                    for k in 0..3 {
-                        let ss = if i == k { 1.0 } else { 0.0 } - sv[i] * sv[k];
-                        let pkj = if k == j { 1.0 } else { 0.0 } - n[k] * n[j];
-                        v += ss * pkj;
-                    }
-                    fr.dt_dxa[3 * i + j] = f.mu * p_n * v / gl;
-                }
-            }
-        }
-        fric = Some((f, d, nd, gt, gl));
+        let (out, state) = friction_return(f, &xk, &n, p_n);
+        fr = out;
+        fric = Some(state);
     }
     let t_tot = [0, 1, 2].map(|k| tr.t[k] + fr.t_t[k]);
     let mut out = PointResult {
@@ -411,172 +377,14 @@ pub fn contact_point_pass(
     s.dxi.resize(nc, [0.0; 2]);
     // area element of the current configuration
     if area == Area::Current {
-        let nu = nu_raw.map(|c| c / Jc);
-        let (c1, c2) = if dim == 2 {
-            (ak[0].map(|c| c / Jc), [0.0; 3])
-        } else {
-            (cross(&ak[1], &nu), cross(&nu, &ak[0]))
-        };
-        for a in 0..nk {
-            for i in 0..dim {
-                let mut v = own.dN[a * m] * c1[i];
-                if dim == 3 {
-                    v += own.dN[a * m + 1] * c2[i];
-                }
-                s.dJ[a * dim + i] = v;
-            }
-        }
+        area_variation(dim, own, &ak, &nu_raw, Jc, s);
     }
-    match (partner, &geom) {
-        (PartnerPoint::Rigid(rp), _) => {
-            for a in 0..nk {
-                for i in 0..dim {
-                    let c = a * dim + i;
-                    for j in 0..3 {
-                        s.dg[c][j] = rp.dg_dx[3 * j + i] * own.N[a];
-                        s.dn[c][j] = rp.dn_dx[3 * j + i] * own.N[a];
-                    }
-                }
-            }
-        }
-        (PartnerPoint::Material { .. }, Some(ge)) => {
-            for a in 0..nk {
-                for i in 0..dim {
-                    s.dg[a * dim + i][i] = own.N[a];
-                }
-            }
-            for b in 0..nl {
-                for i in 0..dim {
-                    s.dg[(nk + b) * dim + i][i] = -ge.N[b];
-                }
-            }
-        }
-        (PartnerPoint::Projected { free, .. }, Some(ge)) => {
-            let fr: Vec<usize> = (0..m).filter(|&i| free[i]).collect();
-            // A_ff = m_ff - g . a_ff on the free coordinates
-            let mut A = [[0.0; 2]; 2];
-            for (p, &i) in fr.iter().enumerate() {
-                for (q, &j) in fr.iter().enumerate() {
-                    A[p][q] = dot(&ge.a[i], &ge.a[j]) - dot(&g, &ge.aa[i][j]);
-                }
-            }
-            let det = if fr.len() == 2 {
-                A[0][0] * A[1][1] - A[0][1] * A[1][0]
-            } else {
-                A[0][0]
-            };
-            // metric and contravariant tangents (orthogonal normal variation)
-            let mut M = [[0.0; 2]; 2];
-            for i in 0..m {
-                for j in 0..m {
-                    M[i][j] = dot(&ge.a[i], &ge.a[j]);
-                }
-            }
-            let mut acon = [[0.0; 3]; 2];
-            if m == 1 {
-                acon[0] = ge.a[0].map(|c| c / M[0][0]);
-            } else {
-                let dm = M[0][0] * M[1][1] - M[0][1] * M[1][0];
-                let mi = [[M[1][1] / dm, -M[0][1] / dm], [-M[1][0] / dm, M[0][0] / dm]];
-                for i in 0..2 {
-                    for k in 0..3 {
-                        acon[i][k] = mi[i][0] * ge.a[0][k] + mi[i][1] * ge.a[1][k];
-                    }
-                }
-            }
-            let gl = dot(&g, &g).sqrt();
-            for c in 0..nc {
-                let (node, i) = (c / dim, c % dim);
-                // dx_k - dx_p(xi fixed), and da_alpha(xi fixed)
-                let mut dd = [0.0; 3];
-                let mut da = [[0.0; 3]; 2];
-                if node < nk {
-                    dd[i] = own.N[node];
-                } else {
-                    let b = node - nk;
-                    dd[i] = -ge.N[b];
-                    for al in 0..m {
-                        da[al][i] = ge.dN[b * m + al];
-                    }
-                }
-                let mut rhs = [0.0; 2];
-                for (p, &al) in fr.iter().enumerate() {
-                    rhs[p] = dot(&ge.a[al], &dd) + dot(&g, &da[al]);
-                }
-                let mut dxi = [0.0; 2];
-                if fr.len() == 1 {
-                    dxi[fr[0]] = rhs[0] / det;
-                } else if fr.len() == 2 {
-                    dxi[0] = (A[1][1] * rhs[0] - A[0][1] * rhs[1]) / det;
-                    dxi[1] = (-A[1][0] * rhs[0] + A[0][0] * rhs[1]) / det;
-                }
-                s.dxi[c] = dxi;
-                let mut dg = dd;
-                for &be in &fr {
-                    for k in 0..3 {
-                        dg[k] -= ge.a[be][k] * dxi[be];
-                    }
-                }
-                s.dg[c] = dg;
-                if orthogonal {
-                    let mut dn = [0.0; 3];
-                    for al in 0..m {
-                        let mut dal = da[al];
-                        for &be in &fr {
-                            for k in 0..3 {
-                                dal[k] += ge.aa[al][be][k] * dxi[be];
-                            }
-                        }
-                        let nd = dot(&n, &dal);
-                        for k in 0..3 {
-                            dn[k] -= nd * acon[al][k];
-                        }
-                    }
-                    s.dn[c] = dn;
-                } else {
-                    // n = s g/|g| with s = sign(g . n)
-                    let sg = if dot(&g, &n) >= 0.0 { 1.0 } else { -1.0 };
-                    let ndg = dot(&n, &dg);
-                    s.dn[c] = [0, 1, 2].map(|k| sg * (dg[k] - n[k] * ndg) / gl);
-                }
-            }
-        }
-        _ => unreachable!(),
-    }
+    gap_variations(dim, own, partner, geom.as_ref(), (&g, &n, orthogonal), s);
     // variation of the tangential traction per column (the anchor held fixed)
     s.dtt.clear();
     s.dtt.resize(nc, [0.0; 3]);
-    if let Some((f, d, nd, gt, gl)) = fric {
-        for c in 0..nc {
-            let (node, i) = (c / dim, c % dim);
-            let (dg, dn) = (&s.dg[c], &s.dn[c]);
-            // d x_k for this column (the partner's nodes move x_k not at all)
-            let mut dd = [0.0; 3];
-            if node < nk {
-                dd[i] = own.N[node];
-            }
-            // d g_T = (I - n n) dd - (n . d) dn - n (d . dn)
-            let ndd = dot(&n, &dd);
-            let ddn = dot(&d, dn);
-            let dgt = [0, 1, 2].map(|k| dd[k] - n[k] * ndd - nd * dn[k] - n[k] * ddn);
-            s.dtt[c] = match fr.state {
-                SlipState::Stick => dgt.map(|v| -f.eps_t * v),
-                _ => {
-                    // p_N = t_N . n: d p_N = n . (dt/dg dg + dt/dn dn) + t_N . dn
-                    let mut dp = dot(&tr.t, dn);
-                    for i2 in 0..3 {
-                        let mut v = 0.0;
-                        for j in 0..3 {
-                            v += tr.dt_dg[3 * i2 + j] * dg[j] + tr.dt_dn[3 * i2 + j] * dn[j];
-                        }
-                        dp += n[i2] * v;
-                    }
-                    let sv = gt.map(|c| -c / gl);
-                    let sdg = dot(&sv, &dgt);
-                    [0, 1, 2].map(|k| f.mu * sv[k] * dp - f.mu * p_n * (dgt[k] - sv[k] * sdg) / gl)
-                }
-            };
-        }
+    if let Some(state) = fric {
+        friction_variations(dim, own, &tr, (&n, p_n), &fr, state, s);
     }
     for a in 0..nk {
         for i in 0..dim {
@@ -611,4 +419,264 @@ pub fn contact_point_pass(
     }
     out.active = true;
     out
+}
+
+/// What the friction variations need of the return mapping: the friction, `d = x_k - x_a`,
+/// `n . d`, the trial tangential gap `g_T` and its length.
+type FrictionState<'a> = (&'a FrictionIn, [f64; 3], f64, [f64; 3], f64);
+
+/// The return mapping of Coulomb friction at own point `xk` [3] with normal `n` [3] and normal
+/// pressure `p_n > 0`: stick within the cone, else slip onto it.
+fn friction_return<'a>(
+    f: &'a FrictionIn,
+    xk: &[f64; 3],
+    n: &[f64; 3],
+    p_n: f64,
+) -> (FrictionOut, FrictionState<'a>) {
+    let mut fr = FrictionOut::default();
+    let d = [0, 1, 2].map(|k| xk[k] - f.anchor[k]);
+    let nd = dot(n, &d);
+    let gt = [0, 1, 2].map(|k| d[k] - n[k] * nd);
+    let gl = dot(&gt, &gt).sqrt();
+    fr.g_t = gt;
+    // On the cone (within round-off; where a point that slipped in the last step starts the
+    // next one), the slip branch: the traction is the same on both, and its tangent is the
+    // one that holds while the point keeps sliding.
+    if f.eps_t * gl < f.mu * p_n * (1.0 - 1e-8) {
+        fr.state = SlipState::Stick;
+        fr.t_t = gt.map(|c| -f.eps_t * c);
+        for i in 0..3 {
+            for j in 0..3 {
+                // d g_T / d x_a = -(I - n n)
+                let pij = if i == j { 1.0 } else { 0.0 } - n[i] * n[j];
+                fr.dt_dxa[3 * i + j] = f.eps_t * pij;
+            }
+        }
+    } else {
+        fr.state = SlipState::Slip;
+        let sv = gt.map(|c| -c / gl);
+        fr.t_t = sv.map(|c| f.mu * p_n * c);
+        let ratio = f.mu * p_n / (f.eps_t * gl);
+        fr.slip_target = [0, 1, 2].map(|k| f.anchor[k] + gt[k] * (1.0 - ratio));
+        // d s / d x_a = (I - s s)(I - n n) / |g_T|
+        for i in 0..3 {
+            for j in 0..3 {
+                let mut v = 0.0;
+                for k in 0..3 {
+                    let ss = if i == k { 1.0 } else { 0.0 } - sv[i] * sv[k];
+                    let pkj = if k == j { 1.0 } else { 0.0 } - n[k] * n[j];
+                    v += ss * pkj;
+                }
+                fr.dt_dxa[3 * i + j] = f.mu * p_n * v / gl;
+            }
+        }
+    }
+    (fr, (f, d, nd, gt, gl))
+}
+
+/// The variations of the gap `dg`, normal `dn`, partner coordinates `dxi` per column into `s` (the
+/// area element's `dJ` is set by the caller), for the point's partner: rigid, material pairing or
+/// closest point (`g`, `n` and whether the normal is the surface's, `orthogonal`).
+fn gap_variations(
+    dim: usize,
+    own: &OwnPoint,
+    partner: &PartnerPoint,
+    geom: Option<&PartnerGeom>,
+    (g, n, orthogonal): (&[f64; 3], &[f64; 3], bool),
+    s: &mut Scratch,
+) {
+    let m = dim - 1;
+    let nk = own.N.len();
+    let nl = geom.map_or(0, |g| g.n);
+    let nc = (nk + nl) * dim;
+    match (partner, geom) {
+        (PartnerPoint::Rigid(rp), _) => {
+            for a in 0..nk {
+                for i in 0..dim {
+                    let c = a * dim + i;
+                    for j in 0..3 {
+                        s.dg[c][j] = rp.dg_dx[3 * j + i] * own.N[a];
+                        s.dn[c][j] = rp.dn_dx[3 * j + i] * own.N[a];
+                    }
+                }
+            }
+        }
+        (PartnerPoint::Material { .. }, Some(ge)) => {
+            for a in 0..nk {
+                for i in 0..dim {
+                    s.dg[a * dim + i][i] = own.N[a];
+                }
+            }
+            for b in 0..nl {
+                for i in 0..dim {
+                    s.dg[(nk + b) * dim + i][i] = -ge.N[b];
+                }
+            }
+        }
+        (PartnerPoint::Projected { free, .. }, Some(ge)) => {
+            let fr: Vec<usize> = (0..m).filter(|&i| free[i]).collect();
+            // A_ff = m_ff - g . a_ff on the free coordinates
+            let mut A = [[0.0; 2]; 2];
+            for (p, &i) in fr.iter().enumerate() {
+                for (q, &j) in fr.iter().enumerate() {
+                    A[p][q] = dot(&ge.a[i], &ge.a[j]) - dot(g, &ge.aa[i][j]);
+                }
+            }
+            let det = if fr.len() == 2 {
+                A[0][0] * A[1][1] - A[0][1] * A[1][0]
+            } else {
+                A[0][0]
+            };
+            // metric and contravariant tangents (orthogonal normal variation)
+            let mut M = [[0.0; 2]; 2];
+            for i in 0..m {
+                for j in 0..m {
+                    M[i][j] = dot(&ge.a[i], &ge.a[j]);
+                }
+            }
+            let mut acon = [[0.0; 3]; 2];
+            if m == 1 {
+                acon[0] = ge.a[0].map(|c| c / M[0][0]);
+            } else {
+                let dm = M[0][0] * M[1][1] - M[0][1] * M[1][0];
+                let mi = [[M[1][1] / dm, -M[0][1] / dm], [-M[1][0] / dm, M[0][0] / dm]];
+                for i in 0..2 {
+                    for k in 0..3 {
+                        acon[i][k] = mi[i][0] * ge.a[0][k] + mi[i][1] * ge.a[1][k];
+                    }
+                }
+            }
+            let gl = dot(g, g).sqrt();
+            for c in 0..nc {
+                let (node, i) = (c / dim, c % dim);
+                // dx_k - dx_p(xi fixed), and da_alpha(xi fixed)
+                let mut dd = [0.0; 3];
+                let mut da = [[0.0; 3]; 2];
+                if node < nk {
+                    dd[i] = own.N[node];
+                } else {
+                    let b = node - nk;
+                    dd[i] = -ge.N[b];
+                    for al in 0..m {
+                        da[al][i] = ge.dN[b * m + al];
+                    }
+                }
+                let mut rhs = [0.0; 2];
+                for (p, &al) in fr.iter().enumerate() {
+                    rhs[p] = dot(&ge.a[al], &dd) + dot(g, &da[al]);
+                }
+                let mut dxi = [0.0; 2];
+                if fr.len() == 1 {
+                    dxi[fr[0]] = rhs[0] / det;
+                } else if fr.len() == 2 {
+                    dxi[0] = (A[1][1] * rhs[0] - A[0][1] * rhs[1]) / det;
+                    dxi[1] = (-A[1][0] * rhs[0] + A[0][0] * rhs[1]) / det;
+                }
+                s.dxi[c] = dxi;
+                let mut dg = dd;
+                for &be in &fr {
+                    for k in 0..3 {
+                        dg[k] -= ge.a[be][k] * dxi[be];
+                    }
+                }
+                s.dg[c] = dg;
+                if orthogonal {
+                    let mut dn = [0.0; 3];
+                    for al in 0..m {
+                        let mut dal = da[al];
+                        for &be in &fr {
+                            for k in 0..3 {
+                                dal[k] += ge.aa[al][be][k] * dxi[be];
+                            }
+                        }
+                        let nd = dot(n, &dal);
+                        for k in 0..3 {
+                            dn[k] -= nd * acon[al][k];
+                        }
+                    }
+                    s.dn[c] = dn;
+                } else {
+                    // n = s g/|g| with s = sign(g . n)
+                    let sg = if dot(g, n) >= 0.0 { 1.0 } else { -1.0 };
+                    let ndg = dot(n, &dg);
+                    s.dn[c] = [0, 1, 2].map(|k| sg * (dg[k] - n[k] * ndg) / gl);
+                }
+            }
+        }
+        _ => unreachable!(),
+    }
+}
+
+/// The variation of the tangential traction per column into `s.dtt` (the anchor held fixed),
+/// from the gap and normal variations.
+fn friction_variations(
+    dim: usize,
+    own: &OwnPoint,
+    tr: &Traction,
+    (n, p_n): (&[f64; 3], f64),
+    fr: &FrictionOut,
+    (f, d, nd, gt, gl): FrictionState,
+    s: &mut Scratch,
+) {
+    let nk = own.N.len();
+    let nc = s.dg.len();
+    for c in 0..nc {
+        let (node, i) = (c / dim, c % dim);
+        let (dg, dn) = (&s.dg[c], &s.dn[c]);
+        // d x_k for this column (the partner's nodes move x_k not at all)
+        let mut dd = [0.0; 3];
+        if node < nk {
+            dd[i] = own.N[node];
+        }
+        // d g_T = (I - n n) dd - (n . d) dn - n (d . dn)
+        let ndd = dot(n, &dd);
+        let ddn = dot(&d, dn);
+        let dgt = [0, 1, 2].map(|k| dd[k] - n[k] * ndd - nd * dn[k] - n[k] * ddn);
+        s.dtt[c] = match fr.state {
+            SlipState::Stick => dgt.map(|v| -f.eps_t * v),
+            _ => {
+                // p_N = t_N . n: d p_N = n . (dt/dg dg + dt/dn dn) + t_N . dn
+                let mut dp = dot(&tr.t, dn);
+                for i2 in 0..3 {
+                    let mut v = 0.0;
+                    for j in 0..3 {
+                        v += tr.dt_dg[3 * i2 + j] * dg[j] + tr.dt_dn[3 * i2 + j] * dn[j];
+                    }
+                    dp += n[i2] * v;
+                }
+                let sv = gt.map(|c| -c / gl);
+                let sdg = dot(&sv, &dgt);
+                [0, 1, 2].map(|k| f.mu * sv[k] * dp - f.mu * p_n * (dgt[k] - sv[k] * sdg) / gl)
+            }
+        };
+    }
+}
+
+/// The variation of the current area element `Jc` per own column into `s.dJ` (tangents `ak`, raw
+/// normal `nu_raw`).
+fn area_variation(
+    dim: usize,
+    own: &OwnPoint,
+    ak: &[[f64; 3]; 2],
+    nu_raw: &[f64; 3],
+    Jc: f64,
+    s: &mut Scratch,
+) {
+    let m = dim - 1;
+    let nk = own.N.len();
+    let nu = nu_raw.map(|c| c / Jc);
+    let (c1, c2) = if dim == 2 {
+        (ak[0].map(|c| c / Jc), [0.0; 3])
+    } else {
+        (cross(&ak[1], &nu), cross(&nu, &ak[0]))
+    };
+    for a in 0..nk {
+        for i in 0..dim {
+            let mut v = own.dN[a * m] * c1[i];
+            if dim == 3 {
+                v += own.dN[a * m + 1] * c2[i];
+            }
+            s.dJ[a * dim + i] = v;
+        }
+    }
 }

@@ -9,22 +9,27 @@
 //!   corner projections on faceted surfaces).
 //! - [`law`]: pointwise laws, eqs. (5)-(7); [`rigid`]: rigid partners.
 //! - [`kernel`]: one quadrature point's residual and consistent tangent.
+//! - [`pair`]: a declared pair as plain data: law, friction, partners, coupling blocks.
+//! - [`half_pass`]: one pass over a surface's own points (gather -> partner -> law -> kernel ->
+//!   scatter), with the gap mode and friction as parts.
 //! - [`system`]: all pairs on a rank: state, evaluation, resultants (no PETSc, no MPI).
 //! - `fault`: an injected projection failure, for tests of the cutback path.
 
 pub mod basis;
 mod fault;
+pub mod half_pass;
 pub mod kernel;
 pub mod law;
+pub mod pair;
 pub mod projection;
 pub mod rigid;
 pub mod search;
 pub mod surface;
 pub mod system;
 
-pub use system::{
-    Anchor, ContactSystem, Coupling, Friction, Law, PairDef, Partner, PassResult, Settle,
-};
+pub use half_pass::PassResult;
+pub use pair::{Anchor, Coupling, Friction, Law, PairDef, Partner};
+pub use system::{ContactSystem, Settle};
 
 #[cfg(test)]
 mod tests;

@@ -19,7 +19,8 @@
 //!
 //! Only frictionless penalty pairs take part (friction and the cohesive law are left alone).
 
-use super::{ContactSystem, Law, TOUCH};
+use super::ContactSystem;
+use crate::contact::pair::{Law, TOUCH};
 
 /// Active-set updates of one step attempt before every point is released.
 pub const MAX_ROUNDS: usize = 4;
@@ -56,7 +57,7 @@ pub(super) struct ActiveSet {
 
 impl ActiveSet {
     /// The status point `q` of half-pass `pass` is held at, if it is frozen.
-    pub(super) fn forced(&self, pass: usize, q: usize) -> Option<bool> {
+    pub(crate) fn forced(&self, pass: usize, q: usize) -> Option<bool> {
         self.tracks.get(pass)?.get(q)?.frozen
     }
 
@@ -231,22 +232,6 @@ impl ContactSystem {
             }
         }
         Settle::Resume
-    }
-}
-
-/// The traction of a penalty-type law at a point held at status `forced` (`None`: the law's own
-/// test): held active, the linear branch `-eps_n g_n n` whatever the sign of `g_n`; held inactive,
-/// none.
-pub(super) fn forced_penalty(
-    eps_n: f64,
-    forced: bool,
-    g: &[f64; 3],
-    n: &[f64; 3],
-) -> super::Traction {
-    if forced {
-        crate::contact::law::penalty(eps_n, f64::INFINITY, g, n)
-    } else {
-        super::Traction::ZERO
     }
 }
 

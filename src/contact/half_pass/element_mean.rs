@@ -28,7 +28,7 @@ use super::Blocks;
 use crate::contact::surface::MAX_FACE_NODES;
 
 /// A point of the element that has a partner.
-pub(super) struct MeanPoint {
+pub(crate) struct MeanPoint {
     /// Quadrature point index in its pass.
     pub q: usize,
     /// Partner element (`u32::MAX`: rigid).
@@ -47,7 +47,7 @@ pub(super) struct MeanPoint {
 
 /// The mean normal gap of one own element and what its linearisation needs.
 #[derive(Default)]
-pub(super) struct ElementMean {
+pub(crate) struct ElementMean {
     /// The equivalent gap `g_e = -p / eps_n`.
     pub g: f64,
     /// Total weight `W` (the element's reference area).

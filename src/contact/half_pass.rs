@@ -1,0 +1,603 @@
+//! One half-pass (section 3.2 of Corbett & Sauer 2014): the quadrature points of surface `k` that
+//! this rank integrates, each paired with partner `l` (another surface or a rigid shape). Per own
+//! element, per point: gather (the element's stored basis and current nodes) -> partner (the
+//! point's projection, cohesive pairing or rigid closest point) -> law -> point kernel
+//! ([`crate::contact::kernel`]) -> scatter (residual rows of the own element, tangent blocks own x
+//! partner element into the sink).
+//!
+//! Pluggable parts, not branches of one loop:
+//! - [`gap`]: where the penalty law's normal gap is taken (pointwise, the paper's; `element_mean`,
+//!   one pressure per surface element; the mortar gap goes here);
+//! - [`friction`]: Coulomb friction's anchors, their blocks and their update.
+#![allow(clippy::needless_range_loop)]
+#![allow(non_snake_case)]
+
+mod element_mean;
+pub(crate) mod friction;
+pub(crate) mod gap;
+
+use crate::assembly::MatrixSink;
+use crate::contact::kernel::{
+    contact_point_pass, Area, OwnPoint, PartnerPoint, PointIn, Scratch, SlipState,
+};
+use crate::contact::law::{self, Traction};
+use crate::contact::pair::{law_traction, Anchor, Coupling, Friction, Law, Partner, SlotOf};
+use crate::contact::projection::{Positions, Projection};
+use crate::contact::rigid::{RigidMotion, RigidShape};
+use crate::contact::surface::{raw_normal, ContactSurface};
+use friction::AnchorAt;
+use gap::Gap;
+
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct QPoint {
+    /// Surface coordinates on its own element [m].
+    pub(crate) xi: [f64; 2],
+    /// Gauss weight.
+    pub(crate) w: f64,
+    /// Reference area element.
+    pub(crate) J0: f64,
+    /// Last projection (trial state, updated by every evaluation).
+    pub(crate) warm: Option<(u32, [f64; 2])>,
+    /// Last converged projection.
+    pub(crate) committed: Option<(u32, [f64; 2])>,
+    /// Projection of the current evaluation: partner element, coordinates, free flags.
+    pub(crate) current: Option<Projection>,
+    /// Cohesive material pairing (partner element, coordinates), if bonded.
+    pub(crate) pairing: Option<(u32, [f64; 2])>,
+    /// Contact force of the point at the last evaluation, `t J w` summed over its contributions.
+    pub(crate) force: [f64; 3],
+    /// Normal gap to the partner at the last evaluation (`None`: no partner within reach).
+    pub(crate) gap: Option<f64>,
+    /// Friction: the anchor of the last converged step (load-step history).
+    pub(crate) anchor: Option<Anchor>,
+    /// Friction: the anchor the last evaluation leads to (committed when its step converges).
+    pub(crate) anchor_trial: Option<Anchor>,
+    /// Friction: stick or slip at the last evaluation.
+    pub(crate) slip: SlipState,
+    /// Friction: tangential traction and tangential gap to the anchor at the last evaluation
+    /// (output only).
+    pub(crate) t_t: [f64; 3],
+    pub(crate) g_t: [f64; 3],
+    /// Reference position (output only).
+    pub(crate) X: [f64; 3],
+    /// Normal pressure at the last evaluation (output only).
+    pub(crate) p_n: f64,
+}
+
+/// A surface element this rank integrates.
+#[derive(Debug, Clone)]
+pub(crate) struct OwnElem {
+    pub(crate) e: u32,
+    /// Points `points[first..first + n]`.
+    pub(crate) first: usize,
+    pub(crate) n: usize,
+    /// Local (ghosted) index of each unknown, [n_nodes * dim].
+    pub(crate) local: Vec<u32>,
+    /// The element's basis at its points (their surface coordinates never change), evaluated
+    /// once: values [n][n_nodes] and first derivatives [n][n_nodes][m].
+    pub(crate) N: Vec<f64>,
+    pub(crate) dN: Vec<f64>,
+}
+
+impl OwnElem {
+    /// Basis values and first derivatives at point `q` (an index into the pass's points).
+    pub(crate) fn basis(&self, q: usize) -> (&[f64], &[f64]) {
+        let nk = self.N.len() / self.n;
+        let m = self.dN.len() / self.N.len();
+        let i = q - self.first;
+        (
+            &self.N[i * nk..(i + 1) * nk],
+            &self.dN[i * nk * m..(i + 1) * nk * m],
+        )
+    }
+
+    /// Current position of point `q` on the element's current nodal positions `x` [n_nodes][dim]
+    /// (the sum of [`crate::contact::surface::frame`], with the stored basis).
+    pub(crate) fn position(&self, q: usize, x: &[f64], dim: usize) -> [f64; 3] {
+        let (N, _) = self.basis(q);
+        let mut p = [0.0; 3];
+        for (b, &Nb) in N.iter().enumerate() {
+            for k in 0..dim {
+                p[k] += Nb * x[b * dim + k];
+            }
+        }
+        p
+    }
+}
+
+/// Resultants of one half-pass over this rank's points (sum over ranks for the whole).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PassResult {
+    /// Resultant contact force on the integrated body [3].
+    pub force: [f64; 3],
+    /// Moment of the contact forces about the pair's moment point [3].
+    pub moment: [f64; 3],
+    /// Active quadrature points.
+    pub n_active: usize,
+    /// Largest penetration `max(-g_n, 0)`.
+    pub max_penetration: f64,
+    /// Active points whose closest point is an edge or corner of a faceted (C0) partner.
+    pub n_edge: usize,
+    /// Friction: resultant tangential contact force on the integrated body [3].
+    pub tangential: [f64; 3],
+    /// Friction: sticking and slipping quadrature points.
+    pub n_stick: usize,
+    pub n_slip: usize,
+}
+
+pub(crate) struct Pass {
+    pub(crate) k: usize,
+    pub(crate) partner: Partner,
+    pub(crate) points: Vec<QPoint>,
+    pub(crate) elems: Vec<OwnElem>,
+    /// Rigid shape at the current load.
+    pub(crate) shape: Option<RigidShape>,
+    pub(crate) result: PassResult,
+}
+
+/// The surfaces a half-pass reads: their elements, current positions and unknowns.
+pub(crate) struct Geometry<'a> {
+    pub dim: usize,
+    pub surfaces: &'a [ContactSurface],
+    /// Current positions per surface.
+    pub pos: &'a [Positions],
+    /// Per surface, per element: positions of its nodes in the node table. [surface][element][node]
+    pub slots: &'a [Vec<Vec<u32>>],
+    /// Per surface, per element: global unknowns of its nodes [n_nodes * dim] (-1: none).
+    pub gdofs: &'a [Vec<Vec<i32>>],
+}
+
+/// What a half-pass reads of its pair.
+pub(crate) struct PairView<'a> {
+    pub law: Law,
+    /// Moments are taken about this point [3].
+    pub moment_point: [f64; 3],
+    pub search_distance: f64,
+    pub one_pass: bool,
+    /// Friction acting at the current load (`None`: frictionless, or off in this stage).
+    pub friction: Option<&'a Friction>,
+    /// The pair has friction in some stage (its points keep stick/slip and anchors).
+    pub has_friction: bool,
+    /// `gap = "element_mean"`.
+    pub element_mean: bool,
+    /// Load parameter (rigid partners' motion).
+    pub lambda: f64,
+}
+
+/// Buffers the half-passes reuse (nothing allocates per point once they have grown).
+#[derive(Default)]
+pub(crate) struct Work {
+    /// One-pass residual of the master surfaces' nodes, per table node [n_table][dim] (their rows
+    /// may belong to elements of other ranks, so they go back through the table's scatter).
+    pub r_table: Vec<f64>,
+    scratch: Scratch,
+    /// Residual of the own element being assembled [n_k * dim].
+    r: Vec<f64>,
+    /// Residual of one one-pass contribution [(n_k + n_l) * dim].
+    rc: Vec<f64>,
+    /// Tangent blocks of the own element being assembled, keyed by partner element; `n_used` of
+    /// them in use (the buffers are kept between elements and evaluations).
+    blocks: Blocks,
+    n_used: usize,
+}
+
+impl Work {
+    /// The slot of the tangent block coupling the current own element with partner element `le`.
+    fn block(&mut self, le: u32, len: usize) -> usize {
+        block_slot(&mut self.blocks, &mut self.n_used, le, len)
+    }
+}
+
+/// The sink and the slot of each coupling block, in a Jacobian evaluation.
+pub(crate) type Jacobian<'a, 'b, 'c> = Option<(&'a mut dyn MatrixSink, &'b SlotOf<'c>)>;
+
+/// One half-pass's fixed context during an evaluation.
+struct HalfPass<'a> {
+    geo: &'a Geometry<'a>,
+    pair: &'a PairView<'a>,
+    pass_id: u32,
+    /// Integrated surface and deformable partner surface (`None`: rigid).
+    k: usize,
+    l: Option<usize>,
+    /// Rigid partner's shape at the current load, and its motion.
+    shape: Option<&'a RigidShape>,
+    motion: Option<&'a RigidMotion>,
+    /// Gaps below this count as touching.
+    touch: f64,
+    jacobian: bool,
+}
+
+/// What one point leaves for output and the next step.
+#[derive(Default)]
+struct PointOut {
+    force: [f64; 3],
+    gap: Option<f64>,
+    anchor_trial: Option<Anchor>,
+    slip: SlipState,
+    t_t: [f64; 3],
+    g_t: [f64; 3],
+    p_n: f64,
+}
+
+/// One contribution of a point: partner element (`u32::MAX`: rigid), partner point, the area its
+/// traction is measured on, and whether it is the cohesive pairing.
+type Contribution<'a> = (u32, PartnerPoint<'a>, Area, bool);
+
+/// Evaluates half-pass `pass` (number `pass_id` over all pairs) with the projections of the last
+/// update: residual into `f_local` (ghosted local vector), with `jac` its tangent blocks into the sink, resultants into
+/// `pass.result`. `forced(q)`: the status the active set holds point `q` at (`None`: the law's).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn run(
+    pass: &mut Pass,
+    pass_id: u32,
+    pair: &PairView,
+    geo: &Geometry,
+    forced: impl Fn(usize) -> Option<bool>,
+    work: &mut Work,
+    f_local: &mut [f64],
+    jac: &mut Jacobian,
+) {
+    let Pass {
+        k,
+        partner,
+        points,
+        elems,
+        shape,
+        result,
+    } = pass;
+    let hp = HalfPass {
+        geo,
+        pair,
+        pass_id,
+        k: *k,
+        l: match partner {
+            Partner::Surface(l) => Some(*l),
+            Partner::Rigid(..) => None,
+        },
+        shape: shape.as_ref(),
+        motion: match partner {
+            Partner::Rigid(_, m) => Some(m),
+            Partner::Surface(_) => None,
+        },
+        touch: crate::contact::pair::TOUCH * geo.surfaces[*k].h,
+        jacobian: jac.is_some(),
+    };
+    let mut gap = Gap::new(pair.element_mean);
+    let mut res = PassResult::default();
+    for oe in elems.iter() {
+        hp.element(oe, points, &mut gap, &forced, work, &mut res);
+        hp.scatter(oe, work, f_local, jac);
+    }
+    *result = res;
+}
+
+impl HalfPass<'_> {
+    /// The points of own element `oe`: their residual into `work.r`, their blocks into
+    /// `work.blocks`.
+    fn element(
+        &self,
+        oe: &OwnElem,
+        points: &mut [QPoint],
+        gap: &mut Gap,
+        forced: &impl Fn(usize) -> Option<bool>,
+        work: &mut Work,
+        res: &mut PassResult,
+    ) {
+        let (dim, e) = (self.geo.dim, oe.e as usize);
+        let nk = self.geo.surfaces[self.k].elements[e].basis.n_nodes();
+        let x = self.geo.pos[self.k].of(e);
+        work.r.clear();
+        work.r.resize(nk * dim, 0.0);
+        work.n_used = 0;
+        let g_mean = gap.begin_element(self, oe, points, x);
+        for q in oe.first..oe.first + oe.n {
+            let qp = points[q];
+            let (bN, bdN) = oe.basis(q);
+            let own = OwnPoint {
+                N: bN,
+                dN: bdN,
+                x,
+                w: qp.w,
+                J0: qp.J0,
+            };
+            let mut po = PointOut::default();
+            for c in self.contributions(&own, &qp).into_iter().flatten() {
+                let forced = forced(q);
+                self.contribution(&own, &qp, q, c, (&*gap, g_mean), forced, work, res, &mut po);
+            }
+            let p = &mut points[q];
+            p.force = po.force;
+            p.gap = po.gap;
+            p.anchor_trial = po.anchor_trial;
+            p.slip = po.slip;
+            p.t_t = po.t_t;
+            p.g_t = po.g_t;
+            p.p_n = po.p_n;
+        }
+    }
+
+    /// The partners of an own point: the law's (projection or rigid closest point) and the
+    /// cohesive material pairing.
+    fn contributions<'s>(&'s self, own: &OwnPoint, qp: &QPoint) -> [Option<Contribution<'s>>; 2] {
+        let dim = self.geo.dim;
+        let nk = own.N.len();
+        let mut xk = [0.0; 3];
+        if self.shape.is_some() {
+            for a in 0..nk {
+                for c in 0..dim {
+                    xk[c] += own.N[a] * own.x[a * dim + c];
+                }
+            }
+        }
+        let area = area_of(&self.pair.law);
+        let first = self
+            .partner(qp.current, &xk)
+            .map(|(le, pp)| (le, pp, area, false));
+        let second = match (self.shape, self.l, qp.pairing) {
+            (None, Some(l), Some((le, xi0))) => Some((
+                le,
+                PartnerPoint::Material {
+                    el: &self.geo.surfaces[l].elements[le as usize],
+                    y: self.geo.pos[l].of(le as usize),
+                    xi: xi0,
+                },
+                Area::Reference,
+                true,
+            )),
+            _ => None,
+        };
+        [first, second]
+    }
+
+    /// The law's partner of an own point at `xk` [3] (its current position; used for a rigid
+    /// partner only): the rigid shape's closest point within the search distance, or the point's
+    /// current projection onto surface `l`. Returns the partner element (`u32::MAX`: rigid).
+    fn partner(
+        &self,
+        current: Option<Projection>,
+        xk: &[f64; 3],
+    ) -> Option<(u32, PartnerPoint<'_>)> {
+        let dist = self.pair.search_distance;
+        match (self.shape, self.l) {
+            (Some(shape), _) => shape
+                .project(xk)
+                .filter(|rp| {
+                    (rp.g[0] * rp.g[0] + rp.g[1] * rp.g[1] + rp.g[2] * rp.g[2]).sqrt() <= dist
+                })
+                .map(|rp| (u32::MAX, PartnerPoint::Rigid(rp))),
+            (None, Some(l)) => current.map(|p| {
+                let le = p.elem as usize;
+                (
+                    p.elem,
+                    PartnerPoint::Projected {
+                        el: &self.geo.surfaces[l].elements[le],
+                        y: self.geo.pos[l].of(le),
+                        xi: p.xi,
+                        free: p.free,
+                    },
+                )
+            }),
+            (None, None) => None,
+        }
+    }
+
+    /// The traction of one contribution: the cohesive law on a material pairing; else the pair's
+    /// law, at the gap the gap part gives (`g_mean`) or at the status the active set holds.
+    fn traction(
+        &self,
+        cohesive: bool,
+        g_mean: Option<f64>,
+        forced: Option<bool>,
+        g: &[f64; 3],
+        n: &[f64; 3],
+    ) -> Traction {
+        let law = self.pair.law;
+        if cohesive {
+            match law {
+                Law::Cohesive { t0, g0, .. } => law::cohesive(t0, g0, g),
+                _ => Traction::ZERO,
+            }
+        } else if let (Some(gm), Law::Penalty { eps_n }) = (g_mean, law) {
+            gap::mean_penalty(eps_n, self.touch, gm, g, n)
+        } else if let (Some(f), Law::Penalty { eps_n }) = (forced, law) {
+            law::penalty_forced(eps_n, f, g, n)
+        } else {
+            law_traction(&law, self.touch, g, n)
+        }
+    }
+
+    /// One contribution of point `q`: the kernel, the gap part's and friction's tangent terms, the
+    /// master rows of a one-pass pair, the point's output and the pass's resultants.
+    #[allow(clippy::too_many_arguments)]
+    fn contribution(
+        &self,
+        own: &OwnPoint,
+        qp: &QPoint,
+        q: usize,
+        (le, pp, area, cohesive): Contribution,
+        (gap, g_mean): (&Gap, Option<f64>),
+        forced: Option<bool>,
+        work: &mut Work,
+        res: &mut PassResult,
+        po: &mut PointOut,
+    ) {
+        let dim = self.geo.dim;
+        let m = dim - 1;
+        let nk = own.N.len();
+        let on_edge =
+            matches!(&pp, PartnerPoint::Projected { free, .. } if !free[..m].iter().all(|&f| f));
+        let nl = match &pp {
+            PartnerPoint::Rigid(_) => 0,
+            PartnerPoint::Projected { el, .. } | PartnerPoint::Material { el, .. } => {
+                el.basis.n_nodes()
+            }
+        };
+        let nc = (nk + nl) * dim;
+        let rows = if self.pair.one_pass { nc } else { nk * dim };
+        let kb = self.jacobian.then(|| work.block(le, rows * nc));
+        let at: Option<AnchorAt> = match (self.pair.friction, cohesive, qp.anchor) {
+            (Some(f), false, Some(a)) => friction::anchor_at(self, f, a),
+            _ => None,
+        };
+        let master = self.pair.one_pass && nl > 0;
+        work.rc.clear();
+        work.rc.resize(nc, 0.0);
+        let lawf = |g: &[f64; 3], n: &[f64; 3]| self.traction(cohesive, g_mean, forced, g, n);
+        let input = PointIn {
+            dim,
+            own,
+            partner: &pp,
+            law: &lawf,
+            friction: at.as_ref().map(|a| &a.fin),
+            area,
+            one_pass: master,
+        };
+        let K = kb.map(|i| &mut work.blocks[i].1[..]);
+        let r = if master { &mut work.rc } else { &mut work.r };
+        let pr = contact_point_pass(&input, r, K, &mut work.scratch);
+        if self.jacobian && !cohesive {
+            gap.correct(self, own, q, &pr, g_mean, work);
+        }
+        if master {
+            self.master_rows(le, nk, work);
+        }
+        if !cohesive {
+            po.gap = Some(pr.g[0] * pr.n[0] + pr.g[1] * pr.n[1] + pr.g[2] * pr.n[2]);
+            po.p_n = pr.p_n;
+        }
+        if let Some(a) = &at {
+            if self.jacobian {
+                friction::anchor_block(self, own, a, &pr.friction, work);
+            }
+        }
+        if self.pair.has_friction && !cohesive && pr.active {
+            friction::record(self, own, qp, &pr, res, po);
+        }
+        for c in 0..3 {
+            po.force[c] += pr.force[c];
+        }
+        if pr.active {
+            res.add(&pr, cohesive, on_edge, &self.pair.moment_point);
+        }
+    }
+
+    /// A one-pass contribution: its own rows into the element's residual, its master rows into
+    /// the table's residual (their rows may belong to elements of other ranks).
+    fn master_rows(&self, le: u32, nk: usize, work: &mut Work) {
+        let dim = self.geo.dim;
+        for (v, rv) in work.r.iter_mut().zip(&work.rc[..nk * dim]) {
+            *v += rv;
+        }
+        let l = self.l.expect("a master surface");
+        for (b, &t) in self.geo.slots[l][le as usize].iter().enumerate() {
+            for c in 0..dim {
+                work.r_table[t as usize * dim + c] += work.rc[(nk + b) * dim + c];
+            }
+        }
+    }
+
+    /// The element's residual into the local vector and its blocks into the sink.
+    fn scatter(&self, oe: &OwnElem, work: &Work, f_local: &mut [f64], jac: &mut Jacobian) {
+        let e = oe.e as usize;
+        for (i, &li) in oe.local.iter().enumerate() {
+            if li != u32::MAX {
+                f_local[li as usize] += work.r[i];
+            }
+        }
+        if let Some((sink, slot_of)) = jac.as_mut() {
+            for (le, kb) in &work.blocks[..work.n_used] {
+                let c: Coupling = (self.pass_id, oe.e, *le);
+                let own_rows = &self.geo.gdofs[self.k][e];
+                let mut cols = own_rows.clone();
+                if let Some(l) = self.l {
+                    if *le != u32::MAX {
+                        cols.extend_from_slice(&self.geo.gdofs[l][*le as usize]);
+                    }
+                }
+                let rows = if self.pair.one_pass && self.l.is_some() {
+                    &cols
+                } else {
+                    own_rows
+                };
+                if let Some(slot) = slot_of(&c) {
+                    sink.add_block(slot, rows, &cols, kb);
+                }
+            }
+        }
+    }
+}
+
+impl PassResult {
+    /// Adds an active contribution: force and moment about `mpt`; counts and penetration of the
+    /// law's contributions (not a cohesive pairing's).
+    fn add(
+        &mut self,
+        pr: &crate::contact::kernel::PointResult,
+        cohesive: bool,
+        on_edge: bool,
+        mpt: &[f64; 3],
+    ) {
+        if !cohesive {
+            self.n_active += 1;
+            self.n_edge += on_edge as usize;
+        }
+        let g_n = pr.g[0] * pr.n[0] + pr.g[1] * pr.n[1] + pr.g[2] * pr.n[2];
+        if !cohesive {
+            self.max_penetration = self.max_penetration.max(-g_n);
+        }
+        let d = [0, 1, 2].map(|c| pr.x[c] - mpt[c]);
+        for c in 0..3 {
+            self.force[c] += pr.force[c];
+        }
+        let mo = [
+            d[1] * pr.force[2] - d[2] * pr.force[1],
+            d[2] * pr.force[0] - d[0] * pr.force[2],
+            d[0] * pr.force[1] - d[1] * pr.force[0],
+        ];
+        for c in 0..3 {
+            self.moment[c] += mo[c];
+        }
+    }
+}
+
+/// Tangent blocks of the current own element, keyed by partner element.
+pub(crate) type Blocks = Vec<(u32, Vec<f64>)>;
+
+/// The slot of the tangent block coupling the current own element with partner element `le`,
+/// zeroed to `len` entries when it is new for this element.
+fn block_slot(blocks: &mut Blocks, n_used: &mut usize, le: u32, len: usize) -> usize {
+    if let Some(i) = blocks[..*n_used].iter().position(|(b, _)| *b == le) {
+        return i;
+    }
+    if *n_used == blocks.len() {
+        blocks.push((le, Vec::new()));
+    }
+    let (key, buf) = &mut blocks[*n_used];
+    *key = le;
+    buf.clear();
+    buf.resize(len, 0.0);
+    *n_used += 1;
+    *n_used - 1
+}
+
+/// The current area element of an own point (what the penalty law's traction is measured on).
+fn point_area(dim: usize, own: &OwnPoint) -> f64 {
+    let m = dim - 1;
+    let mut a = [[0.0; 3]; 2];
+    for (b, row) in own.x.chunks_exact(dim).enumerate() {
+        for i in 0..m {
+            for c in 0..dim {
+                a[i][c] += own.dN[b * m + i] * row[c];
+            }
+        }
+    }
+    let nu = raw_normal(dim, &a);
+    (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt()
+}
+
+fn area_of(law: &Law) -> Area {
+    match law {
+        Law::Penalty { .. } | Law::Cohesive { .. } => Area::Current,
+        Law::VanDerWaals { .. } => Area::Reference,
+    }
+}

@@ -1,0 +1,121 @@
+//! A contact pair as declared and resolved against the model: its law, friction, partners of its
+//! half-passes, and the coupling blocks it adds to the Jacobian. Plain data, shared by the
+//! half-pass ([`crate::contact::half_pass`]) and the system ([`crate::contact::system`]).
+
+use crate::contact::law::{self, Traction};
+use crate::contact::rigid::{RigidMotion, RigidShape};
+use crate::contact::search::Aabb;
+
+/// A contact law with its parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Law {
+    /// Eq. (5): penalty `eps_n` on the current surface.
+    Penalty { eps_n: f64 },
+    /// Eq. (6): van der Waals adhesion (reference traction).
+    VanDerWaals { a_h: f64, r0: f64 },
+    /// Eq. (7): exponential cohesive zone with material point pairing, plus a penalty `eps_n`
+    /// against penetration.
+    Cohesive {
+        t0: f64,
+        g0: f64,
+        eps_n: f64,
+        /// The penalty against penetration is quadratic in the penetration (else linear).
+        quadratic: bool,
+    },
+}
+
+/// Coulomb friction of a pair (Sauer & De Lorenzis 2015, unbiased two-half-pass): every quadrature
+/// point keeps an anchor on the partner where it sticks; see [`crate::contact::kernel::FrictionIn`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Friction {
+    /// Friction coefficient (> 0).
+    pub mu: f64,
+    /// Tangential penalty (> 0).
+    pub eps_t: f64,
+    /// Per load stage: friction on (empty: every stage). A frictionless stage moves each anchor
+    /// with its point, so friction starts from the state the stage leaves.
+    pub stages: Vec<bool>,
+}
+
+impl Friction {
+    /// True when friction acts at load `lambda` (stage `s` runs over `(s, s + 1]`).
+    pub fn on_at(&self, lambda: f64) -> bool {
+        if self.stages.is_empty() {
+            return true;
+        }
+        let s = ((lambda - 1e-9).ceil() - 1.0).max(0.0) as usize;
+        self.stages[s.min(self.stages.len() - 1)]
+    }
+}
+
+/// Where a frictional point sticks: a material point of the partner (deformable: element and
+/// surface coordinates; rigid: its position in the rigid body's reference configuration).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Anchor {
+    Surface(u32, [f64; 2]),
+    Rigid([f64; 3]),
+}
+
+/// The partner of a half-pass.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Partner {
+    /// Another contact surface (index into the system's surfaces).
+    Surface(usize),
+    /// A rigid shape and its motion.
+    Rigid(RigidShape, RigidMotion),
+}
+
+/// A declared contact pair, resolved against the model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PairDef {
+    /// Name (history columns).
+    pub name: String,
+    pub law: Law,
+    /// Half-passes: (integrated surface, partner). Two-half-pass: both ways; rigid: one.
+    pub passes: Vec<(usize, Partner)>,
+    /// Points farther than this from the partner are not paired.
+    pub search_distance: f64,
+    /// Moments of the contact forces are taken about this point [3].
+    pub moment_point: [f64; 3],
+    /// Reference-configuration box whose points carry no cohesive traction (initially debonded).
+    pub debonded: Option<Aabb>,
+    /// Reference-configuration box outside which the pair's quadrature points are not integrated.
+    pub region: Option<Aabb>,
+    /// One-pass (master/slave): the single half-pass also applies the opposite force to the
+    /// partner (master) surface.
+    pub one_pass: bool,
+    /// Coulomb friction (penalty law, and the cohesive law's penalty against penetration).
+    pub friction: Option<Friction>,
+    /// Penalty law on each surface element's mean normal gap instead of the pointwise one
+    /// (two-half-pass only; `gap = "element_mean"`).
+    pub element_mean_gap: bool,
+}
+
+/// One coupling block of the Jacobian: rows of element `k_e` of the pass's surface, columns of
+/// `k_e` and of partner element `l_e` (`u32::MAX` for a rigid partner).
+pub type Coupling = (u32 /*pass*/, u32 /*k_e*/, u32 /*l_e*/);
+
+/// The COO slot of a coupling block in the current pattern (`None`: not in it).
+pub type SlotOf<'a> = dyn Fn(&Coupling) -> Option<usize> + 'a;
+
+/// The traction of a pair's law at a point with gap `g` and normal `n` [3].
+/// `touch`: gaps below it count as touching (round-off tolerance of the penalty's active set).
+pub(crate) fn law_traction(law: &Law, touch: f64, g: &[f64; 3], n: &[f64; 3]) -> Traction {
+    match *law {
+        Law::Penalty { eps_n } => law::penalty(eps_n, touch, g, n),
+        Law::VanDerWaals { a_h, r0 } => law::van_der_waals(a_h, r0, g, n),
+        Law::Cohesive {
+            eps_n,
+            quadratic: false,
+            ..
+        } => law::penalty(eps_n, touch, g, n),
+        Law::Cohesive {
+            eps_n,
+            quadratic: true,
+            ..
+        } => law::penalty_quadratic(eps_n, g, n),
+    }
+}
+
+/// Relative round-off tolerance of "touching", in units of the surface's element length.
+pub(crate) const TOUCH: f64 = 1e-12;

@@ -1,0 +1,179 @@
+//! The coupling blocks contact adds to the Jacobian's sparsity pattern: those the current
+//! projections need, and a band around them reserved for points that slide or approach.
+
+use super::ContactSystem;
+use crate::contact::pair::{Anchor, Coupling, Partner};
+
+impl ContactSystem {
+    /// The coupling blocks the current projections need (sorted, unique). Cohesive pairings
+    /// always couple; penalty-type points couple when their traction is active.
+    pub fn couplings(&self) -> Vec<Coupling> {
+        let mut out = Vec::new();
+        let mut pass_id = 0u32;
+        for pair in &self.pairs {
+            for pass in &pair.passes {
+                for oe in &pass.elems {
+                    if pass.shape.is_some() {
+                        out.push((pass_id, oe.e, u32::MAX));
+                        continue;
+                    }
+                    for q in oe.first..oe.first + oe.n {
+                        let qp = &pass.points[q];
+                        if let Some(p) = qp.current {
+                            out.push((pass_id, oe.e, p.elem));
+                        }
+                        if let Some((l, _)) = qp.pairing {
+                            out.push((pass_id, oe.e, l));
+                        }
+                        if let Some(Anchor::Surface(l, _)) = qp.anchor {
+                            if pair.def.friction.is_some() {
+                                out.push((pass_id, oe.e, l));
+                            }
+                        }
+                    }
+                }
+                pass_id += 1;
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
+    /// The couplings to reserve in the sparsity pattern: for every point with a partner (or a
+    /// cohesive pairing), its partner element and the elements within `ring` side-neighbour steps of
+    /// it, so that points sliding to a neighbouring element during the next Newton solves still find
+    /// their block (`ring = 0`: exactly the current couplings). Rigid partners couple an element
+    /// with itself only. Sorted, unique.
+    pub fn band_couplings(&mut self, ring: usize) -> Vec<Coupling> {
+        let mut out = self.approach_couplings(ring);
+        let mut pass_id = 0u32;
+        let mut near: Vec<u32> = Vec::new();
+        for pair in &self.pairs {
+            for pass in &pair.passes {
+                let l = match pass.partner {
+                    Partner::Surface(l) => Some(l),
+                    Partner::Rigid(..) => None,
+                };
+                for oe in &pass.elems {
+                    let Some(l) = l else {
+                        out.push((pass_id, oe.e, u32::MAX));
+                        continue;
+                    };
+                    for q in oe.first..oe.first + oe.n {
+                        let qp = &pass.points[q];
+                        let anchor = match qp.anchor {
+                            Some(Anchor::Surface(la, _)) if pair.def.friction.is_some() => Some(la),
+                            _ => None,
+                        };
+                        for le in qp
+                            .current
+                            .map(|p| p.elem)
+                            .into_iter()
+                            .chain(qp.pairing.map(|p| p.0))
+                            .chain(anchor)
+                        {
+                            near.clear();
+                            near.push(le);
+                            let mut front = 0;
+                            for _ in 0..ring {
+                                let end = near.len();
+                                for i in front..end {
+                                    for nb in self.surfaces[l].elements[near[i] as usize]
+                                        .neighbours
+                                        .iter()
+                                        .flatten()
+                                    {
+                                        if !near.contains(&nb.0) {
+                                            near.push(nb.0);
+                                        }
+                                    }
+                                }
+                                front = end;
+                            }
+                            out.extend(near.iter().map(|&f| (pass_id, oe.e, f)));
+                        }
+                    }
+                }
+                pass_id += 1;
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
+    /// With `ring >= 1`, the couplings of points that have no partner yet but lie within the search
+    /// distance of a partner element's box: the elements they may reach during the next solves
+    /// (a contact zone that grows, as under an indenter, then needs no pattern rebuild).
+    fn approach_couplings(&mut self, ring: usize) -> Vec<Coupling> {
+        let mut out = Vec::new();
+        if ring == 0 {
+            return out;
+        }
+        let mut pass_id = 0u32;
+        for pi in 0..self.pairs.len() {
+            let dist = self.pairs[pi].def.search_distance;
+            for qi in 0..self.pairs[pi].passes.len() {
+                let (k, partner) = {
+                    let p = &self.pairs[pi].passes[qi];
+                    (p.k, p.partner.clone())
+                };
+                if let Partner::Surface(l) = partner {
+                    let waiting: Vec<(u32, [f64; 2])> = {
+                        let pass = &self.pairs[pi].passes[qi];
+                        pass.elems
+                            .iter()
+                            .flat_map(|oe| {
+                                (oe.first..oe.first + oe.n)
+                                    .filter(|&q| pass.points[q].current.is_none())
+                                    .map(move |q| (oe.e, pass.points[q].xi))
+                            })
+                            .collect()
+                    };
+                    if !waiting.is_empty() {
+                        self.ensure_grid(l, dist);
+                    }
+                    for (e, xi) in waiting {
+                        let x = self.point_position(k, e as usize, &xi);
+                        let grid = self.grids[l].as_ref().expect("built above");
+                        grid.candidates(&x[..self.dim], &mut self.cand);
+                        out.extend(self.cand.iter().map(|&f| (pass_id, e, f)));
+                    }
+                }
+                pass_id += 1;
+            }
+        }
+        out
+    }
+
+    /// Rows (own element, constrained rows dropped by the caller) and columns of a coupling block.
+    pub fn block_dofs(&self, c: &Coupling) -> (Vec<i32>, Vec<i32>) {
+        let (pass, k_e, l_e) = *c;
+        let (k, partner, one_pass) = self.pass_surfaces(pass as usize);
+        let own = &self.gdofs[k][k_e as usize][..];
+        let mut cols = own.to_vec();
+        if let Some(l) = partner {
+            cols.extend_from_slice(&self.gdofs[l][l_e as usize]);
+        }
+        let rows = if one_pass { cols.clone() } else { own.to_vec() };
+        (rows, cols)
+    }
+
+    fn pass_surfaces(&self, pass: usize) -> (usize, Option<usize>, bool) {
+        let mut i = 0;
+        for pair in &self.pairs {
+            for p in &pair.passes {
+                if i == pass {
+                    let l = match p.partner {
+                        Partner::Surface(l) => Some(l),
+                        Partner::Rigid(..) => None,
+                    };
+                    return (p.k, l, pair.def.one_pass && l.is_some());
+                }
+                i += 1;
+            }
+        }
+        unreachable!("pass index out of range")
+    }
+}

@@ -1,0 +1,202 @@
+//! Post-processing of the contact pressure, normal gap and friction (Sauer 2013): right-hand sides
+//! of their L2 projections onto each surface's own interpolation, and the projection itself.
+#![allow(clippy::needless_range_loop)]
+#![allow(non_snake_case)]
+
+use super::{ContactSystem, Pair};
+use crate::contact::half_pass::QPoint;
+use crate::contact::kernel::SlipState;
+use crate::contact::surface::MAX_FACE_NODES;
+use crate::fem::quadrature::tensor_rule;
+
+impl ContactSystem {
+    /// This rank's right-hand sides of the L2 projections of the contact pressure and the normal gap
+    /// (Sauer 2013): per surface, `f_A = int N_A p da` with `p = -t . nu_k` (`nu_k` the surface's own
+    /// outward normal: positive in compression, negative in adhesion), and `int N_A g_n da` with
+    /// `g_n` capped at the search distance where no partner is within reach. Indexed
+    /// `[surface][table node]`, flattened; sum over ranks before [`ContactSystem::l2_project`].
+    pub fn l2_rhs(&self) -> (Vec<f64>, Vec<f64>) {
+        let (dim, nt) = (self.dim, self.table.len());
+        let mut fp = vec![0.0; self.surfaces.len() * nt];
+        let mut fg = vec![0.0; self.surfaces.len() * nt];
+        self.each_surface_point(false, |pair, k, e, qp, N, nu| {
+            let el = &self.surfaces[k].elements[e];
+            let J = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt();
+            let p = -el.sign * (0..dim).map(|c| qp.force[c] * nu[c]).sum::<f64>() / J;
+            let g = qp
+                .gap
+                .unwrap_or(pair.def.search_distance)
+                .min(pair.def.search_distance);
+            for (b, &t) in self.slots[k][e].iter().enumerate() {
+                fp[k * nt + t as usize] += N[b] * p;
+                fg[k * nt + t as usize] += N[b] * g * J * qp.w;
+            }
+        });
+        (fp, fg)
+    }
+
+    /// Calls `f(pair, surface, element, point, basis values, raw normal)` for every quadrature
+    /// point this rank integrates (of the frictional pairs only with `frictional_only`), with the
+    /// surface's own basis and raw normal (length: the area factor) at the point's current
+    /// position.
+    fn each_surface_point(
+        &self,
+        frictional_only: bool,
+        mut f: impl FnMut(&Pair, usize, usize, &QPoint, &[f64], [f64; 3]),
+    ) {
+        let (dim, m) = (self.dim, self.dim - 1);
+        let (mut N, mut dN, mut ddN) = (
+            [0.0; MAX_FACE_NODES],
+            [0.0; 2 * MAX_FACE_NODES],
+            [0.0; 4 * MAX_FACE_NODES],
+        );
+        for pair in &self.pairs {
+            if frictional_only && pair.def.friction.is_none() {
+                continue;
+            }
+            for pass in &pair.passes {
+                let k = pass.k;
+                for oe in &pass.elems {
+                    let e = oe.e as usize;
+                    let el = &self.surfaces[k].elements[e];
+                    for qp in &pass.points[oe.first..oe.first + oe.n] {
+                        el.basis.eval(&qp.xi[..m], &mut N, &mut dN, &mut ddN);
+                        let (_, _, nu) =
+                            crate::contact::surface::frame(el, dim, self.pos[k].of(e), &qp.xi);
+                        f(pair, k, e, qp, &N[..el.basis.n_nodes()], nu);
+                    }
+                }
+            }
+        }
+    }
+
+    /// This rank's right-hand sides of the L2 projections of friction onto each surface's own
+    /// interpolation: `int N_A t_T,c da` per component `c < dim` of the tangential traction on the
+    /// surface's body (as [`POINT_RECORD`]'s), then `int N_A chi_stick da` and `int N_A chi_slip da`
+    /// with `chi` the indicator of the points that stick / slip (so the projections are the local
+    /// fractions of sticking and slipping contact, both 0 out of contact). Indexed
+    /// `[surface][block][table node]` with `dim + 2` blocks per surface, flattened; zero for
+    /// frictionless pairs. Sum over ranks before [`ContactSystem::l2_project`].
+    pub fn l2_rhs_friction(&self) -> Vec<f64> {
+        let (dim, nt) = (self.dim, self.table.len());
+        let nb = dim + 2;
+        let mut f = vec![0.0; self.surfaces.len() * nb * nt];
+        self.each_surface_point(true, |_, k, e, qp, N, nu| {
+            let jw = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt() * qp.w;
+            let mut v = [0.0; 5];
+            v[..dim].copy_from_slice(&qp.t_t[..dim]);
+            v[dim] = (qp.slip == SlipState::Stick) as u8 as f64;
+            v[dim + 1] = (qp.slip == SlipState::Slip) as u8 as f64;
+            for (b, &t) in self.slots[k][e].iter().enumerate() {
+                for (c, vc) in v[..nb].iter().enumerate() {
+                    f[(k * nb + c) * nt + t as usize] += N[b] * vc * jw;
+                }
+            }
+        });
+        f
+    }
+
+    /// Solves `M x = f` on surface `s` with the consistent mass matrix `M_AB = int N_A N_B da` of its
+    /// own interpolation in the current configuration (conjugate gradients, Jacobi-preconditioned,
+    /// matrix-free over the surface's elements). `f`: `[table node]` (the slice of
+    /// [`ContactSystem::l2_rhs`] for `s`). Returns values per table node (zero off the surface).
+    ///
+    /// `nominal`: the mass matrix of the reference configuration instead, `M_AB = int N_A N_B dA`;
+    /// with the pressure's right-hand side (`int N_A p da`) this gives the nominal pressure, the
+    /// contact force per reference area (the measure a geometrically linear theory such as Hertz's
+    /// predicts; it differs from the current one by the surface stretch).
+    pub fn l2_project(&self, s: usize, f: &[f64], nominal: bool) -> Vec<f64> {
+        let (dim, m, nt) = (self.dim, self.dim - 1, self.table.len());
+        let surf = &self.surfaces[s];
+        // element mass matrices, once
+        let mut blocks: Vec<Vec<f64>> = Vec::with_capacity(surf.elements.len());
+        let (mut N, mut dN, mut ddN) = (
+            [0.0; MAX_FACE_NODES],
+            [0.0; 2 * MAX_FACE_NODES],
+            [0.0; 4 * MAX_FACE_NODES],
+        );
+        let mut diag = vec![0.0; nt];
+        let mut Xe = Vec::new();
+        for (e, el) in surf.elements.iter().enumerate() {
+            let n = el.basis.n_nodes();
+            let mut Me = vec![0.0; n * n];
+            let x_e: &[f64] = if nominal {
+                Xe.clear();
+                for &t in &self.slots[s][e] {
+                    Xe.extend_from_slice(&self.X[t as usize * dim..(t as usize + 1) * dim]);
+                }
+                &Xe
+            } else {
+                self.pos[s].of(e)
+            };
+            let Ok(rule) = tensor_rule(&el.basis.quadrature_counts()) else {
+                blocks.push(Me);
+                continue;
+            };
+            for (q, xi) in rule.points.chunks_exact(m).enumerate() {
+                let mut x2 = [0.0; 2];
+                x2[..m].copy_from_slice(xi);
+                el.basis.eval(xi, &mut N, &mut dN, &mut ddN);
+                let (_, _, nu) = crate::contact::surface::frame(el, dim, x_e, &x2);
+                let J = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt();
+                for a in 0..n {
+                    for b in 0..n {
+                        Me[a * n + b] += N[a] * N[b] * J * rule.weights[q];
+                    }
+                }
+            }
+            for (a, &t) in self.slots[s][e].iter().enumerate() {
+                diag[t as usize] += Me[a * n + a].abs();
+            }
+            blocks.push(Me);
+        }
+        let on: Vec<bool> = diag.iter().map(|&d| d > 0.0).collect();
+        let apply = |v: &[f64], out: &mut [f64]| {
+            out.fill(0.0);
+            for (e, Me) in blocks.iter().enumerate() {
+                let sl = &self.slots[s][e];
+                let n = sl.len();
+                for a in 0..n {
+                    let mut acc = 0.0;
+                    for b in 0..n {
+                        acc += Me[a * n + b] * v[sl[b] as usize];
+                    }
+                    out[sl[a] as usize] += acc;
+                }
+            }
+        };
+        // preconditioned conjugate gradients on the surface's nodes
+        let mut x = vec![0.0; nt];
+        let mut r: Vec<f64> = (0..nt).map(|i| if on[i] { f[i] } else { 0.0 }).collect();
+        let mut z: Vec<f64> = (0..nt)
+            .map(|i| if on[i] { r[i] / diag[i] } else { 0.0 })
+            .collect();
+        let mut p = z.clone();
+        let mut ap = vec![0.0; nt];
+        let mut rz: f64 = r.iter().zip(&z).map(|(a, b)| a * b).sum();
+        let r0 = r.iter().map(|v| v * v).sum::<f64>().sqrt();
+        for _ in 0..10 * nt.max(10) {
+            if r.iter().map(|v| v * v).sum::<f64>().sqrt() <= 1e-14 * r0.max(1e-300) {
+                break;
+            }
+            apply(&p, &mut ap);
+            let pap: f64 = p.iter().zip(&ap).map(|(a, b)| a * b).sum();
+            if pap <= 0.0 {
+                break;
+            }
+            let alpha = rz / pap;
+            for i in 0..nt {
+                x[i] += alpha * p[i];
+                r[i] -= alpha * ap[i];
+                z[i] = if on[i] { r[i] / diag[i] } else { 0.0 };
+            }
+            let rz_new: f64 = r.iter().zip(&z).map(|(a, b)| a * b).sum();
+            let beta = rz_new / rz;
+            rz = rz_new;
+            for i in 0..nt {
+                p[i] = z[i] + beta * p[i];
+            }
+        }
+        x
+    }
+}

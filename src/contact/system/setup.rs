@@ -1,0 +1,206 @@
+//! Setting up the pairs of a [`ContactSystem`]: the node table, the quadrature points each rank
+//! integrates, and the cohesive material pairings of the reference configuration.
+#![allow(non_snake_case)]
+
+use super::{ContactSystem, Pair};
+use crate::assembly::DofMap;
+use crate::contact::half_pass::{OwnElem, Pass, PassResult, QPoint};
+use crate::contact::pair::{Law, PairDef, Partner};
+use crate::contact::projection::{global_search, Positions};
+use crate::contact::surface::{raw_normal, ContactSurface, MAX_FACE_NODES};
+use crate::fem::quadrature::tensor_rule;
+use std::collections::HashMap;
+
+impl ContactSystem {
+    /// Sets up the pairs on `surfaces`; this rank integrates the surface elements of the cells
+    /// `cell_part` gives it. Cohesive pairings are found here, in the reference configuration.
+    pub fn new(
+        dim: usize,
+        surfaces: Vec<ContactSurface>,
+        defs: Vec<PairDef>,
+        coords: &[f64],
+        dofs: &DofMap,
+        cell_part: &[u32],
+        rank: usize,
+    ) -> Result<ContactSystem, String> {
+        let mut table: Vec<u32> = surfaces
+            .iter()
+            .flat_map(|s| s.elements.iter().flat_map(|e| e.nodes.iter().copied()))
+            .collect();
+        table.sort_unstable();
+        table.dedup();
+        let X: Vec<f64> = table
+            .iter()
+            .flat_map(|&a| coords[a as usize * dim..(a as usize + 1) * dim].to_vec())
+            .collect();
+        let index: HashMap<u32, u32> = table
+            .iter()
+            .enumerate()
+            .map(|(i, &a)| (a, i as u32))
+            .collect();
+        let slots: Vec<Vec<Vec<u32>>> = surfaces
+            .iter()
+            .map(|s| {
+                s.elements
+                    .iter()
+                    .map(|e| e.nodes.iter().map(|a| index[a]).collect())
+                    .collect()
+            })
+            .collect();
+        let gdofs: Vec<Vec<Vec<i32>>> = surfaces
+            .iter()
+            .map(|s| {
+                s.elements
+                    .iter()
+                    .map(|e| {
+                        e.nodes
+                            .iter()
+                            .flat_map(|&a| (0..dim).map(move |c| (a, c)))
+                            .map(|(a, c)| dofs.global(a, c).map_or(-1, |g| g.0))
+                            .collect()
+                    })
+                    .collect()
+            })
+            .collect();
+        let mut sys = ContactSystem {
+            dim,
+            pos: vec![Positions::default(); surfaces.len()],
+            grids: vec![None; surfaces.len()],
+            surfaces,
+            table,
+            X,
+            slots,
+            gdofs,
+            pairs: Vec::new(),
+            lambda: 0.0,
+            cand: Vec::new(),
+            work: Default::default(),
+            last_update: None,
+            active_set: Default::default(),
+        };
+        sys.work.r_table = vec![0.0; sys.table.len() * dim];
+        sys.update_positions(&vec![0.0; sys.X.len()]);
+        for def in defs {
+            let mut passes = Vec::new();
+            for (k, partner) in &def.passes {
+                let s = &sys.surfaces[*k];
+                let mut points = Vec::new();
+                let mut elems = Vec::new();
+                for (e, el) in s.elements.iter().enumerate() {
+                    if cell_part[el.cell] as usize != rank {
+                        continue;
+                    }
+                    let rule =
+                        tensor_rule(&el.basis.quadrature_counts()).map_err(|e| e.to_string())?;
+                    let first = points.len();
+                    let m = dim - 1;
+                    let nk = el.basis.n_nodes();
+                    let Xe = sys.pos[*k].of(e).to_vec();
+                    let (mut bN, mut bdN) = (Vec::new(), Vec::new());
+                    let (mut N, mut dN, mut ddN) = (
+                        [0.0; MAX_FACE_NODES],
+                        [0.0; 2 * MAX_FACE_NODES],
+                        [0.0; 4 * MAX_FACE_NODES],
+                    );
+                    for (q, xi) in rule.points.chunks_exact(m).enumerate() {
+                        let mut x2 = [0.0; 2];
+                        x2[..m].copy_from_slice(xi);
+                        let (xr, a, _) = crate::contact::surface::frame(el, dim, &Xe, &x2);
+                        if def.region.as_ref().is_some_and(|b| !b.contains(&xr[..dim])) {
+                            continue;
+                        }
+                        el.basis.eval(&x2[..m], &mut N, &mut dN, &mut ddN);
+                        bN.extend_from_slice(&N[..nk]);
+                        bdN.extend_from_slice(&dN[..nk * m]);
+                        let nu = raw_normal(dim, &a);
+                        let J0 = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt();
+                        points.push(QPoint {
+                            xi: x2,
+                            w: rule.weights[q],
+                            J0,
+                            X: xr,
+                            ..Default::default()
+                        });
+                    }
+                    let local = sys.gdofs[*k][e]
+                        .iter()
+                        .map(|&g| {
+                            dofs.local(crate::assembly::GlobalDof(g))
+                                .map_or(u32::MAX, |l| l.0)
+                        })
+                        .collect();
+                    if points.len() == first {
+                        continue; // outside the pair's region
+                    }
+                    elems.push(OwnElem {
+                        e: e as u32,
+                        first,
+                        n: points.len() - first,
+                        local,
+                        N: bN,
+                        dN: bdN,
+                    });
+                }
+                passes.push(Pass {
+                    k: *k,
+                    partner: partner.clone(),
+                    points,
+                    elems,
+                    shape: None,
+                    result: PassResult::default(),
+                });
+            }
+            sys.pairs.push(Pair { def, passes });
+        }
+        sys.pair_cohesive()?;
+        Ok(sys)
+    }
+
+    /// Material point pairing of cohesive pairs, in the reference configuration (positions are
+    /// still the reference ones).
+    fn pair_cohesive(&mut self) -> Result<(), String> {
+        for pi in 0..self.pairs.len() {
+            if !matches!(self.pairs[pi].def.law, Law::Cohesive { .. }) {
+                continue;
+            }
+            for qi in 0..self.pairs[pi].passes.len() {
+                let Partner::Surface(l) = self.pairs[pi].passes[qi].partner else {
+                    continue;
+                };
+                let k = self.pairs[pi].passes[qi].k;
+                self.ensure_grid(l, self.pairs[pi].def.search_distance);
+                let n_el = self.pairs[pi].passes[qi].elems.len();
+                for oe in 0..n_el {
+                    let (e, first, n) = {
+                        let o = &self.pairs[pi].passes[qi].elems[oe];
+                        (o.e as usize, o.first, o.n)
+                    };
+                    for q in first..first + n {
+                        let xi = self.pairs[pi].passes[qi].points[q].xi;
+                        let x = self.point_position(k, e, &xi);
+                        if let Some(b) = &self.pairs[pi].def.debonded {
+                            if b.contains(&x[..self.dim]) {
+                                continue;
+                            }
+                        }
+                        let grid = self.grids[l].as_ref().expect("grid built above");
+                        let p = global_search(
+                            &self.surfaces[l],
+                            &self.pos[l],
+                            grid,
+                            &x,
+                            &mut self.cand,
+                        )
+                        .ok()
+                        .flatten();
+                        if let Some(p) = p.filter(|p| p.dist <= self.pairs[pi].def.search_distance)
+                        {
+                            self.pairs[pi].passes[qi].points[q].pairing = Some((p.elem, p.xi));
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
