@@ -1,0 +1,88 @@
+//! Gathers onto rank 0: the one variable-count gather and its uses (error messages, rows).
+
+use super::Error;
+use mpi::datatype::PartitionMut;
+use mpi::topology::SimpleCommunicator;
+use mpi::traits::*;
+
+/// The distinct error messages of all ranks, on rank 0 (empty elsewhere), each prefixed with the
+/// ranks that hold it when they differ between ranks.
+///
+/// Collective.
+pub(super) fn gather_errors(world: &SimpleCommunicator, result: &Result<(), Error>) -> Vec<String> {
+    let text = match result {
+        Err(e) if !matches!(e, Error::OtherRank) => e.to_string(),
+        _ => String::new(),
+    };
+    // A leading tag byte keeps every contribution non-empty: Open MPI rejects a Gatherv whose
+    // buffers are all empty (MPI_ERR_ARG), which is the all-ranks-succeeded case.
+    let mut bytes = vec![u8::from(!text.is_empty())];
+    bytes.extend(text.into_bytes());
+    let Some((buf, lens, displs)) = gather_varcount(world, &bytes[..]) else {
+        return Vec::new();
+    };
+    let size = world.size() as usize;
+    let mut distinct: Vec<(String, Vec<usize>)> = Vec::new();
+    for r in 0..size {
+        let (a, b) = (displs[r] as usize + 1, (displs[r] + lens[r]) as usize);
+        if buf[a - 1] == 0 {
+            continue;
+        }
+        let m = String::from_utf8_lossy(&buf[a..b]).into_owned();
+        match distinct.iter_mut().find(|(t, _)| *t == m) {
+            Some((_, ranks)) => ranks.push(r),
+            None => distinct.push((m, vec![r])),
+        }
+    }
+    if distinct.len() <= 1 {
+        return distinct.into_iter().map(|(m, _)| m).collect();
+    }
+    distinct
+        .into_iter()
+        .map(|(m, ranks)| format!("[rank {ranks:?}] {m}"))
+        .collect()
+}
+
+/// The rows of every rank concatenated on rank 0 (empty elsewhere). Collective.
+pub(super) fn gather_rows(comm: &SimpleCommunicator, rows: &[f64]) -> Vec<f64> {
+    match gather_varcount(comm, rows) {
+        Some((buf, _, _)) => buf,
+        None => Vec::new(),
+    }
+}
+
+/// The MPI gatherv onto rank 0: on rank 0, the contributions of all ranks concatenated in rank
+/// order, with each rank's length and offset in it; `None` on the other ranks.
+///
+/// Collective.
+pub(super) fn gather_varcount<T>(
+    comm: &SimpleCommunicator,
+    data: &[T],
+) -> Option<(Vec<T>, Vec<i32>, Vec<i32>)>
+where
+    T: Equivalence + Default + Clone,
+{
+    let root = comm.process_at_rank(0);
+    let len = data.len() as i32;
+    if comm.rank() != 0 {
+        root.gather_into(&len);
+        root.gather_varcount_into(data);
+        return None;
+    }
+    let mut lens = vec![0i32; comm.size() as usize];
+    root.gather_into_root(&len, &mut lens[..]);
+    let displs: Vec<i32> = lens
+        .iter()
+        .scan(0, |acc, &l| {
+            let d = *acc;
+            *acc += l;
+            Some(d)
+        })
+        .collect();
+    let mut buf = vec![T::default(); lens.iter().sum::<i32>() as usize];
+    {
+        let mut part = PartitionMut::new(&mut buf[..], &lens[..], &displs[..]);
+        root.gather_varcount_into_root(data, &mut part);
+    }
+    Some((buf, lens, displs))
+}

@@ -1,0 +1,322 @@
+//! The step observer: Newton statistics, the step log, history rows, results and checkpoints of
+//! every converged step, progress.
+
+use super::gather::gather_rows;
+use super::output::{contact_history, Output};
+use super::{agree, comm_rank, log, Error, Verbosity};
+use crate::assembly::Assembler;
+use crate::io::{self};
+use crate::model::Model;
+use crate::petsc::{Petsc, Vector};
+use crate::scene::Case;
+use crate::solver::{AfterStep, StepRecord};
+use mpi::collective::SystemOperation;
+use mpi::traits::*;
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Watches the load loop: Newton statistics, the step log, history rows and results of every
+/// converged step, progress.
+pub(super) struct StepObserver<'c, 'p> {
+    pub(super) rank: i32,
+    pub(super) v: Verbosity,
+    pub(super) case: &'c Case,
+    pub(super) output: Output<'p>,
+    pub(super) bar: Option<indicatif::ProgressBar>,
+    pub(super) t_start: Instant,
+    pub(super) n_stages: f64,
+    pub(super) total_steps: usize,
+    pub(super) newton: io::NewtonStats,
+    pub(super) step_log: Vec<io::StepLog>,
+    /// Wall time spent recording steps (s).
+    pub(super) t_output: f64,
+    /// The signal that stopped the run, agreed by all ranks.
+    pub(super) interrupted: Option<i32>,
+    /// Checkpoint after every this many steps.
+    pub(super) checkpoint_every: Option<usize>,
+    /// Wall time of the run before a restart (s).
+    pub(super) wall_offset: f64,
+    /// Restarts of this run so far (this process's included).
+    pub(super) restarts: usize,
+    /// The mesh files this run read, hashed when it started (for its checkpoints).
+    pub(super) mesh_hashes: Vec<(String, String, String)>,
+}
+
+impl<'c, 'p> StepObserver<'c, 'p> {
+    pub(super) fn new(
+        petsc: &Petsc,
+        v: Verbosity,
+        case: &'c Case,
+        output: Output<'p>,
+        t_start: Instant,
+        checkpoint_every: Option<usize>,
+        resumed: Option<&crate::checkpoint::RunLog>,
+    ) -> Self {
+        let rank = comm_rank(petsc);
+        let total_steps: usize = case.stages.iter().map(|s| s.steps).sum();
+        let bar =
+            (rank == 0 && v == Verbosity::Normal && std::io::stderr().is_terminal()).then(|| {
+                let b = indicatif::ProgressBar::new(total_steps as u64);
+                b.set_style(
+                    indicatif::ProgressStyle::with_template(
+                        "{elapsed_precise} [{bar:30}] load {msg}",
+                    )
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+                );
+                b
+            });
+        StepObserver {
+            rank,
+            v,
+            case,
+            output,
+            bar,
+            t_start,
+            n_stages: case.stages.len() as f64,
+            total_steps,
+            newton: resumed.map(|l| l.newton).unwrap_or_default(),
+            step_log: resumed.map(|l| l.steps.clone()).unwrap_or_default(),
+            t_output: 0.0,
+            interrupted: None,
+            checkpoint_every,
+            wall_offset: resumed.map_or(0.0, |l| l.wall_time),
+            restarts: resumed.map_or(0, |l| l.restarts + 1),
+            mesh_hashes: if rank == 0 && checkpoint_every.is_some() {
+                crate::checkpoint::mesh_hashes(case)
+            } else {
+                Vec::new()
+            },
+        }
+    }
+
+    /// Records one converged step. Collective.
+    pub(super) fn observe(
+        &mut self,
+        model: &Model,
+        rec: &StepRecord,
+        x: &Vector,
+        asm: &mut Assembler,
+    ) -> Result<AfterStep, String> {
+        let t0 = Instant::now();
+        // A signal on any rank stops every rank after this step, which is then written whatever
+        // the output schedule says.
+        self.interrupted = crate::interrupt::agreed(asm.comm());
+        self.newton
+            .record(rec.iterations as u32, rec.failed_iterations as u64);
+        self.step_log.push(io::StepLog {
+            step: rec.step,
+            load: rec.load,
+            iterations: rec.iterations as u32,
+            cutbacks: rec.cutbacks as u32,
+            residual_history: rec.residual_history.clone(),
+            failed_attempts: rec.failed_attempts.clone(),
+            pseudo_steps: rec.pseudo_steps,
+            failed_iterations: rec.failed_iterations,
+        });
+        let reactions: Vec<f64> = model
+            .reactions
+            .iter()
+            .flat_map(|(_, nodes)| asm.reaction(nodes))
+            .collect();
+        let mut extra_columns = Vec::new();
+        for (_, nodes, center) in &model.reaction_moments {
+            let m = asm
+                .reaction_moment(nodes, x, &model.coords, *center)
+                .map_err(|e| e.to_string())?;
+            if model.dim == 2 {
+                extra_columns.push(m[2]);
+            } else {
+                extra_columns.extend_from_slice(&m);
+            }
+        }
+        extra_columns.extend(contact_history(asm, model.dim));
+        let last = (rec.load - self.n_stages).abs() < 1e-12;
+        let scheduled = last || rec.step.is_multiple_of(self.case.output.every);
+        self.output
+            .step(
+                rec,
+                &reactions,
+                &extra_columns,
+                self.wall_offset + self.t_start.elapsed().as_secs_f64(),
+                scheduled,
+                x,
+                asm,
+            )
+            .map_err(|e| e.to_string())?;
+        if let Some(every) = self.checkpoint_every {
+            if rec.step.is_multiple_of(every) || self.interrupted.is_some() {
+                // before the interrupt's extra output step below: the checkpoint's copy of the
+                // results holds the scheduled steps only, so a restart from it writes what an
+                // uninterrupted run writes
+                self.checkpoint(model, rec, x, asm)
+                    .map_err(|e| format!("checkpoint: {e}"))?;
+            }
+        }
+        if self.interrupted.is_some() && !scheduled {
+            // the interrupted run's results end with its last converged step, whatever the schedule
+            self.output
+                .results_step(rec, x, asm, Ok(()))
+                .map_err(|e| e.to_string())?;
+        }
+        self.t_output += t0.elapsed().as_secs_f64();
+        self.progress(rec);
+        Ok(match self.interrupted {
+            Some(_) => AfterStep::Stop,
+            None => AfterStep::Continue,
+        })
+    }
+
+    /// Writes a checkpoint of the converged step `rec`: the state gathered to rank 0 in global
+    /// numbering, written there with copies of the output so far. Collective.
+    pub(super) fn checkpoint(
+        &mut self,
+        model: &Model,
+        rec: &StepRecord,
+        x: &Vector,
+        asm: &mut Assembler,
+    ) -> Result<(), Error> {
+        let t0 = Instant::now();
+        let root = self.rank == 0;
+        let out = &mut self.output;
+        out.gather.gather(x, &mut out.u_root)?;
+        let displacement = if root {
+            out.u_root.read()?.to_vec()
+        } else {
+            Vec::new()
+        };
+        let comm = asm.comm();
+        // element history per cell, each rank filling its own cells, summed on rank 0
+        let local_width = asm
+            .sets
+            .iter()
+            .map(|s| s.history_width())
+            .max()
+            .unwrap_or(0);
+        let mut width = 0usize;
+        comm.all_reduce_into(&local_width, &mut width, SystemOperation::max());
+        let n_cells = model.n_cells();
+        let mut history = vec![0.0; n_cells * width];
+        for set in &asm.sets {
+            let hw = set.history_width();
+            for e in 0..set.len() {
+                let (body, cell) = set.cell_id(e);
+                let g = out.cell_offset[body] + cell;
+                history[g * width..g * width + hw].copy_from_slice(set.history(e));
+            }
+        }
+        let mut element_history = vec![0.0; if root { history.len() } else { 0 }];
+        if width > 0 {
+            let r = comm.process_at_rank(0);
+            if root {
+                r.reduce_into_root(
+                    &history[..],
+                    &mut element_history[..],
+                    SystemOperation::sum(),
+                );
+            } else {
+                r.reduce_into(&history[..], SystemOperation::sum());
+            }
+        }
+        let contact_points = match asm.contact() {
+            Some(c) => gather_rows(comm, &c.export_points()),
+            None => Vec::new(),
+        };
+        // the contact sparsity pattern, if every rank has a current one
+        let pattern = asm.contact_pattern();
+        let (have, mut all) = (i32::from(pattern.is_some()), 0i32);
+        comm.all_reduce_into(&have, &mut all, SystemOperation::min());
+        let contact_pattern = if asm.contact().is_some() && all == 1 {
+            let rows: Vec<f64> = pattern
+                .unwrap_or_default()
+                .iter()
+                .flat_map(|&(p, e, l)| [p as f64, e as f64, l as f64])
+                .collect();
+            gather_rows(comm, &rows)
+        } else {
+            Vec::new()
+        };
+        let local = if root {
+            let state = crate::checkpoint::State {
+                case_toml: out.case_toml.clone(),
+                position: rec.position,
+                displacement,
+                element_history,
+                element_history_width: width,
+                contact_points,
+                contact_pattern,
+                ranks: comm.size() as usize,
+                log: crate::checkpoint::RunLog {
+                    newton: self.newton,
+                    steps: self.step_log.clone(),
+                    wall_time: self.wall_offset + self.t_start.elapsed().as_secs_f64(),
+                    results_layout: out.results.as_ref().map(|r| r.layout()).unwrap_or_default(),
+                    restarts: self.restarts,
+                    mesh_hashes: self.mesh_hashes.clone(),
+                },
+            };
+            let results = match &out.results {
+                Some(r) => {
+                    r.flush()?;
+                    Some(r.partial_file().to_path_buf())
+                }
+                None => None,
+            };
+            let history_file = out.out_dir.join("history.csv");
+            crate::checkpoint::write(&out.out_dir, &state, results.as_deref(), &history_file)
+                .map_err(Error::from)
+        } else {
+            Ok((PathBuf::new(), 0))
+        };
+        let (dir, bytes) = agree(comm, local)?;
+        let secs = t0.elapsed().as_secs_f64();
+        self.t_output += secs;
+        log(self.rank, self.v, Verbosity::Verbose, || {
+            format!(
+                "checkpoint after step {}: {} ({:.3} MB) in {secs:.3} s",
+                rec.step,
+                dir.display(),
+                bytes as f64 / 1e6
+            )
+        });
+        Ok(())
+    }
+
+    /// The progress bar, or without one (not a terminal, or -v) one plain line per step; with -v
+    /// the line also carries the Newton residual history of the step, after a line per cutback.
+    pub(super) fn progress(&self, rec: &StepRecord) {
+        let (rank, v) = (self.rank, self.v);
+        if let Some(b) = &self.bar {
+            b.set_position(((rec.load / self.n_stages) * self.total_steps as f64).round() as u64);
+            b.set_message(format!(
+                "{:.4} | step {} | {} it | |F| {:.2e}",
+                rec.load, rec.step, rec.iterations, rec.residual
+            ));
+        }
+        for (load, why) in &rec.failed_attempts {
+            log(rank, v, Verbosity::Verbose, || {
+                format!("  cutback: load {load:.6} failed: {why}")
+            });
+        }
+        if self.bar.is_none() {
+            log(rank, v, Verbosity::Normal, || {
+                let mut line = format!(
+                    "step {:4}  stage {}  load {:.6}  newton {:2}  |F| {:.3e}  cutbacks {}",
+                    rec.step, rec.stage, rec.load, rec.iterations, rec.residual, rec.cutbacks
+                );
+                if rec.pseudo_steps > 0 {
+                    line += &format!("  (rescued by {} damped pseudo-steps)", rec.pseudo_steps);
+                }
+                if v >= Verbosity::Verbose {
+                    let h: Vec<String> = rec
+                        .residual_history
+                        .iter()
+                        .map(|r| format!("{r:.2e}"))
+                        .collect();
+                    line += &format!("  history [{}]", h.join(" "));
+                }
+                line
+            });
+        }
+    }
+}
