@@ -640,15 +640,8 @@ fn area2(p: impl Iterator<Item = (f64, f64)>) -> f64 {
 /// Faces of 8-node hexahedra (VTK order) that belong to one cell only, each ordered
 /// counter-clockwise seen from outside the cell.
 pub fn boundary_faces(cells: &[Vec<usize>]) -> Vec<Vec<usize>> {
-    // VTK hexahedron faces, outward normals
-    const FACES: [[usize; 4]; 6] = [
-        [0, 3, 2, 1],
-        [4, 5, 6, 7],
-        [0, 1, 5, 4],
-        [1, 2, 6, 5],
-        [2, 3, 7, 6],
-        [3, 0, 4, 7],
-    ];
+    // the hex8 element's faces (its node order is VTK's), counter-clockwise from outside
+    use crate::fem::hex8::FACES;
     let mut count: std::collections::HashMap<[usize; 4], (usize, Vec<usize>)> =
         std::collections::HashMap::new();
     for c in cells.iter().filter(|c| c.len() == 8) {

@@ -256,12 +256,7 @@ pub fn study_main(opts: &StudyOptions) -> Result<(), StudyError> {
     if opts.launcher == Launcher::Slurm {
         return submit_slurm(&mut study, &out, &launch, opts);
     }
-    let logs = out.join("logs");
-    std::fs::create_dir_all(&logs).map_err(|source| StudyError::Io {
-        path: logs.clone(),
-        op: "create the study's output folder",
-        source,
-    })?;
+    create_logs(&out)?;
     if !opts.quiet {
         eprintln!(
             "study {}: {} runs, {} at once on {} rank(s) each, results in {}",
@@ -343,12 +338,7 @@ fn submit_slurm(
 ) -> Result<(), StudyError> {
     let out = absolute(out)?;
     study.case = absolute(&study.case)?;
-    let logs = out.join("logs");
-    std::fs::create_dir_all(&logs).map_err(|source| StudyError::Io {
-        path: logs.clone(),
-        op: "create the study's output folder",
-        source,
-    })?;
+    let logs = create_logs(&out)?;
     let mut subs = slurm::Submissions::load(&out)?;
     // runs of earlier submissions that are still queued or running are not submitted twice
     let queued = if subs.jobs.is_empty() {
@@ -739,4 +729,15 @@ fn write_plots(
         }
     }
     Ok(())
+}
+
+/// Creates `out/logs` (and `out`), where the runs' output goes.
+fn create_logs(out: &Path) -> Result<PathBuf, StudyError> {
+    let logs = out.join("logs");
+    std::fs::create_dir_all(&logs).map_err(|source| StudyError::Io {
+        path: logs.clone(),
+        op: "create the study's output folder",
+        source,
+    })?;
+    Ok(logs)
 }
