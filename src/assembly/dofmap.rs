@@ -192,6 +192,17 @@ impl DofMap {
         (f >= 0).then(|| GlobalDof(f + comp as PetscInt))
     }
 
+    /// Global unknown of every component of `nodes` [n * dim], node by node: the indices of a
+    /// gather of those nodes' displacement. A node without unknowns reads unknown 0 (callers put no
+    /// force on such nodes).
+    pub fn gather_indices(&self, nodes: &[u32]) -> Vec<PetscInt> {
+        nodes
+            .iter()
+            .flat_map(|&a| (0..self.dim).map(move |c| (a, c)))
+            .map(|(a, c)| self.global(a, c).map_or(0, |g| g.0))
+            .collect()
+    }
+
     /// The local index of a global unknown in this rank's local vector, if present.
     pub fn local(&self, g: GlobalDof) -> Option<LocalDof> {
         let (lo, hi) = self.owned_range();

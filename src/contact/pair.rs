@@ -91,12 +91,13 @@ pub struct PairDef {
     pub element_mean_gap: bool,
 }
 
-/// One coupling block of the Jacobian: rows of element `k_e` of the pass's surface, columns of
-/// `k_e` and of partner element `l_e` (`u32::MAX` for a rigid partner).
-pub type Coupling = (u32 /*pass*/, u32 /*k_e*/, u32 /*l_e*/);
+/// One coupling block of the Jacobian, contact's [`Block`](crate::assembly::Block): rows of
+/// element `k_e` of the pass's surface, columns of `k_e` and of partner element `l_e`
+/// (`u32::MAX` for a rigid partner), as `(pass, k_e, l_e)`.
+pub type Coupling = crate::assembly::Block;
 
 /// The COO slot of a coupling block in the current pattern (`None`: not in it).
-pub type SlotOf<'a> = dyn Fn(&Coupling) -> Option<usize> + 'a;
+pub use crate::assembly::SlotOf;
 
 /// The traction of a pair's law at a point with gap `g` and normal `n` [3].
 /// `touch`: gaps below it count as touching (round-off tolerance of the penalty's active set).

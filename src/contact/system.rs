@@ -20,6 +20,7 @@ use crate::contact::surface::ContactSurface;
 
 mod active_set;
 mod checkpoint;
+mod coupling;
 mod pattern;
 mod pressure;
 mod setup;
@@ -67,11 +68,7 @@ impl ContactSystem {
     /// Global unknown of every table entry [n_table * dim], in table order: the indices of the
     /// gather that feeds [`ContactSystem::update`].
     pub fn table_dofs(&self, dofs: &DofMap) -> Vec<i32> {
-        self.table
-            .iter()
-            .flat_map(|&a| (0..self.dim).map(move |c| (a, c)))
-            .map(|(a, c)| dofs.global(a, c).map_or(0, |g| g.0))
-            .collect()
+        dofs.gather_indices(&self.table)
     }
 
     /// The load parameter (moves rigid partners).

@@ -653,7 +653,7 @@ fn finish_and_report(
             before_restart: observer.wall_offset,
         },
         peak_memory_mb,
-        contact_pattern: asm.contact_pattern_stats().map(|(ring, missing)| {
+        contact_pattern: asm.coupling_pattern_stats().map(|(ring, missing)| {
             let mut total = 0usize;
             comm.all_reduce_into(&missing, &mut total, SystemOperation::sum());
             io::ContactPatternStats {

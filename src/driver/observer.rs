@@ -5,6 +5,7 @@ use super::gather::gather_rows;
 use super::output::{contact_history, Output};
 use super::{agree, comm_rank, log, Error, Verbosity};
 use crate::assembly::Assembler;
+use crate::contact::ContactSystem;
 use crate::io::{self};
 use crate::model::Model;
 use crate::petsc::{Petsc, Vector};
@@ -218,15 +219,15 @@ impl<'c, 'p> StepObserver<'c, 'p> {
                 r.reduce_into(&history[..], SystemOperation::sum());
             }
         }
-        let contact_points = match asm.contact() {
+        let contact_points = match asm.coupling_set::<ContactSystem>() {
             Some(c) => gather_rows(comm, &c.export_points()),
             None => Vec::new(),
         };
         // the contact sparsity pattern, if every rank has a current one
-        let pattern = asm.contact_pattern();
+        let pattern = asm.coupling_pattern();
         let (have, mut all) = (i32::from(pattern.is_some()), 0i32);
         comm.all_reduce_into(&have, &mut all, SystemOperation::min());
-        let contact_pattern = if asm.contact().is_some() && all == 1 {
+        let contact_pattern = if asm.coupling_set::<ContactSystem>().is_some() && all == 1 {
             let rows: Vec<f64> = pattern
                 .unwrap_or_default()
                 .iter()

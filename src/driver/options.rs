@@ -92,13 +92,13 @@ pub(super) fn set_up_solver<'p>(
             )
             .map_err(|msg| Error::Usage(format!("{}: contact: {msg}", case.file.display()))),
         )?;
-        asm.set_contact(sys, &x, case.solver.contact_pattern_ring)?;
-        asm.set_contact_freeze_after(case.solver.contact_freeze_after);
+        asm.set_coupling_set(Box::new(sys), &x, case.solver.contact_pattern_ring)?;
+        asm.set_freeze_after(case.solver.contact_freeze_after);
     }
     if !model.couplings.is_empty() {
         let offsets = NodeOffsets::new(&model.couplings, &asm.dofs.rep, &model.coords, model.dim);
         asm.set_couplings(offsets);
-        let overlap = match asm.coupled_contact_node() {
+        let overlap = match asm.rigidly_coupled_loaded_node() {
             Some(n) => Err(Error::Usage(format!(
                 "{}: node {n} at {:?} moves with a free-translation rotation and carries contact points; the set's reaction moment would miss their force: keep the contact points off it (a contact `region`)",
                 case.file.display(),

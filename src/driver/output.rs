@@ -5,6 +5,7 @@ use super::gather::gather_varcount;
 use super::{agree, Error};
 use crate::assembly::{Assembler, DofMap, GlobalDof, NodeOffsets};
 use crate::contact::system::POINT_RECORD;
+use crate::contact::ContactSystem;
 use crate::io::{self, FieldData, GridDef, HistoryRow, HistoryWriter, ResultsWriter, Summary};
 use crate::model::Model;
 use crate::petsc::{Petsc, PetscInt, Scatter, Vector};
@@ -69,7 +70,7 @@ pub(super) fn contact_history_labels(model: &Model) -> Vec<String> {
 ///
 /// Collective.
 pub(super) fn contact_history(asm: &Assembler, dim: usize) -> Vec<f64> {
-    let Some(c) = asm.contact() else {
+    let Some(c) = asm.coupling_set::<ContactSystem>() else {
         return Vec::new();
     };
     let (mut sums, mut maxes) = (Vec::new(), Vec::new());
@@ -122,7 +123,7 @@ pub(super) fn contact_fields(
     n_nodes: usize,
     root: bool,
 ) -> Option<Vec<(&'static str, usize, Vec<f64>)>> {
-    let c = asm.contact()?;
+    let c = asm.coupling_set::<ContactSystem>()?;
     let (fp, fg) = c.l2_rhs();
     let frictional = c.frictional().iter().any(|&f| f);
     let ff = if frictional {
@@ -190,7 +191,7 @@ pub(super) fn contact_fields(
 ///
 /// Collective.
 pub(super) fn gather_points(asm: &Assembler) -> Option<Vec<f64>> {
-    let c = asm.contact()?;
+    let c = asm.coupling_set::<ContactSystem>()?;
     let comm = asm.comm();
     // a leading entry keeps every contribution non-empty (Open MPI rejects an all-empty Gatherv)
     let mut buf = vec![0.0];

@@ -2,6 +2,7 @@
 
 use super::options::Solver;
 use super::{agree, comm_rank, log, Error, RunOptions, Verbosity};
+use crate::contact::ContactSystem;
 use crate::model::Model;
 use crate::petsc::Petsc;
 use crate::scene::Case;
@@ -115,10 +116,10 @@ pub(super) fn restore(
             .chunks_exact(3)
             .map(|r| (r[0] as u32, r[1] as u32, r[2] as u32))
             .collect();
-        solver.asm.preset_contact_pattern(&all);
+        solver.asm.preset_coupling_pattern(&all);
     }
     if local.is_ok() {
-        if let Some(c) = solver.asm.contact_mut() {
+        if let Some(c) = solver.asm.coupling_set_mut::<ContactSystem>() {
             local = c
                 .import_points(&state.contact_points)
                 .map_err(|m| Error::Restart(format!("the checkpoint's contact state: {m}")));

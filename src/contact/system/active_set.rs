@@ -72,18 +72,8 @@ impl ActiveSet {
     }
 }
 
-/// What [`ContactSystem::settle_active_set`] decided.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Settle {
-    /// No point was frozen: the converged state is the law's.
-    Free,
-    /// Every frozen point has the status the law gives it at the converged state: the state is the
-    /// law's equilibrium. Every point is released.
-    Consistent,
-    /// Some frozen points disagree with the law at the converged state: they were given the law's
-    /// status (or, after [`MAX_ROUNDS`], every point was released). Resume Newton.
-    Resume,
-}
+/// What [`ContactSystem::settle_active_set`] decides: the assembler's [`Settle`].
+pub use crate::assembly::Settle;
 
 /// The law's status of a point with normal gap `gap` (`None`: no partner within reach).
 fn natural(gap: Option<f64>, touch: f64) -> bool {

@@ -1,0 +1,308 @@
+//! The coupling set beside the element sets (contact pairs, see [`CouplingSet`]): the gather of
+//! its nodes' displacement, its blocks in the sparsity pattern, and the pattern's rebuild between
+//! Newton solves when the needed blocks leave the reserved band.
+
+use super::{fatal, Assembler, MatrixAssembly};
+use crate::assembly::coupling_set::{Block, CouplingSet, Settle};
+use crate::petsc::{Matrix, PetscError, PetscInt, ProblemError, Scatter, Vector};
+use mpi::collective::SystemOperation;
+use mpi::traits::*;
+use std::time::Instant;
+
+/// The coupling set on this rank and what the assembler keeps for it.
+pub(super) struct CouplingHook<'p> {
+    pub(super) set: Box<dyn CouplingSet>,
+    /// Gathers the displacement of the set's nodes to this rank.
+    pub(super) scatter: Scatter<'p>,
+    pub(super) u_table: Vector<'p>,
+    /// Blocks of the current pattern, sorted; block `i` has COO slot `first_slot + i`.
+    pub(super) blocks: Vec<Block>,
+    pub(super) first_slot: usize,
+    /// Neighbour rings reserved around the needed blocks (see [`CouplingSet::band_blocks`]).
+    pub(super) ring: usize,
+    /// A Jacobian since the last pattern needed a coupling outside it.
+    pub(super) stale: bool,
+    /// Blocks found outside the pattern (each stopped a solve for a rebuild).
+    pub(super) missing_blocks: usize,
+    /// Blocks the next pattern is built from instead of the current band (a restart).
+    pub(super) preset: Option<Vec<Block>>,
+}
+
+impl<'p> Assembler<'p> {
+    /// A rigidly coupled node on which this rank's coupling set may put a force, if any: the
+    /// rigid coupling's reaction moment counts element forces only, so such overlaps are refused.
+    pub fn rigidly_coupled_loaded_node(&self) -> Option<u32> {
+        let c = self.coupled.as_ref()?;
+        c.set
+            .loaded_nodes()
+            .into_iter()
+            .find(|&n| self.offsets.slot(n).is_some())
+    }
+
+    /// Adds the coupling set: its nodes' displacement is gathered to this rank before each
+    /// evaluation; `ring` neighbour rings are reserved around its needed blocks.
+    ///
+    /// Collective.
+    pub fn set_coupling_set(
+        &mut self,
+        set: Box<dyn CouplingSet>,
+        global_template: &Vector<'p>,
+        ring: usize,
+    ) -> Result<(), PetscError> {
+        let idx: Vec<PetscInt> = self.dofs.gather_indices(set.nodes());
+        let u_table = Vector::new_seq(self.petsc, idx.len())?;
+        let scatter = Scatter::new(self.petsc, global_template, &u_table, &idx)?;
+        self.coupled = Some(CouplingHook {
+            set,
+            scatter,
+            u_table,
+            blocks: Vec::new(),
+            first_slot: 0,
+            ring,
+            stale: false,
+            missing_blocks: 0,
+            preset: None,
+        });
+        self.pattern_ready = false;
+        Ok(())
+    }
+
+    /// Before a Newton solve from `x`: if the blocks needed at `x` (or those a Jacobian of the
+    /// last solves needed) are not all in the sparsity pattern, builds a new pattern reserving a
+    /// band around them, on a new matrix that replaces `jac`. PETSc's COO preallocation is set once
+    /// per matrix (setting it again on a parallel matrix corrupted memory in PETSc 3.18), and
+    /// never inside a Newton solve. Returns whether the pattern was rebuilt.
+    ///
+    /// Collective.
+    pub fn refresh_pattern(
+        &mut self,
+        x: &Vector,
+        jac: &mut Matrix<'p>,
+    ) -> Result<bool, PetscError> {
+        if self.coupled.is_none() {
+            return Ok(false);
+        }
+        // a failed projection here only means the solve will cut back; the pattern uses the rest
+        let _ = self.coupling_update(x);
+        let need = match &self.coupled {
+            Some(c) => {
+                !self.pattern_ready
+                    || c.stale
+                    || c.set
+                        .needed_blocks()
+                        .iter()
+                        .any(|b| c.blocks.binary_search(b).is_err())
+            }
+            None => false,
+        } as i32;
+        let mut any = 0i32;
+        self.petsc
+            .comm()
+            .all_reduce_into(&need, &mut any, SystemOperation::max());
+        if any == 0 {
+            return Ok(false);
+        }
+        let t0 = Instant::now();
+        *jac = Matrix::new_aij(self.petsc, self.dofs.n_owned())?;
+        if self.pattern_ready {
+            self.timers.pattern_rebuilds += 1;
+        }
+        self.timers.pattern += t0.elapsed().as_secs_f64();
+        self.build_pattern(jac)?;
+        if let Some(c) = &mut self.coupled {
+            c.stale = false;
+        }
+        Ok(true)
+    }
+
+    /// The coupling set, as its concrete type `T` (`None`: no set, or one of another type).
+    pub fn coupling_set<T: CouplingSet>(&self) -> Option<&T> {
+        let set: &dyn CouplingSet = self.coupled.as_ref()?.set.as_ref();
+        set.as_any().downcast_ref::<T>()
+    }
+
+    /// The coupling set, as its concrete type `T`, to import its state (checkpoints).
+    pub fn coupling_set_mut<T: CouplingSet>(&mut self) -> Option<&mut T> {
+        let set: &mut dyn CouplingSet = self.coupled.as_mut()?.set.as_mut();
+        set.as_any_mut().downcast_mut::<T>()
+    }
+
+    /// Pattern statistics of this rank's coupling set: (ring, blocks left out of Jacobians).
+    pub fn coupling_pattern_stats(&self) -> Option<(usize, usize)> {
+        self.coupled.as_ref().map(|c| (c.ring, c.missing_blocks))
+    }
+
+    /// The coupling blocks of the current sparsity pattern, if it is built and still holds every
+    /// block the last Jacobian needed (checkpoints: a restart rebuilds the same pattern, so the
+    /// matrix and its factorisation, and hence the round-off, are the same).
+    pub fn coupling_pattern(&self) -> Option<&[Block]> {
+        let c = self.coupled.as_ref()?;
+        (self.pattern_ready && !c.stale).then_some(&c.blocks[..])
+    }
+
+    /// The blocks the next pattern is built from (a restart: those of
+    /// [`coupling_pattern`](Self::coupling_pattern) on every rank; this rank keeps its own).
+    pub fn preset_coupling_pattern(&mut self, all: &[Block]) {
+        if let Some(c) = &mut self.coupled {
+            let mut own: Vec<Block> = all
+                .iter()
+                .copied()
+                .filter(|b| c.set.owns_block(b))
+                .collect();
+            own.sort_unstable();
+            own.dedup();
+            c.preset = Some(own);
+            self.pattern_ready = false;
+        }
+    }
+
+    /// Gathers the displacement of the coupling set's nodes and updates the set there (contact:
+    /// projects every point of this rank). A failed update is a rank-local domain error.
+    ///
+    /// Collective.
+    pub(super) fn coupling_update(&mut self, x: &Vector) -> Result<(), ProblemError> {
+        let Some(c) = &mut self.coupled else {
+            return Ok(());
+        };
+        let t0 = Instant::now();
+        c.scatter.gather(x, &mut c.u_table).map_err(fatal)?;
+        let u = c.u_table.read().map_err(fatal)?;
+        let u: &[f64] = if self.offsets.is_empty() {
+            &u
+        } else {
+            let dim = self.dofs.dim;
+            self.u_table_off.clear();
+            self.u_table_off.extend_from_slice(&u);
+            for (t, &n) in c.set.nodes().iter().enumerate() {
+                if let Some(s) = self.offsets.slot(n) {
+                    for k in 0..dim {
+                        self.u_table_off[t * dim + k] += self.offsets.value(s, k);
+                    }
+                }
+            }
+            &self.u_table_off
+        };
+        let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| c.set.update(u)));
+        self.timers.contact += t0.elapsed().as_secs_f64();
+        match out {
+            Ok(Ok(())) => Ok(()),
+            Ok(Err(msg)) => Err(ProblemError::Domain(msg)),
+            Err(_) => Err(ProblemError::Fatal(
+                "panic in the coupling set's update (the contact search)".into(),
+            )),
+        }
+    }
+
+    /// Updates the coupling set at `x` and agrees on the outcome. In a Jacobian evaluation, a
+    /// block outside the sparsity pattern (contact: a point whose partner element moved beyond the
+    /// reserved band) is left out of that Jacobian and marks the pattern outdated; the solve stops
+    /// after that Newton step ([`crate::petsc::NonlinearProblem::stop_requested`]) and the load stepping
+    /// rebuilds the pattern on a new matrix and continues Newton from the iterate reached
+    /// ([`Assembler::pattern_outdated`]); the pattern is never changed inside a solve.
+    ///
+    /// Collective.
+    pub(super) fn prepare_couplings(
+        &mut self,
+        x: &Vector,
+        jacobian: bool,
+    ) -> Result<(), ProblemError> {
+        if self.coupled.is_none() {
+            return Ok(());
+        }
+        let cu = self.coupling_update(x);
+        self.agree(cu)?;
+        if !jacobian || !self.pattern_ready {
+            return Ok(());
+        }
+        if self.mode == MatrixAssembly::Preallocated {
+            return Err(ProblemError::Fatal(
+                "contact needs the COO assembly path (drop --matsetvalues)".into(),
+            ));
+        }
+        // Blocks outside the pattern are left out of this Jacobian (the sink has no slot for
+        // them): the Newton step is taken with the rest, and the solve stops after it
+        // (`stop_requested`) for the pattern to be rebuilt between solves.
+        let missing = match &self.coupled {
+            Some(c) => c
+                .set
+                .needed_blocks()
+                .iter()
+                .filter(|b| c.blocks.binary_search(b).is_err())
+                .count(),
+            None => 0,
+        };
+        let mut any = 0u64;
+        self.petsc
+            .comm()
+            .all_reduce_into(&(missing as u64), &mut any, SystemOperation::max());
+        if any > 0 {
+            if let Some(c) = &mut self.coupled {
+                c.stale = true;
+                c.missing_blocks += missing;
+            }
+        }
+        Ok(())
+    }
+
+    /// True when the last solve stopped because the needed blocks left the sparsity pattern (the
+    /// same on every rank): rebuild it ([`Assembler::refresh_pattern`]) and continue.
+    pub fn pattern_outdated(&self) -> bool {
+        self.coupled.as_ref().is_some_and(|c| c.stale)
+    }
+}
+
+/// Newton at the kink of a law (contact: see `crate::contact::system::active_set`): statuses that
+/// keep changing are held during a solve and settled after it.
+impl Assembler<'_> {
+    /// Statuses that keep changing are held after this many Newton iterates of a step attempt
+    /// (0: never).
+    pub fn set_freeze_after(&mut self, iterates: usize) {
+        if let Some(c) = &mut self.coupled {
+            c.set.set_freeze_after(iterates);
+        }
+    }
+
+    /// After a converged Newton solve at `x`: compares every held status with the law's at `x`
+    /// (re-evaluated there) and releases them all when they agree (the state is then the law's
+    /// equilibrium: the same residual, bit for bit), else updates the disagreeing ones for a
+    /// resumed solve. The same answer on every rank.
+    ///
+    /// Collective.
+    pub fn settle_active_set(&mut self, x: &Vector) -> Settle {
+        // the same setting on every rank: no communication when it is off
+        if self
+            .coupled
+            .as_ref()
+            .is_none_or(|c| c.set.freeze_after() == 0)
+        {
+            return Settle::Free;
+        }
+        let frozen = self.coupled.as_ref().map_or(0, |c| c.set.frozen()) as u64;
+        let mut any = 0u64;
+        self.petsc
+            .comm()
+            .all_reduce_into(&frozen, &mut any, SystemOperation::max());
+        if any == 0 {
+            return Settle::Free;
+        }
+        // the gaps at `x` itself (the last evaluation of the solve is there, but make sure)
+        let cu = self.coupling_update(x);
+        let ok = self.agree(cu).is_ok() && {
+            let local = self.guarded_loop(x, None);
+            self.agree(local).is_ok()
+        };
+        let local = match (&self.coupled, ok) {
+            (Some(c), true) => c.set.inconsistent() as u64,
+            (Some(_), false) => 1,
+            (None, _) => 0,
+        };
+        let mut total = 0u64;
+        self.petsc
+            .comm()
+            .all_reduce_into(&local, &mut total, SystemOperation::sum());
+        match &mut self.coupled {
+            Some(c) => c.set.settle(true, total as usize),
+            None => Settle::Free,
+        }
+    }
+}

@@ -1,0 +1,123 @@
+//! What assembly needs from a set of couplings that no mesh cell holds: blocks of the residual
+//! and tangent that join elements of different bodies or distant parts of one body, and that come
+//! and go with the state. Contact pairs are one (`crate::contact::ContactSystem`); a mortar
+//! constraint or a Lagrange-multiplier set would be others. It is the seam beside
+//! [`super::ElementSet`]:
+//!
+//! - a coupling set reads the displacement of a fixed list of global nodes
+//!   ([`CouplingSet::nodes`]), which the assembler gathers to this rank before every evaluation
+//!   ([`CouplingSet::update`]);
+//! - its matrix entries come in *blocks*, each named by a [`Block`] key the set chooses; the
+//!   assembler reserves COO slots for the blocks of a band around those needed now
+//!   ([`CouplingSet::band_blocks`]) and rebuilds the pattern, between Newton solves, when a
+//!   needed block ([`CouplingSet::needed_blocks`]) falls outside it;
+//! - [`CouplingSet::evaluate`] adds the set's residual to this rank's ghosted local vector and
+//!   its blocks to a [`MatrixSink`] at the slots the assembler gives them.
+//!
+//! A set never sees PETSc or MPI (the assembler agrees on outcomes across ranks), and assembly
+//! never sees what a set couples (surfaces, laws, projections).
+
+use super::sink::MatrixSink;
+use std::any::Any;
+
+/// The key of one block of matrix entries of a coupling set, chosen by the set (contact: the
+/// half-pass, its surface element and the partner element). Blocks are sorted by key.
+pub type Block = (u32, u32, u32);
+
+/// The COO slot of a block in the current pattern (`None`: not in it).
+pub type SlotOf<'a> = dyn Fn(&Block) -> Option<usize> + 'a;
+
+/// What [`CouplingSet::settle`] decided about the statuses a set held fixed during a solve.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Settle {
+    /// Nothing was held: the converged state is the set's own.
+    Free,
+    /// Everything held has the status the set's law gives it at the converged state: the state is
+    /// the law's equilibrium, and everything is released.
+    Consistent,
+    /// Some held statuses disagree with the law at the converged state: they were updated (or, after
+    /// a bounded number of rounds, released). Resume Newton.
+    Resume,
+}
+
+/// Couplings evaluated on this rank, beside the element sets.
+pub trait CouplingSet: Any + Send {
+    /// Global node ids whose displacement the set reads, in the order of the `u` that
+    /// [`update`](Self::update) receives ([n][dim] per node).
+    fn nodes(&self) -> &[u32];
+
+    /// The load parameter (prescribed motions of the set, e.g. rigid partners, move with it).
+    fn set_load(&mut self, lambda: f64);
+
+    /// Moves to the displacement `u` of [`nodes`](Self::nodes) (with rigid-coupling offsets added).
+    /// An error is rank-local and recoverable (the step is cut back), e.g. a failed projection.
+    fn update(&mut self, u: &[f64]) -> Result<(), String>;
+
+    /// The blocks the state of the last [`update`](Self::update) needs, sorted.
+    fn needed_blocks(&self) -> Vec<Block>;
+
+    /// The blocks a new pattern reserves: those needed now and a band of `ring` neighbours around
+    /// them, so that the pattern survives small changes of the coupling. Sorted.
+    fn band_blocks(&mut self, ring: usize) -> Vec<Block>;
+
+    /// Whether this rank evaluates `block` (a pattern from another rank, e.g. a restart, is
+    /// filtered by it).
+    fn owns_block(&self, block: &Block) -> bool;
+
+    /// Global row and column unknowns of `block` (negative: none); its entries in the sink are
+    /// row-major `[rows][cols]`.
+    fn block_dofs(&self, block: &Block) -> (Vec<i32>, Vec<i32>);
+
+    /// Adds the residual of this rank's part of the set to `f_local` (this rank's ghosted local
+    /// vector) and, with `jac`, each block's entries to the sink at the slot `slot_of` gives it.
+    /// Uses the state of the last [`update`](Self::update).
+    fn evaluate(&mut self, f_local: &mut [f64], jac: Option<(&mut dyn MatrixSink, &SlotOf)>);
+
+    /// Residual entries on [`nodes`](Self::nodes) ([n][dim]) that `evaluate` could not put in
+    /// `f_local` because this rank may not hold those nodes (contact's one-pass master surfaces);
+    /// the assembler adds them through the gather's reverse scatter. `None`: there are none.
+    fn node_residual(&self) -> Option<&[f64]>;
+
+    /// Global nodes on which this rank's part of the set may put a force.
+    fn loaded_nodes(&self) -> Vec<u32>;
+
+    /// The current state is a converged load step.
+    fn commit(&mut self);
+
+    /// The current state is an intermediate point of a solver device (e.g. the damped rescue): keep
+    /// warm starts, not load-step history.
+    fn commit_intermediate(&mut self);
+
+    /// Back to the state of the last [`commit`](Self::commit).
+    fn rollback(&mut self);
+
+    /// Newton iterates after which statuses that keep changing are held fixed (0: never).
+    fn set_freeze_after(&mut self, _iterates: usize) {}
+
+    /// See [`set_freeze_after`](Self::set_freeze_after).
+    fn freeze_after(&self) -> usize {
+        0
+    }
+
+    /// Statuses held fixed on this rank now.
+    fn frozen(&self) -> usize {
+        0
+    }
+
+    /// Held statuses on this rank that disagree with the law at the last update.
+    fn inconsistent(&self) -> usize {
+        0
+    }
+
+    /// After a converged solve: `any_frozen` and `inconsistent` summed over every rank; updates or
+    /// releases the held statuses and says whether Newton resumes.
+    fn settle(&mut self, _any_frozen: bool, _inconsistent: usize) -> Settle {
+        Settle::Free
+    }
+
+    /// The set as [`Any`], for the driver to reach its concrete type (results, checkpoints).
+    fn as_any(&self) -> &dyn Any;
+
+    /// See [`as_any`](Self::as_any).
+    fn as_any_mut(&mut self) -> &mut dyn Any;
+}

@@ -1,0 +1,89 @@
+//! Contact pairs as the assembler's coupling set: the seam through which contact plugs into
+//! assembly beside the element sets ([`crate::assembly::CouplingSet`]). The blocks are
+//! [`Coupling`]s: a half-pass's surface element and its partner element.
+
+use super::ContactSystem;
+use crate::assembly::{Block, CouplingSet, MatrixSink, Settle, SlotOf};
+use std::any::Any;
+
+impl CouplingSet for ContactSystem {
+    fn nodes(&self) -> &[u32] {
+        self.table()
+    }
+
+    fn set_load(&mut self, lambda: f64) {
+        ContactSystem::set_load(self, lambda);
+    }
+
+    fn update(&mut self, u: &[f64]) -> Result<(), String> {
+        ContactSystem::update(self, u)
+    }
+
+    fn needed_blocks(&self) -> Vec<Block> {
+        self.couplings()
+    }
+
+    fn band_blocks(&mut self, ring: usize) -> Vec<Block> {
+        self.band_couplings(ring)
+    }
+
+    fn owns_block(&self, &(pass, e, _): &Block) -> bool {
+        self.integrates(pass, e)
+    }
+
+    fn block_dofs(&self, block: &Block) -> (Vec<i32>, Vec<i32>) {
+        ContactSystem::block_dofs(self, block)
+    }
+
+    fn evaluate(&mut self, f_local: &mut [f64], jac: Option<(&mut dyn MatrixSink, &SlotOf)>) {
+        self.assemble(f_local, jac);
+    }
+
+    fn node_residual(&self) -> Option<&[f64]> {
+        self.has_one_pass().then(|| self.table_residual())
+    }
+
+    fn loaded_nodes(&self) -> Vec<u32> {
+        ContactSystem::loaded_nodes(self)
+    }
+
+    fn commit(&mut self) {
+        ContactSystem::commit(self);
+    }
+
+    fn commit_intermediate(&mut self) {
+        self.commit_warm_starts();
+    }
+
+    fn rollback(&mut self) {
+        ContactSystem::rollback(self);
+    }
+
+    fn set_freeze_after(&mut self, iterates: usize) {
+        ContactSystem::set_freeze_after(self, iterates);
+    }
+
+    fn freeze_after(&self) -> usize {
+        ContactSystem::freeze_after(self)
+    }
+
+    fn frozen(&self) -> usize {
+        self.frozen_points()
+    }
+
+    fn inconsistent(&self) -> usize {
+        self.inconsistent_points()
+    }
+
+    fn settle(&mut self, any_frozen: bool, inconsistent: usize) -> Settle {
+        self.settle_active_set(any_frozen, inconsistent)
+    }
+
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+
+    fn as_any_mut(&mut self) -> &mut dyn Any {
+        self
+    }
+}
