@@ -15,13 +15,17 @@
 //! driver: observer per converged step -> io (results.h5/.xdmf, history.csv, summary.json)
 //! ```
 //! - [`petsc`]: the only `unsafe` code: bindgen bindings and their safe RAII wrappers.
-//! - [`assembly`]: numbering, restriction, sinks, Dirichlet rows, the nonlinear system.
+//! - [`assembly`]: numbering, restriction, sinks, Dirichlet rows, the nonlinear system, and the two
+//!   seams everything else plugs into: [`assembly::ElementSet`] (a batch of elements of one family,
+//!   implemented in `fem::sets`) and [`assembly::CouplingSet`] (blocks joining elements that no cell
+//!   holds, implemented by [`contact::ContactSystem`]). Assembly imports nothing from `contact`,
+//!   `fem` or `model`.
 //! - [`fem`], [`material`]: element kernels (total Lagrangian, Q1E4, enriched bases) and the
 //!   Neo-Hookean law; nothing in them knows about MPI or PETSc.
 //! - [`geometry`]: knot vectors, B-splines, NURBS, Bezier extraction, refinement, exact conics.
 //! - [`mesh`]: the mesh type, structured generators with named sets, the Gmsh reader.
 //! - [`contact`]: contact surfaces, search, projection, laws, rigid partners and the contact
-//!   residual/tangent of each half-pass, plugged into the assembler beside the element sets.
+//!   residual/tangent of each half-pass, plugged into the assembler as its coupling set.
 //! - [`scene`], [`model`]: case files and what is built from them (including the enriched layer of a
 //!   body's contact surface, `model::enrich`); [`solver`], [`driver`], [`io`].
 //! - [`study`]: `nurbs-contact study`, refinement studies over many runs of one case, with metrics,
@@ -42,6 +46,7 @@
 //! | rigid partners | [`contact::rigid`] |
 //! | a pair's declaration (law, passes, friction) | [`contact::pair`] |
 //! | pair state on a rank, commit/rollback, coupling pattern, L2 pressure (Sauer 2013) | [`contact::system`] |
+//! | contact in the global residual and tangent (the seam) | [`assembly::CouplingSet`], implemented in `contact::system::coupling` |
 //! | Neo-Hookean bulk, eq. (21) | [`material`] |
 
 pub mod assembly;
