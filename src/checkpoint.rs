@@ -17,8 +17,9 @@ use crate::solver::LoadPosition;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
-/// Version of the checkpoint layout; a restart refuses any other.
-const FORMAT: u32 = 1;
+/// Version of the checkpoint layout; a restart refuses any other (2: contact rows carry the
+/// augmented Lagrangian multiplier).
+const FORMAT: u32 = 2;
 
 /// Folder of a run's checkpoints inside its output directory.
 pub const CHECKPOINTS: &str = "checkpoints";

@@ -480,3 +480,27 @@ fn a_restart_with_a_changed_mesh_file_is_refused_with_the_file() {
         "{e}"
     );
 }
+
+/// Augmented Lagrangian multipliers are load-step history (checkpoint format 2): a restart that
+/// lost them would start its next step from zero multipliers and take other rounds and Newton
+/// iterations, which this exact comparison sees.
+#[test]
+fn augmented_multipliers_killed_and_restarted_equal_an_uninterrupted_run() {
+    let sets = [
+        "contact.0.eps_n=1e2",
+        "contact.0.augmented={ tol = 1e-7, max = 50 }",
+        "stages.0.steps=30",
+        "output.plots=false",
+    ];
+    let (_, d) = kill_and_restart(
+        "augmented-np1",
+        None,
+        "hertz_2d.toml",
+        &sets,
+        1,
+        1,
+        "5",
+        true,
+    );
+    assert!(d <= 1e-12, "difference {d:e}");
+}

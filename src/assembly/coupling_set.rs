@@ -40,6 +40,18 @@ pub enum Settle {
     Resume,
 }
 
+/// What [`CouplingSet::augment`] decided after a converged solve.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Augment {
+    /// Every constraint is satisfied to its tolerance (or the set does not augment): accept.
+    Satisfied,
+    /// Multipliers were updated: solve again.
+    Updated,
+    /// A constraint is still violated after its most rounds: the step fails (cut back), for this
+    /// reason.
+    Exhausted(String),
+}
+
 /// Couplings evaluated on this rank, beside the element sets.
 pub trait CouplingSet: Any + Send {
     /// Global node ids whose displacement the set reads, in the order of the `u` that
@@ -113,6 +125,18 @@ pub trait CouplingSet: Any + Send {
     /// releases the held statuses and says whether Newton resumes.
     fn settle(&mut self, _any_frozen: bool, _inconsistent: usize) -> Settle {
         Settle::Free
+    }
+
+    /// Augmented Lagrangian: this rank's largest constraint violation per group of the set
+    /// (contact: per pair) at the last evaluation; empty when the set does not augment.
+    fn augmentation_violations(&self) -> Vec<f64> {
+        Vec::new()
+    }
+
+    /// After a converged solve, with the violations max-reduced over every rank and the rounds
+    /// this step has made: accept, update the multipliers for another solve, or give up.
+    fn augment(&mut self, _violations: &[f64], _rounds: usize) -> Augment {
+        Augment::Satisfied
     }
 
     /// The set as [`Any`], for the driver to reach its concrete type (results, checkpoints).

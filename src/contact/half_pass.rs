@@ -60,8 +60,12 @@ pub(crate) struct QPoint {
     pub(crate) g_t: [f64; 3],
     /// Reference position (output only).
     pub(crate) X: [f64; 3],
-    /// Normal pressure at the last evaluation (output only).
+    /// Normal pressure at the last evaluation (output, and the augmented Lagrangian's update).
     pub(crate) p_n: f64,
+    /// Augmented Lagrangian: the multiplier (a pressure) the current solves use, and the one of the
+    /// last converged step (load-step history). Zero without augmentation.
+    pub(crate) lambda: f64,
+    pub(crate) lambda_committed: f64,
 }
 
 /// A surface element this rank integrates.
@@ -160,6 +164,8 @@ pub(crate) struct PairView<'a> {
     pub has_friction: bool,
     /// `gap = "element_mean"`.
     pub element_mean: bool,
+    /// Augmented Lagrangian enforcement (the points' multipliers shift the penalty law).
+    pub augmented: bool,
     /// Load parameter (rigid partners' motion).
     pub lambda: f64,
 }
@@ -382,12 +388,14 @@ impl HalfPass<'_> {
     }
 
     /// The traction of one contribution: the cohesive law on a material pairing; else the pair's
-    /// law, at the gap the gap part gives (`g_mean`) or at the status the active set holds.
+    /// law, at the gap the gap part gives (`g_mean`), at the status the active set holds, or
+    /// shifted by the point's multiplier `lambda` (augmented Lagrangian).
     fn traction(
         &self,
         cohesive: bool,
         g_mean: Option<f64>,
         forced: Option<bool>,
+        lambda: f64,
         g: &[f64; 3],
         n: &[f64; 3],
     ) -> Traction {
@@ -399,6 +407,8 @@ impl HalfPass<'_> {
             }
         } else if let (Some(gm), Law::Penalty { eps_n }) = (g_mean, law) {
             gap::mean_penalty(eps_n, self.touch, gm, g, n)
+        } else if let (true, Law::Penalty { eps_n }) = (self.pair.augmented, law) {
+            law::penalty_augmented(eps_n, lambda, self.touch, g, n)
         } else if let (Some(f), Law::Penalty { eps_n }) = (forced, law) {
             law::penalty_forced(eps_n, f, g, n)
         } else {
@@ -442,7 +452,8 @@ impl HalfPass<'_> {
         let master = self.pair.one_pass && nl > 0;
         work.rc.clear();
         work.rc.resize(nc, 0.0);
-        let lawf = |g: &[f64; 3], n: &[f64; 3]| self.traction(cohesive, g_mean, forced, g, n);
+        let lawf =
+            |g: &[f64; 3], n: &[f64; 3]| self.traction(cohesive, g_mean, forced, qp.lambda, g, n);
         let input = PointIn {
             dim,
             own,

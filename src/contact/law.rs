@@ -66,6 +66,32 @@ pub fn penalty(eps_n: f64, touch: f64, g: &[f64; 3], n: &[f64; 3]) -> Traction {
     out
 }
 
+/// The augmented Lagrangian form of [`penalty`]: `t = <lambda - eps_n g_n> n` with the point's
+/// multiplier `lambda >= 0` (a pressure, fixed during a Newton solve). Active where
+/// `g_n <= lambda / eps_n + touch`. With `lambda = 0` it is [`penalty`].
+pub fn penalty_augmented(
+    eps_n: f64,
+    lambda: f64,
+    touch: f64,
+    g: &[f64; 3],
+    n: &[f64; 3],
+) -> Traction {
+    let g_n = dot(g, n);
+    if g_n > lambda / eps_n + touch {
+        return Traction::ZERO;
+    }
+    let p = lambda - eps_n * g_n;
+    let mut out = Traction::ZERO;
+    for i in 0..3 {
+        out.t[i] = p * n[i];
+        for j in 0..3 {
+            out.dt_dg[3 * i + j] = -eps_n * n[i] * n[j];
+            out.dt_dn[3 * i + j] = -eps_n * g[j] * n[i] + if i == j { p } else { 0.0 };
+        }
+    }
+    out
+}
+
 /// The traction of a penalty-type law at a point held at status `forced` (`None`: the law's own
 /// test): held active, the linear branch `-eps_n g_n n` whatever the sign of `g_n`; held inactive,
 /// none.
@@ -227,6 +253,28 @@ mod tests {
         // touching within the tolerance: no traction, but stiffness
         let t = penalty(1e3, 1e-12, &[0.0, 0.0, 1e-16], &[0.0, 0.0, 1.0]);
         assert!(t.t[2].abs() < 1e-12 && t.dt_dg[8] == -1e3);
+    }
+
+    #[test]
+    fn augmented_penalty_derivatives_match_central_differences_and_reduce_to_penalty() {
+        let n = unit([0.3, -0.2, 0.9]);
+        // open by less than lambda / eps_n: still pressed, by lambda - eps_n g_n
+        let g = [0.01, -0.02, 0.03];
+        check(&|g, n| penalty_augmented(1e3, 40.0, 0.0, g, n), g, n, 1e-6);
+        let t = penalty_augmented(1e3, 40.0, 0.0, &g, &n);
+        assert!((dot(&t.t, &n) - (40.0 - 1e3 * dot(&g, &n))).abs() < 1e-12);
+        assert!(dot(&t.t, &n) > 0.0);
+        // open by more than lambda / eps_n: nothing
+        let far = [0.0, 0.0, 0.2];
+        assert!(penalty_augmented(1e3, 40.0, 0.0, &far, &n).is_zero());
+        // lambda = 0 is the penalty law, bit for bit
+        let gp = [0.01, -0.02, -0.05];
+        let (a, b) = (
+            penalty_augmented(1e3, 0.0, 1e-12, &gp, &n),
+            penalty(1e3, 1e-12, &gp, &n),
+        );
+        assert_eq!(a.t, b.t);
+        assert_eq!(a.dt_dg, b.dt_dg);
     }
 
     #[test]

@@ -89,6 +89,18 @@ pub struct PairDef {
     /// Penalty law on each surface element's mean normal gap instead of the pointwise one
     /// (two-half-pass only; `gap = "element_mean"`).
     pub element_mean_gap: bool,
+    /// Augmented Lagrangian enforcement of the penalty law (`augmented`).
+    pub augmented: Option<Augmented>,
+}
+
+/// Augmented Lagrangian (Uzawa) enforcement of a penalty pair: after each converged solve every
+/// point's multiplier becomes its pressure, until the largest penetration is at most `tol`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Augmented {
+    /// Largest penetration accepted (a length).
+    pub tol: f64,
+    /// Most rounds per load step.
+    pub max: usize,
 }
 
 /// One coupling block of the Jacobian, contact's [`Block`](crate::assembly::Block): rows of

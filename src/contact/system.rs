@@ -19,6 +19,7 @@ use crate::contact::search::BinGrid;
 use crate::contact::surface::ContactSurface;
 
 mod active_set;
+mod augment;
 mod checkpoint;
 mod coupling;
 mod pattern;
@@ -236,6 +237,7 @@ impl ContactSystem {
                 friction: def.friction.as_ref().filter(|f| f.on_at(self.lambda)),
                 has_friction: def.friction.is_some(),
                 element_mean: def.element_mean_gap,
+                augmented: def.augmented.is_some(),
                 lambda: self.lambda,
             };
             for pass in &mut pair.passes {
@@ -401,7 +403,10 @@ impl ContactSystem {
     /// Keeps the current projections as warm starts of the next step.
     pub fn commit(&mut self) {
         self.commit_warm_starts();
-        self.each_point_mut(|q| q.anchor = q.anchor_trial);
+        self.each_point_mut(|q| {
+            q.anchor = q.anchor_trial;
+            q.lambda_committed = q.lambda;
+        });
     }
 
     /// Commits the projection warm starts only: the friction anchors stay those of the last
@@ -419,6 +424,7 @@ impl ContactSystem {
         self.each_point_mut(|q| {
             q.warm = q.committed;
             q.anchor_trial = q.anchor;
+            q.lambda = q.lambda_committed;
         });
     }
 

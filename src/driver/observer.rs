@@ -114,6 +114,7 @@ impl<'c, 'p> StepObserver<'c, 'p> {
             failed_attempts: rec.failed_attempts.clone(),
             pseudo_steps: rec.pseudo_steps,
             failed_iterations: rec.failed_iterations,
+            augmentation_rounds: rec.augmentation_rounds,
         });
         let reactions: Vec<f64> = model
             .reactions
@@ -132,6 +133,9 @@ impl<'c, 'p> StepObserver<'c, 'p> {
             }
         }
         extra_columns.extend(contact_history(asm, model.dim));
+        if model.contact_pairs.iter().any(|p| p.augmented.is_some()) {
+            extra_columns.push(rec.augmentation_rounds as f64);
+        }
         let last = (rec.load - self.n_stages).abs() < 1e-12;
         let scheduled = last || rec.step.is_multiple_of(self.case.output.every);
         self.output

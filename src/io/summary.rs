@@ -79,6 +79,9 @@ pub struct StepLog {
     /// Newton iterations of the failed attempts (not in `iterations`).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub failed_iterations: usize,
+    /// Augmented Lagrangian rounds of the converged attempt (absent: none).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub augmentation_rounds: usize,
 }
 
 fn is_zero(n: &usize) -> bool {
@@ -190,6 +193,7 @@ mod tests {
                 failed_attempts: vec![(1.0, "DIVERGED_LINE_SEARCH".into())],
                 pseudo_steps: 0,
                 failed_iterations: 30,
+                augmentation_rounds: 0,
             }],
             status,
         }

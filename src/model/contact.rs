@@ -7,7 +7,7 @@ use super::build::{Model, ModelError};
 use crate::contact::rigid::{RigidMotion, RigidShape};
 use crate::contact::search::Aabb;
 use crate::contact::surface::ContactSurface;
-use crate::contact::{Friction, Law, PairDef, Partner};
+use crate::contact::{Augmented, Friction, Law, PairDef, Partner};
 use crate::scene::GapMode;
 use crate::scene::{
     Algorithm, BoxSpec, Case, ContactSpec, LawKind, PenaltyForm, RigidShapeKind, RigidSpec,
@@ -233,6 +233,7 @@ pub fn build_contact(
                 return Err(err(case, key("gap"), format!("`element_mean` {why}")));
             }
         }
+        let augmented = augmented(case, i, spec)?;
         // partners
         let passes = match (&spec.rigid, idx.len()) {
             (Some(r), 1) => {
@@ -279,9 +280,63 @@ pub fn build_contact(
             one_pass: spec.algorithm == Algorithm::OnePass && spec.rigid.is_none(),
             friction,
             element_mean_gap,
+            augmented,
         });
     }
     Ok((surfaces, pairs))
+}
+
+/// Augmented Lagrangian enforcement of pair `i`: `augmented = { tol, max }`.
+fn augmented(case: &Case, i: usize, spec: &ContactSpec) -> Result<Option<Augmented>, ModelError> {
+    let Some(a) = spec.augmented else {
+        return Ok(None);
+    };
+    let key = |k: &str| format!("contact.{i}.augmented{k}");
+    let why = if !matches!(spec.law, LawKind::Penalty) {
+        Some((
+            String::new(),
+            "goes with the `penalty` law only".to_string(),
+        ))
+    } else if spec.gap != GapMode::Pointwise {
+        Some((
+            String::new(),
+            "is implemented for the pointwise gap only (drop `gap`)".to_string(),
+        ))
+    } else if spec.algorithm == Algorithm::OnePass && spec.rigid.is_none() {
+        Some((
+            String::new(),
+            "is implemented for the two-half-pass algorithm only".to_string(),
+        ))
+    } else if case.solver.contact_freeze_after > 0 {
+        Some((
+            String::new(),
+            "moves the law's kink every round; `solver.contact_freeze_after` holds statuses \
+             at it (drop one of them)"
+                .to_string(),
+        ))
+    } else if !(a.tol.is_finite() && a.tol > 0.0) {
+        Some((
+            ".tol".to_string(),
+            format!(
+                "must be a positive length (the largest penetration accepted), got {}",
+                a.tol
+            ),
+        ))
+    } else if a.max == 0 {
+        Some((
+            ".max".to_string(),
+            "must be at least 1 (rounds of augmentation per load step)".to_string(),
+        ))
+    } else {
+        None
+    };
+    match why {
+        Some((k, why)) => Err(err(case, key(&k), why)),
+        None => Ok(Some(Augmented {
+            tol: a.tol,
+            max: a.max,
+        })),
+    }
 }
 
 /// Coulomb friction of pair `i`: `mu`, `eps_t`, `friction_stages`.

@@ -59,6 +59,18 @@ pub struct ContactSpec {
     /// element's pressure).
     #[serde(default, skip_serializing_if = "GapMode::is_pointwise")]
     pub gap: GapMode,
+    /// `penalty`: augmented Lagrangian enforcement, `{ tol = ..., max = ... }`. After each converged
+    /// Newton solve of a load step, every quadrature point's multiplier is updated to its pressure
+    /// (Uzawa: `lambda <- <lambda - eps_n g_N>`, the traction being `<lambda - eps_n g_N> n`) and
+    /// Newton solves again, until the largest penetration of the pair's points is at most `tol`
+    /// (a length, > 0) or `max` (>= 1) rounds were made; a step that is still above `tol` then is
+    /// cut back like a failed Newton step. The converged pressure no longer depends on `eps_n`
+    /// (which then only sets the convergence speed of the rounds). Multipliers are load-step
+    /// history (checkpointed); rounds are counted in `history.csv` (`augmentation_rounds`) and
+    /// `summary.json`. Pointwise gap only; not with `algorithm = "one_pass"` or
+    /// `solver.contact_freeze_after`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub augmented: Option<AugmentedSpec>,
     /// Penalty parameter (> 0; force per length^3 in 3D, per length^2 in 2D): `penalty`, and the
     /// penalty against penetration of `cohesive`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -111,6 +123,16 @@ pub struct ContactSpec {
     /// Default: the origin.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub moment_point: Option<Vec<f64>>,
+}
+
+/// `augmented = { tol = ..., max = ... }` of a `[[contact]]` pair.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AugmentedSpec {
+    /// Largest penetration accepted (a length, > 0).
+    pub tol: f64,
+    /// Most augmentation rounds per load step (>= 1).
+    pub max: usize,
 }
 
 /// Where the penalty law's normal gap is taken (`gap`).

@@ -20,7 +20,8 @@ pub mod size;
 pub mod validate;
 
 pub use contact_spec::{
-    Algorithm, BoxSpec, ContactSpec, GapMode, LawKind, PenaltyForm, RigidShapeKind, RigidSpec,
+    Algorithm, AugmentedSpec, BoxSpec, ContactSpec, GapMode, LawKind, PenaltyForm, RigidShapeKind,
+    RigidSpec,
 };
 pub use element_family::{ElementFamily, ElementFamilyError};
 pub use error::{Issue, SceneError};

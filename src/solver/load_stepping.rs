@@ -119,6 +119,8 @@ pub struct StepRecord {
     pub pseudo_steps: usize,
     /// Newton iterations of the attempts that failed and were cut back (not in `iterations`).
     pub failed_iterations: usize,
+    /// Augmented Lagrangian rounds of the converged attempt (0 without augmentation).
+    pub augmentation_rounds: usize,
     /// Where the load stepping stands after this step (what a checkpoint keeps).
     pub position: LoadPosition,
 }
@@ -407,6 +409,7 @@ pub fn run_load_steps_from<'p>(
         let iterations = out.iterations + resumed_iterations;
         sizer.accept(target, iterations, cutbacks);
         step += 1;
+        let augmentation_rounds = asm.augmentation_rounds();
         asm.commit();
         x.copy_to(&mut x_conv)?;
         let rec = StepRecord {
@@ -421,6 +424,7 @@ pub fn run_load_steps_from<'p>(
             wall_time: t_step.elapsed().as_secs_f64(),
             pseudo_steps: pseudo,
             failed_iterations,
+            augmentation_rounds,
             position: sizer.position(step),
         };
         let after = observer(&rec, x, asm).map_err(SolverError::Observer)?;

@@ -3,7 +3,7 @@
 //! Newton solves when the needed blocks leave the reserved band.
 
 use super::{fatal, Assembler, MatrixAssembly};
-use crate::assembly::coupling_set::{Block, CouplingSet, Settle};
+use crate::assembly::coupling_set::{Augment, Block, CouplingSet, Settle};
 use crate::petsc::{Matrix, PetscError, PetscInt, ProblemError, Scatter, Vector};
 use mpi::collective::SystemOperation;
 use mpi::traits::*;
@@ -26,6 +26,8 @@ pub(super) struct CouplingHook<'p> {
     pub(super) missing_blocks: usize,
     /// Blocks the next pattern is built from instead of the current band (a restart).
     pub(super) preset: Option<Vec<Block>>,
+    /// Augmentation rounds since the last commit or rollback (this load step's).
+    pub(super) rounds: usize,
 }
 
 impl<'p> Assembler<'p> {
@@ -62,6 +64,7 @@ impl<'p> Assembler<'p> {
             stale: false,
             missing_blocks: 0,
             preset: None,
+            rounds: 0,
         });
         self.pattern_ready = false;
         Ok(())
@@ -304,5 +307,56 @@ impl Assembler<'_> {
             Some(c) => c.set.settle(true, total as usize),
             None => Settle::Free,
         }
+    }
+}
+
+/// Augmented Lagrangian rounds after a converged solve (contact: see
+/// `crate::contact::system::augment`).
+impl Assembler<'_> {
+    /// After a converged Newton solve at `x`: re-evaluates the coupling set there, reduces its
+    /// constraint violations over every rank and lets it decide (see [`CouplingSet::augment`]).
+    /// The same answer on every rank.
+    ///
+    /// Collective.
+    pub fn augment(&mut self, x: &Vector) -> Augment {
+        // the same on every rank (the set's groups are replicated): no communication when off
+        if self
+            .coupled
+            .as_ref()
+            .is_none_or(|c| c.set.augmentation_violations().is_empty())
+        {
+            return Augment::Satisfied;
+        }
+        // the gaps and pressures at `x` itself (the last evaluation of the solve is there, but
+        // make sure)
+        let cu = self.coupling_update(x);
+        let ok = self.agree(cu).is_ok() && {
+            let local = self.guarded_loop(x, None);
+            self.agree(local).is_ok()
+        };
+        if !ok {
+            return Augment::Exhausted(
+                "the converged state could not be evaluated for the augmented Lagrangian update"
+                    .into(),
+            );
+        }
+        let Some(c) = &mut self.coupled else {
+            return Augment::Satisfied;
+        };
+        let local = c.set.augmentation_violations();
+        let mut global = vec![0.0; local.len()];
+        self.petsc
+            .comm()
+            .all_reduce_into(&local[..], &mut global[..], SystemOperation::max());
+        let out = c.set.augment(&global, c.rounds);
+        if out == Augment::Updated {
+            c.rounds += 1;
+        }
+        out
+    }
+
+    /// Augmentation rounds of the current load step so far (0 without augmentation).
+    pub fn augmentation_rounds(&self) -> usize {
+        self.coupled.as_ref().map_or(0, |c| c.rounds)
     }
 }

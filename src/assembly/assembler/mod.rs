@@ -406,6 +406,7 @@ impl<'p> Assembler<'p> {
         }
         if let Some(c) = &mut self.coupled {
             c.set.commit();
+            c.rounds = 0;
         }
     }
 
@@ -428,6 +429,7 @@ impl<'p> Assembler<'p> {
         }
         if let Some(c) = &mut self.coupled {
             c.set.rollback();
+            c.rounds = 0;
         }
     }
 

@@ -5,8 +5,9 @@
 use super::{Anchor, ContactSystem};
 
 /// Values per point row: key (pair, pass, element, point), warm start (tag, element, xi),
-/// friction anchor (tag, 3 values), cohesive pairing (tag, element, xi).
-pub const ROW: usize = 16;
+/// friction anchor (tag, 3 values), cohesive pairing (tag, element, xi), augmented Lagrangian
+/// multiplier.
+pub const ROW: usize = 17;
 
 fn opt2(v: Option<(u32, [f64; 2])>) -> [f64; 4] {
     match v {
@@ -36,6 +37,7 @@ impl ContactSystem {
                             Some(Anchor::Rigid(x)) => [2.0, x[0], x[1], x[2]],
                         });
                         out.extend_from_slice(&opt2(q.pairing));
+                        out.push(q.lambda_committed);
                     }
                 }
             }
@@ -85,6 +87,8 @@ impl ContactSystem {
                         };
                         q.anchor_trial = q.anchor;
                         q.pairing = get2(&r[12..16]);
+                        q.lambda_committed = r[16];
+                        q.lambda = r[16];
                     }
                 }
             }

@@ -3,7 +3,7 @@
 //! [`Coupling`]s: a half-pass's surface element and its partner element.
 
 use super::ContactSystem;
-use crate::assembly::{Block, CouplingSet, MatrixSink, Settle, SlotOf};
+use crate::assembly::{Augment, Block, CouplingSet, MatrixSink, Settle, SlotOf};
 use std::any::Any;
 
 impl CouplingSet for ContactSystem {
@@ -77,6 +77,14 @@ impl CouplingSet for ContactSystem {
 
     fn settle(&mut self, any_frozen: bool, inconsistent: usize) -> Settle {
         self.settle_active_set(any_frozen, inconsistent)
+    }
+
+    fn augmentation_violations(&self) -> Vec<f64> {
+        ContactSystem::augmentation_violations(self)
+    }
+
+    fn augment(&mut self, violations: &[f64], rounds: usize) -> Augment {
+        ContactSystem::augment(self, violations, rounds)
     }
 
     fn as_any(&self) -> &dyn Any {

@@ -1,0 +1,74 @@
+//! Augmented Lagrangian enforcement (Uzawa) of penalty pairs with `augmented = { tol, max }`: each
+//! quadrature point carries a multiplier `lambda` (a pressure) that shifts the penalty law,
+//! `t = <lambda - eps_n g_N> n` ([`crate::contact::law::penalty_augmented`]). After a converged
+//! Newton solve every point's multiplier becomes its pressure there, `lambda <- <lambda - eps_n
+//! g_N>`, and Newton solves again; at the fixed point `lambda = p` the active points have
+//! `g_N = 0` whatever `eps_n`. The rounds end when the pair's largest violation of the contact
+//! conditions at its points is at most `tol`: a penetration `-g_N`, or the opening `g_N` of a
+//! point that still carries pressure.
+//!
+//! Multipliers are load-step history: the solves of a step start from those of the last converged
+//! step, a cut back returns to them, checkpoints keep them.
+
+use super::ContactSystem;
+use crate::assembly::Augment;
+
+impl ContactSystem {
+    /// This rank's largest violation of the contact conditions per pair at the last evaluation
+    /// (0 for pairs without augmentation); empty when no pair is augmented.
+    pub fn augmentation_violations(&self) -> Vec<f64> {
+        if self.pairs.iter().all(|p| p.def.augmented.is_none()) {
+            return Vec::new();
+        }
+        self.pairs
+            .iter()
+            .map(|pair| {
+                if pair.def.augmented.is_none() {
+                    return 0.0;
+                }
+                pair.passes
+                    .iter()
+                    .flat_map(|pass| &pass.points)
+                    .filter_map(|q| {
+                        q.gap
+                            .map(|g| if q.p_n > 0.0 { g.abs() } else { (-g).max(0.0) })
+                    })
+                    .fold(0.0, f64::max)
+            })
+            .collect()
+    }
+
+    /// After a converged solve, given each pair's largest violation over all ranks (`violations`,
+    /// from [`augmentation_violations`](Self::augmentation_violations)) and the rounds this step
+    /// has made: satisfied when every augmented pair is within its `tol`; else, unless a pair
+    /// that is not has used its `max` rounds, every augmented point's multiplier becomes its
+    /// pressure at the last evaluation. The same decision on every rank.
+    pub fn augment(&mut self, violations: &[f64], rounds: usize) -> Augment {
+        let mut satisfied = true;
+        for (pair, &v) in self.pairs.iter().zip(violations) {
+            let Some(a) = pair.def.augmented else {
+                continue;
+            };
+            if v <= a.tol {
+                continue;
+            }
+            satisfied = false;
+            if rounds >= a.max {
+                return Augment::Exhausted(format!(
+                    "contact `{}`: the augmented Lagrangian left a violation of {v:.3e} > tol \
+                     {:.3e} after {rounds} rounds (raise `augmented.max` or `eps_n`)",
+                    pair.def.name, a.tol
+                ));
+            }
+        }
+        if satisfied {
+            return Augment::Satisfied;
+        }
+        for pair in self.pairs.iter_mut().filter(|p| p.def.augmented.is_some()) {
+            for q in pair.passes.iter_mut().flat_map(|pass| &mut pass.points) {
+                q.lambda = if q.gap.is_some() { q.p_n.max(0.0) } else { 0.0 };
+            }
+        }
+        Augment::Updated
+    }
+}
