@@ -539,7 +539,9 @@ fn positions(h: &Harness, s: usize) -> crate::contact::projection::Positions {
     pos.offsets.push(0);
     for e in &surf.elements {
         pos.x.extend(crate::contact::surface::reference_positions(
-            &h.model, &e.nodes,
+            &h.model.coords,
+            h.model.dim,
+            &e.nodes,
         ));
         pos.offsets.push(pos.x.len());
     }
