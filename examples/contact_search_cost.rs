@@ -60,11 +60,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for &n in &sizes {
             let c = parse_case(&case(n, family), Path::new("search.toml"), &[])?;
             let model = Model::build(&c)?;
-            let s = ContactSurface::build(&model, 0, "zmax").map_err(|e| e.0)?;
+            let s = ContactSurface::build(&model.bodies[0].surface_body(0), "zmax", &model.coords)
+                .map_err(|e| e.0)?;
             let mut pos = Positions::default();
             pos.offsets.push(0);
             for e in &s.elements {
-                pos.x.extend(reference_positions(&model, &e.nodes));
+                pos.x
+                    .extend(reference_positions(&model.coords, model.dim, &e.nodes));
                 pos.offsets.push(pos.x.len());
             }
             // query points: 3 x 3 per element, shifted by a third of an element and lifted by 0.1 h

@@ -9,7 +9,7 @@
 //! Array shapes: `N` [n_nodes], `dN` [n_nodes][m] with `dN[a*m + i] = dN_a/dxi_i`, `ddN`
 //! [n_nodes][m][m] with `ddN[a*m*m + i*m + j] = d2N_a/dxi_i dxi_j`.
 #![allow(clippy::needless_range_loop)] // index loops mirror the equations
-use crate::fem::enriched::EnrichedElementData;
+use crate::fem::enriched::{EnrichedBasis, EnrichedElementData};
 use crate::geometry::bezier::bernstein2;
 use crate::geometry::MAX_ORDER;
 
@@ -32,6 +32,17 @@ pub enum FaceBasis {
     /// `h` = ds/dxi (so the tangent functions are the Hermite slope functions times h), exactly as
     /// [`crate::fem::enriched::q1ch_2d`] at eta = -1.
     Hermite { h: f64 },
+}
+
+impl From<&EnrichedBasis> for FaceBasis {
+    /// The face basis of an enriched element: its basis restricted to the enriched face.
+    fn from(b: &EnrichedBasis) -> FaceBasis {
+        match b {
+            EnrichedBasis::Nurbs(d) => FaceBasis::Nurbs(d.clone()),
+            EnrichedBasis::C2 => FaceBasis::Lagrange2,
+            EnrichedBasis::Hermite { h } => FaceBasis::Hermite { h: *h },
+        }
+    }
 }
 
 /// Corner signs of the bilinear quad, in node order.

@@ -10,7 +10,8 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::contact::basis::FaceBasis;
-use crate::model::{EnrichedBasis, Model};
+use crate::fem::enriched::EnrichedBasis;
+use crate::mesh::Mesh;
 
 /// Largest number of nodes of one surface element (Q1N4.4 in 3D: 9 x 9).
 pub const MAX_FACE_NODES: usize = 81;
@@ -53,6 +54,49 @@ pub struct ContactSurface {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{0}")]
 pub struct SurfaceError(pub String);
+
+/// One cell of a body's enriched layer, as a surface element takes it.
+#[derive(Debug, Clone, Copy)]
+pub struct LayerCell<'a> {
+    /// Body-local id of its linear parent cell.
+    pub cell: usize,
+    /// Body-local element nodes, the face's nodes first (the face basis takes the leading ones).
+    pub nodes: &'a [u32],
+    /// The linear parent's surface corners (body-local), in reference order: 2D xi = -1, +1;
+    /// 3D (xi,eta) = (-1,-1), (1,-1), (1,1), (-1,1).
+    pub corners: &'a [u32],
+    /// Reference basis of the enriched element.
+    pub basis: &'a EnrichedBasis,
+}
+
+/// A body's enriched layer, as contact surfaces take it.
+#[derive(Debug, Clone)]
+pub struct EnrichedLayer<'a> {
+    /// The face set the layer was built on.
+    pub face_set: &'a str,
+    /// Its cells in face-set order.
+    pub cells: Vec<LayerCell<'a>>,
+    /// Index into `cells` of each mesh cell, `None` for linear cells. [n_cells]
+    pub cell_index: &'a [Option<usize>],
+}
+
+/// The body a contact surface is built on: its mesh and face sets, where it starts in the global
+/// numbering, and its enriched layer.
+#[derive(Debug, Clone)]
+pub struct SurfaceBody<'a> {
+    /// Index of the body (the surface keeps it, see [`ContactSurface::body`]).
+    pub index: usize,
+    /// Name of the body.
+    pub name: &'a str,
+    /// Its mesh (body-local numbering): face sets and linear parent cells.
+    pub mesh: &'a Mesh,
+    /// Global id of its node 0.
+    pub node_offset: u32,
+    /// Global id of its cell 0.
+    pub cell_offset: usize,
+    /// Its enriched layer, if any.
+    pub layer: Option<EnrichedLayer<'a>>,
+}
 
 /// Number of sides of a face: 2 in 2D, 4 in 3D.
 pub fn n_sides(dim: usize) -> usize {
@@ -149,12 +193,16 @@ pub fn raw_normal(dim: usize, a: &[[f64; 3]; 2]) -> [f64; 3] {
 }
 
 impl ContactSurface {
-    /// Builds the surface on face set `set` of body `body` of `model`. On an enriched body whose
-    /// `enriched_surface` is `set`, the elements carry the enriched face basis; otherwise the faces
-    /// are linear (Q1C1), and a face of an enriched cell is refused.
-    pub fn build(model: &Model, body: usize, set: &str) -> Result<ContactSurface, SurfaceError> {
-        let b = &model.bodies[body];
-        let dim = model.dim;
+    /// Builds the surface on face set `set` of body `b`, whose nodes have the reference
+    /// coordinates `coords` [n_global_nodes][dim] in the global numbering. On an enriched body whose
+    /// layer is on `set`, the elements carry the enriched face basis; otherwise the faces are
+    /// linear (Q1C1), and a face of an enriched cell is refused.
+    pub fn build(
+        b: &SurfaceBody,
+        set: &str,
+        coords: &[f64],
+    ) -> Result<ContactSurface, SurfaceError> {
+        let dim = b.mesh.dim;
         let faces =
             b.mesh.face_sets.get(set).ok_or_else(|| {
                 SurfaceError(format!("body `{}` has no face set `{set}`", b.name))
@@ -167,14 +215,10 @@ impl ContactSurface {
         }
         let off = b.node_offset;
         let mut elements = Vec::with_capacity(faces.len());
-        match &b.enrichment {
+        match &b.layer {
             Some(en) if en.face_set == set => {
                 for ec in &en.cells {
-                    let basis = match &ec.basis {
-                        EnrichedBasis::Nurbs(d) => FaceBasis::Nurbs(d.clone()),
-                        EnrichedBasis::C2 => FaceBasis::Lagrange2,
-                        EnrichedBasis::Hermite { h } => FaceBasis::Hermite { h: *h },
-                    };
+                    let basis = FaceBasis::from(ec.basis);
                     let n = basis.n_nodes();
                     elements.push(SurfaceElement {
                         nodes: ec.nodes[..n].iter().map(|&a| a + off).collect(),
@@ -188,7 +232,10 @@ impl ContactSurface {
             }
             _ => {
                 for &(c, f) in faces {
-                    if b.enriched_cell(c as usize).is_some() {
+                    if b.layer
+                        .as_ref()
+                        .is_some_and(|en| en.cell_index[c as usize].is_some())
+                    {
                         return Err(SurfaceError(format!(
                             "face {f} of cell {c} of `{}.{set}` belongs to an enriched element; a contact surface on an enriched body must be its `enriched_surface`",
                             b.name
@@ -218,14 +265,14 @@ impl ContactSurface {
         }
         let mut s = ContactSurface {
             name: format!("{}.{set}", b.name),
-            body,
+            body: b.index,
             dim,
             elements,
             h: 0.0,
         };
-        s.orient(model);
+        s.orient(b, coords);
         s.connect();
-        let x = model.coords.as_slice();
+        let x = coords;
         let (mut sum, mut count) = (0.0, 0);
         for el in &s.elements {
             let k = el.corners.len();
@@ -245,21 +292,20 @@ impl ContactSurface {
         Ok(s)
     }
 
-    /// Outward orientation from the reference configuration: the raw normal at the face centre
-    /// must point away from the centroid of the element's bulk cell.
-    fn orient(&mut self, model: &Model) {
+    /// Outward orientation from the reference configuration `coords` of body `body`'s nodes: the
+    /// raw normal at the face centre must point away from the centroid of the element's bulk cell.
+    fn orient(&mut self, body: &SurfaceBody, coords: &[f64]) {
         let dim = self.dim;
         for el in &mut self.elements {
-            let x = reference_positions(model, &el.nodes);
+            let x = reference_positions(coords, dim, &el.nodes);
             let (p, _, nu) = frame(el, dim, &x, &[0.0, 0.0]);
             // centroid of the linear parent (an enriched node list holds control points)
-            let body = &model.bodies[self.body];
             let parent = body.mesh.cell(el.cell - body.cell_offset);
             let mut c = [0.0; 3];
             for &nd in parent {
                 let g = (nd + body.node_offset) as usize;
                 for k in 0..dim {
-                    c[k] += model.coords[g * dim + k] / parent.len() as f64;
+                    c[k] += coords[g * dim + k] / parent.len() as f64;
                 }
             }
             let out: f64 = (0..dim).map(|k| nu[k] * (p[k] - c[k])).sum();
@@ -320,11 +366,11 @@ impl ContactSurface {
     }
 }
 
-/// Reference positions of `nodes` [n][dim] from the model.
-pub fn reference_positions(model: &Model, nodes: &[u32]) -> Vec<f64> {
-    let dim = model.dim;
+/// Positions of `nodes` [n][dim] from the coordinates of every global node `coords`
+/// [n_global_nodes][dim] (e.g. the model's reference coordinates).
+pub fn reference_positions(coords: &[f64], dim: usize, nodes: &[u32]) -> Vec<f64> {
     nodes
         .iter()
-        .flat_map(|&a| model.coords[a as usize * dim..(a as usize + 1) * dim].to_vec())
+        .flat_map(|&a| coords[a as usize * dim..(a as usize + 1) * dim].to_vec())
         .collect()
 }

@@ -14,14 +14,16 @@ use crate::assembly::{DofMap, MatrixSink};
 use crate::contact::half_pass::{self, Pass, PassResult};
 use crate::contact::kernel::SlipState;
 use crate::contact::pair::{Anchor, PairDef, Partner, SlotOf};
-use crate::contact::projection::{global_search, surface_grid, walk, Positions};
+use crate::contact::projection::{surface_grid, walk, Positions};
 use crate::contact::search::BinGrid;
 use crate::contact::surface::ContactSurface;
+use partner_points::PartnerPoint;
 
 mod active_set;
 mod augment;
 mod checkpoint;
 mod coupling;
+mod partner_points;
 mod pattern;
 mod pressure;
 mod setup;
@@ -139,73 +141,48 @@ impl ContactSystem {
             ));
         }
         self.update_positions(u_table);
-        let dim = self.dim;
-        for pi in 0..self.pairs.len() {
-            let dist = self.pairs[pi].def.search_distance;
-            for qi in 0..self.pairs[pi].passes.len() {
-                let k = self.pairs[pi].passes[qi].k;
-                let partner = self.pairs[pi].passes[qi].partner.clone();
-                match partner {
-                    Partner::Rigid(shape, motion) => {
-                        self.pairs[pi].passes[qi].shape = Some(shape.at(&motion, self.lambda));
-                    }
-                    Partner::Surface(l) => {
-                        let n_el = self.pairs[pi].passes[qi].elems.len();
-                        for oe in 0..n_el {
-                            let (e, first, n) = {
-                                let o = &self.pairs[pi].passes[qi].elems[oe];
-                                (o.e as usize, o.first, o.n)
-                            };
-                            for q in first..first + n {
-                                let qp = self.pairs[pi].passes[qi].points[q];
-                                let x = self.pairs[pi].passes[qi].elems[oe].position(
-                                    q,
-                                    self.pos[k].of(e),
-                                    dim,
-                                );
-                                let mut p = qp
-                                    .warm
-                                    .and_then(|w| walk(&self.surfaces[l], &self.pos[l], &x, w));
-                                if p.is_none_or(|p| p.dist > dist) {
-                                    self.ensure_grid(l, dist);
-                                    let grid = self.grids[l].as_ref().expect("built above");
-                                    let found = global_search(
-                                        &self.surfaces[l],
-                                        &self.pos[l],
-                                        grid,
-                                        &x,
-                                        &mut self.cand,
-                                    )
-                                    .map_err(|_| {
-                                        format!(
-                                            "contact `{}`: the projection of a point of `{}` (element {e}) at {:?} onto `{}` failed on every candidate element",
-                                            self.pairs[pi].def.name,
-                                            self.surfaces[k].name,
-                                            &x[..dim],
-                                            self.surfaces[l].name
-                                        )
-                                    })?;
-                                    // the global search sees every element in reach: its answer
-                                    // wins (None: no partner in reach, or beyond the surface's end)
-                                    p = match found {
-                                        Some(f) if p.is_none_or(|p| f.dist < p.dist) => Some(f),
-                                        Some(_) => p,
-                                        None => None,
-                                    };
-                                }
-                                let p = p.filter(|p| p.dist <= dist);
-                                let pt = &mut self.pairs[pi].passes[qi].points[q];
-                                pt.current = p;
-                                if let Some(p) = p {
-                                    pt.warm = Some((p.elem, p.xi));
-                                }
-                            }
-                        }
-                    }
+        for pair in &mut self.pairs {
+            for pass in &mut pair.passes {
+                if let Partner::Rigid(shape, motion) = &pass.partner {
+                    pass.shape = Some(shape.at(motion, self.lambda));
                 }
             }
         }
-        Ok(())
+        let dim = self.dim;
+        self.for_each_partner_point(
+            |_| true,
+            |sys, pt| {
+                let PartnerPoint { pair, pass, q, k, e, l, x } = pt;
+                let dist = sys.pairs[pair].def.search_distance;
+                let warm = sys.pairs[pair].passes[pass].points[q].warm;
+                let mut p = warm.and_then(|w| walk(&sys.surfaces[l], &sys.pos[l], &x, w));
+                if p.is_none_or(|p| p.dist > dist) {
+                    let found = sys.search_partner(l, &x, dist).map_err(|_| {
+                        format!(
+                            "contact `{}`: the projection of a point of `{}` (element {e}) at {:?} onto `{}` failed on every candidate element",
+                            sys.pairs[pair].def.name,
+                            sys.surfaces[k].name,
+                            &x[..dim],
+                            sys.surfaces[l].name
+                        )
+                    })?;
+                    // the global search sees every element in reach: its answer wins (None: no
+                    // partner in reach, or beyond the surface's end)
+                    p = match found {
+                        Some(f) if p.is_none_or(|p| f.dist < p.dist) => Some(f),
+                        Some(_) => p,
+                        None => None,
+                    };
+                }
+                let p = p.filter(|p| p.dist <= dist);
+                let point = &mut sys.pairs[pair].passes[pass].points[q];
+                point.current = p;
+                if let Some(p) = p {
+                    point.warm = Some((p.elem, p.xi));
+                }
+                Ok(())
+            },
+        )
     }
 
     /// Adds the contact residual of this rank's points to `f_local` (ghosted local vector) and, with

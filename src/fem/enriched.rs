@@ -37,6 +37,20 @@ pub enum EnrichedError {
     BadDimension { dim: usize },
 }
 
+/// Reference basis of one enriched cell (which of the bases below it takes, with its data).
+#[derive(Debug, Clone, PartialEq)]
+pub enum EnrichedBasis {
+    /// Q1Np / Q1Np.t (eq. 17), 2D or 3D.
+    Nurbs(EnrichedElementData),
+    /// Q1C2: quadratic Lagrange surface (nodes at xi = -1, 0, 1).
+    C2,
+    /// Q1CH: cubic Hermite surface; `h` = half the face length in reference arc length.
+    Hermite {
+        /// `ds/dxi` of the face.
+        h: f64,
+    },
+}
+
 /// Per-element NURBS data of a Q1Np element: plain data after Bezier extraction.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EnrichedElementData {

@@ -1,6 +1,8 @@
 //! Building a [`Model`] from a validated [`Case`].
 
+use super::data::{Body, Model};
 use super::enrich::{build_enrichment_with, EnrichedCell, Enrichment, TiedCell};
+use super::error::ModelError;
 use crate::assembly::{DirichletBc, ElementSet, Prescription, RigidCoupling, SkewBc, SkewKind};
 use crate::fem::kernel::TlElement;
 use crate::fem::q1e4::Q1e4Element;
@@ -9,204 +11,11 @@ use crate::fem::sets::{Q1e4Set, TlSet};
 use crate::fem::untangle::{Corners, MapCheck};
 use crate::fem::{hex8, quad4};
 use crate::material::{LinearElastic, Material, NeoHookean};
-use crate::mesh::{self, CellKind, Mesh, MeshError};
+use crate::mesh::{self, CellKind, Mesh};
 use crate::scene::{
     validate_sets, BcSpec, Case, ElementFamily, EnrichedGeometry, Generator, MaterialModel,
-    MeshSpec, SceneError, SetKind,
+    MeshSpec, SetKind,
 };
-
-/// Why a model could not be built from a (schema-valid) case.
-#[derive(Debug, thiserror::Error)]
-pub enum ModelError {
-    /// A mesh could not be generated or read.
-    #[error("{}: mesh `{mesh}`: {source}", .file.display())]
-    Mesh {
-        /// The case file.
-        file: std::path::PathBuf,
-        /// The mesh table name.
-        mesh: String,
-        /// What went wrong.
-        source: MeshError,
-    },
-    /// A set named in the case does not exist, or other case-level problems found once meshes exist.
-    #[error(transparent)]
-    Scene(#[from] SceneError),
-    /// A material constant is out of range.
-    #[error("{}: `bodies.{body}.material`: {msg}", .file.display())]
-    Material {
-        /// The case file.
-        file: std::path::PathBuf,
-        /// The body.
-        body: String,
-        /// What is wrong.
-        msg: String,
-    },
-    /// A cell's reference geometry is invalid for its element family.
-    #[error("{}: body `{body}` cell {cell} ({family}): {msg}", .file.display())]
-    Element {
-        /// The case file.
-        file: std::path::PathBuf,
-        /// The body.
-        body: String,
-        /// Body-local cell id.
-        cell: usize,
-        /// Element family.
-        family: String,
-        /// What is wrong.
-        msg: String,
-    },
-    /// A periodic tie could not match its node sets.
-    #[error("{}: `ties.{index}`: {msg}", .file.display())]
-    Tie {
-        /// The case file.
-        file: std::path::PathBuf,
-        /// Index of the tie.
-        index: usize,
-        /// What is wrong.
-        msg: String,
-    },
-    /// The enriched layer of a body could not be built on its `enriched_surface`.
-    #[error("{}: `bodies.{body}.enriched_surface`: {source}", .file.display())]
-    Enrichment {
-        /// The case file.
-        file: std::path::PathBuf,
-        /// The body.
-        body: String,
-        /// What went wrong.
-        source: super::enrich::EnrichError,
-    },
-    /// A `[[contact]]` pair is invalid.
-    #[error("{}: `{key}`: {msg}", .file.display())]
-    Contact {
-        /// The case file.
-        file: std::path::PathBuf,
-        /// The key.
-        key: String,
-        /// What is wrong.
-        msg: String,
-    },
-    /// A `[bodies.<name>.node_sets.<set>]` selection is invalid or selects nothing.
-    #[error("{}: `{key}`: {msg}", .file.display())]
-    NodeSelection {
-        /// The case file.
-        file: std::path::PathBuf,
-        /// The key.
-        key: String,
-        /// What is wrong.
-        msg: String,
-    },
-    /// The case asks for something this version cannot build yet.
-    #[error("{}: `{key}`: {msg}", .file.display())]
-    Unsupported {
-        /// The case file.
-        file: std::path::PathBuf,
-        /// The key.
-        key: String,
-        /// What is missing.
-        msg: String,
-    },
-}
-
-/// One body: its mesh, where its nodes and cells start in the global numbering, family and material.
-pub struct Body {
-    /// Name in the case.
-    pub name: String,
-    /// Its mesh (body-local numbering).
-    pub mesh: Mesh,
-    /// Global id of its node 0.
-    pub node_offset: u32,
-    /// Global id of its cell 0.
-    pub cell_offset: usize,
-    /// Element family.
-    pub family: ElementFamily,
-    /// Material.
-    pub material: Material,
-    /// The cells below an enriched layer are Q1E4 (2D) instead of Q1C1.
-    pub bulk_q1e4: bool,
-    /// The enriched layer (enriched families): new nodes numbered after the mesh's, enriched cells
-    /// beside the mesh's linear parents (`mesh.cell_kind` keeps meaning "linear parent").
-    pub enrichment: Option<Enrichment>,
-}
-
-impl Body {
-    /// Number of body nodes: mesh nodes, then the enrichment's new nodes.
-    pub fn n_nodes(&self) -> usize {
-        self.mesh.n_nodes() + self.enrichment.as_ref().map_or(0, |e| e.n_extra())
-    }
-
-    /// Body-local element node list of cell `c`: the enriched node list, the node list of a
-    /// linear cell tied to the enriched surface, or the linear cell.
-    pub fn element_nodes(&self, c: usize) -> &[u32] {
-        match (self.enriched_cell(c), self.tied_cell(c)) {
-            (Some(e), _) => &e.nodes,
-            (None, Some(t)) => &t.nodes,
-            (None, None) => self.mesh.cell(c),
-        }
-    }
-
-    /// The tie of linear cell `c` to the enriched surface, if it touches it at a replaced node.
-    pub fn tied_cell(&self, c: usize) -> Option<&TiedCell> {
-        let en = self.enrichment.as_ref()?;
-        en.tied_index[c].map(|i| &en.tied[i])
-    }
-
-    /// The enriched cell of mesh cell `c`, if any.
-    pub fn enriched_cell(&self, c: usize) -> Option<&EnrichedCell> {
-        let en = self.enrichment.as_ref()?;
-        en.cell_index[c].map(|i| &en.cells[i])
-    }
-
-    /// Reference coordinates of body-local node `n` (mesh node or new node).
-    pub fn node(&self, n: u32) -> &[f64] {
-        let d = self.mesh.dim;
-        match &self.enrichment {
-            Some(e) if n as usize >= e.n_mesh_nodes => {
-                let i = n as usize - e.n_mesh_nodes;
-                &e.extra_coords[i * d..(i + 1) * d]
-            }
-            _ => self.mesh.node(n),
-        }
-    }
-}
-
-/// Everything a run needs, identical on every rank.
-pub struct Model {
-    /// Spatial dimension.
-    pub dim: usize,
-    /// Bodies in case order (alphabetical by name, as TOML tables are).
-    pub bodies: Vec<Body>,
-    /// Reference coordinates of every global node. [n_nodes][dim]
-    pub coords: Vec<f64>,
-    /// CSR connectivity over global node ids. [n_cells + 1]
-    pub cell_offsets: Vec<usize>,
-    /// [sum of cell sizes]
-    pub cell_nodes: Vec<u32>,
-    /// Body of each global cell. [n_cells]
-    pub cell_body: Vec<u32>,
-    /// Dirichlet conditions over global nodes.
-    pub bcs: Vec<DirichletBc>,
-    /// Periodic ties `(slave, master)` over global nodes (including those of rigid couplings).
-    pub ties: Vec<(u32, u32)>,
-    /// Node sets moving rigidly with a prescribed rotation and a free translation; their nodes
-    /// are tied (in `ties`) and move with the offsets of [`crate::assembly::NodeOffsets`].
-    pub couplings: Vec<RigidCoupling>,
-    /// Skew conditions (`radial`, `sliding`); their `bcs` entries are empty.
-    pub skews: Vec<SkewBc>,
-    /// Reaction sets for the history: (column label `<body>_<set>`, global nodes).
-    pub reactions: Vec<(String, Vec<u32>)>,
-    /// Reaction sets whose moment the history reports: (label, global nodes, point [3]).
-    pub reaction_moments: Vec<(String, Vec<u32>, [f64; 3])>,
-    /// Contact surfaces named by the case's pairs (each once).
-    pub contact_surfaces: Vec<crate::contact::surface::ContactSurface>,
-    /// Contact pairs.
-    pub contact_pairs: Vec<crate::contact::PairDef>,
-    /// What is legal but suspicious in the input (e.g. mesh nodes in no cell), for the front end
-    /// to print once.
-    pub warnings: Vec<String>,
-    /// What the front end reports about the built model beside its summary (e.g. the distance of a
-    /// smooth enriched surface from the exact one), one line each.
-    pub notes: Vec<String>,
-}
 
 /// Builds or reads one mesh and validates it; also returns its warnings (nodes in no cell).
 fn generate(case: &Case, name: &str, spec: &MeshSpec) -> Result<(Mesh, Vec<String>), ModelError> {
@@ -816,7 +625,9 @@ impl Model {
             }
         }
 
-        let mut model = Model {
+        let (contact_surfaces, contact_pairs) =
+            super::contact::build_contact(case, dim, &bodies, &coords)?;
+        Ok(Model {
             dim,
             bodies,
             coords,
@@ -829,15 +640,11 @@ impl Model {
             skews,
             reactions,
             reaction_moments,
-            contact_surfaces: Vec::new(),
-            contact_pairs: Vec::new(),
+            contact_surfaces,
+            contact_pairs,
             warnings,
             notes,
-        };
-        let (surfaces, pairs) = super::contact::build_contact(case, &model)?;
-        model.contact_surfaces = surfaces;
-        model.contact_pairs = pairs;
-        Ok(model)
+        })
     }
 
     /// Global nodes of set `set` of body `body` (a node set or the nodes of a face set; remapped
@@ -866,16 +673,6 @@ impl Model {
             }
         }
         out
-    }
-
-    /// Number of global cells.
-    pub fn n_cells(&self) -> usize {
-        self.cell_body.len()
-    }
-
-    /// Number of global nodes.
-    pub fn n_nodes(&self) -> usize {
-        self.coords.len() / self.dim
     }
 
     /// All cells of all bodies as one mesh (for partitioning and output).

@@ -3,7 +3,8 @@
 //! its half-passes (two-half-pass between deformable surfaces: each surface integrated against the
 //! other), law and rigid partner. Every error names the case file and the key.
 
-use super::build::{Model, ModelError};
+use super::data::Body;
+use super::error::ModelError;
 use crate::contact::rigid::{RigidMotion, RigidShape};
 use crate::contact::search::Aabb;
 use crate::contact::surface::ContactSurface;
@@ -54,12 +55,14 @@ fn unit(case: &Case, key: String, v: [f64; 3]) -> Result<[f64; 3], ModelError> {
     Ok(v.map(|c| c / l))
 }
 
-/// The surfaces and pairs of `case.contact`.
+/// The surfaces and pairs of `case.contact` on `bodies` (in the global numbering of `coords`, the
+/// reference coordinates of every global node [n_nodes][dim]).
 pub fn build_contact(
     case: &Case,
-    model: &Model,
+    dim: usize,
+    bodies: &[Body],
+    coords: &[f64],
 ) -> Result<(Vec<ContactSurface>, Vec<PairDef>), ModelError> {
-    let dim = model.dim;
     let mut surfaces: Vec<ContactSurface> = Vec::new();
     let mut pairs = Vec::new();
     let mut seen: Vec<(Vec<usize>, usize)> = Vec::new();
@@ -85,18 +88,14 @@ pub fn build_contact(
                     format!("`{name}` is not of the form `body.face_set`"),
                 )
             })?;
-            let bi = model
-                .bodies
-                .iter()
-                .position(|x| x.name == b)
-                .ok_or_else(|| {
-                    err(
-                        case,
-                        key("surfaces"),
-                        format!("no body `{b}` (in `{name}`)"),
-                    )
-                })?;
-            let body = &model.bodies[bi];
+            let bi = bodies.iter().position(|x| x.name == b).ok_or_else(|| {
+                err(
+                    case,
+                    key("surfaces"),
+                    format!("no body `{b}` (in `{name}`)"),
+                )
+            })?;
+            let body = &bodies[bi];
             if !body.mesh.face_sets.contains_key(set) {
                 let what = if body.mesh.node_sets.contains_key(set) {
                     "is a node set, not a face set"
@@ -118,7 +117,7 @@ pub fn build_contact(
             let s = match surfaces.iter().position(|s| s.name == full) {
                 Some(s) => s,
                 None => {
-                    let s = ContactSurface::build(model, bi, set)
+                    let s = ContactSurface::build(&body.surface_body(bi), set, coords)
                         .map_err(|e| err(case, key("surfaces"), e.0))?;
                     surfaces.push(s);
                     surfaces.len() - 1

@@ -50,7 +50,9 @@
 //! nodes there; an element then lists that node several times, which assembly sums.
 //! The bulk of an enriched body is Q1C1.
 #![allow(clippy::needless_range_loop)] // index loops mirror the equations
-use crate::fem::enriched::{q1c2_2d, q1ch_2d, q1np_2d, q1np_3d, EnrichedElementData};
+use crate::fem::enriched::{
+    q1c2_2d, q1ch_2d, q1np_2d, q1np_3d, EnrichedBasis, EnrichedElementData,
+};
 use crate::geometry::conics::{circular_arc_segments, line_segment, plane_patch};
 use crate::geometry::fit::{
     distance_to_curve, distance_to_surface, fit_curve, fit_surface, interpolate_cubic, ArcLength,
@@ -93,20 +95,6 @@ pub enum EnrichError {
         set: String,
         /// The geometry kernel's error.
         source: GeometryError,
-    },
-}
-
-/// Reference basis of one enriched cell.
-#[derive(Debug, Clone, PartialEq)]
-pub enum EnrichedBasis {
-    /// Q1Np / Q1Np.t (eq. 17), 2D or 3D.
-    Nurbs(EnrichedElementData),
-    /// Q1C2: quadratic Lagrange surface (nodes at xi = -1, 0, 1).
-    C2,
-    /// Q1CH: cubic Hermite surface; `h` = half the face length in reference arc length.
-    Hermite {
-        /// `ds/dxi` of the face.
-        h: f64,
     },
 }
 

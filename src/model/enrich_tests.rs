@@ -1,9 +1,10 @@
 //! Tests of enriched layers as the model builder produces them: Table 1, element tangents, patch
 //! tests, exact half-cylinder geometry, Q1N1 = Q1C1.
 #![allow(non_snake_case)]
-use super::enrich::{EnrichedBasis, ExactSurface};
-use super::Model;
+use super::data::Model;
+use super::enrich::ExactSurface;
 use crate::assembly::ElementSet;
+use crate::fem::enriched::EnrichedBasis;
 use crate::fem::test_support::{fd_tangent, Lcg};
 use crate::geometry::table1::measure;
 use crate::scene::parse_case;

@@ -3,7 +3,7 @@
 //! that the Dirichlet conditions hold against only some rigid motions. Such a problem has a
 //! singular tangent: it "converges" at iteration 0 or to an arbitrary rigid shift.
 
-use super::Model;
+use super::data::Model;
 use crate::contact::Partner;
 use nalgebra::DMatrix;
 

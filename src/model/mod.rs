@@ -9,13 +9,17 @@
 
 mod build;
 pub mod contact;
+mod data;
 pub mod enrich;
 #[cfg(test)]
 mod enrich_tests;
+mod error;
 mod holds;
 mod sampling;
 
-pub use build::{enriched_tl_element, tied_tl_element, Body, Model, ModelError};
-pub use enrich::{EnrichError, EnrichedBasis, EnrichedCell, Enrichment, ExactSurface, TiedCell};
+pub use build::{enriched_tl_element, tied_tl_element};
+pub use data::{Body, Model};
+pub use enrich::{EnrichError, EnrichedCell, Enrichment, ExactSurface, TiedCell};
+pub use error::ModelError;
 pub use holds::{holds, FreeTranslation, HoldReport};
 pub use sampling::{apply_display, SampledGrid};

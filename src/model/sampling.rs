@@ -5,7 +5,7 @@
 //! The bulk grid stays the mesh of linear parents: its surface corners on an enriched surface are
 //! the display nodes (see `crate::model::enrich`), which sit on the exact curve at the element ends
 //! and whose displacement [`Model::fill_display_nodes`] interpolates from the enriched elements.
-use super::Model;
+use super::data::Model;
 use crate::io::CellKind;
 use std::collections::BTreeSet;
 
@@ -154,7 +154,7 @@ impl Model {
                     .collect();
                 // row length of the element's control grid: p+1 in 3D, all of them in 2D
                 let row = match &c.basis {
-                    super::EnrichedBasis::Nurbs(d) if d.q > 0 => d.p + 1,
+                    crate::fem::enriched::EnrichedBasis::Nurbs(d) if d.q > 0 => d.p + 1,
                     _ => ids.len(),
                 };
                 for (k, &a) in ids.iter().enumerate() {

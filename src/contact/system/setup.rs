@@ -6,7 +6,7 @@ use super::{ContactSystem, Pair};
 use crate::assembly::DofMap;
 use crate::contact::half_pass::{OwnElem, Pass, PassResult, QPoint};
 use crate::contact::pair::{Law, PairDef, Partner};
-use crate::contact::projection::{global_search, Positions};
+use crate::contact::projection::Positions;
 use crate::contact::surface::{raw_normal, ContactSurface, MAX_FACE_NODES};
 use crate::fem::quadrature::tensor_rule;
 use std::collections::HashMap;
@@ -159,48 +159,33 @@ impl ContactSystem {
     /// Material point pairing of cohesive pairs, in the reference configuration (positions are
     /// still the reference ones).
     fn pair_cohesive(&mut self) -> Result<(), String> {
-        for pi in 0..self.pairs.len() {
-            if !matches!(self.pairs[pi].def.law, Law::Cohesive { .. }) {
+        let cohesive = |d: &PairDef| matches!(d.law, Law::Cohesive { .. });
+        // the partners' grids before any search, in pass order: the first pass that meets a
+        // surface sizes its grid with its pair's search distance
+        for pair in 0..self.pairs.len() {
+            if !cohesive(&self.pairs[pair].def) {
                 continue;
             }
-            for qi in 0..self.pairs[pi].passes.len() {
-                let Partner::Surface(l) = self.pairs[pi].passes[qi].partner else {
-                    continue;
-                };
-                let k = self.pairs[pi].passes[qi].k;
-                self.ensure_grid(l, self.pairs[pi].def.search_distance);
-                let n_el = self.pairs[pi].passes[qi].elems.len();
-                for oe in 0..n_el {
-                    let (e, first, n) = {
-                        let o = &self.pairs[pi].passes[qi].elems[oe];
-                        (o.e as usize, o.first, o.n)
-                    };
-                    for q in first..first + n {
-                        let xi = self.pairs[pi].passes[qi].points[q].xi;
-                        let x = self.point_position(k, e, &xi);
-                        if let Some(b) = &self.pairs[pi].def.debonded {
-                            if b.contains(&x[..self.dim]) {
-                                continue;
-                            }
-                        }
-                        let grid = self.grids[l].as_ref().expect("grid built above");
-                        let p = global_search(
-                            &self.surfaces[l],
-                            &self.pos[l],
-                            grid,
-                            &x,
-                            &mut self.cand,
-                        )
-                        .ok()
-                        .flatten();
-                        if let Some(p) = p.filter(|p| p.dist <= self.pairs[pi].def.search_distance)
-                        {
-                            self.pairs[pi].passes[qi].points[q].pairing = Some((p.elem, p.xi));
-                        }
-                    }
+            let dist = self.pairs[pair].def.search_distance;
+            for pass in 0..self.pairs[pair].passes.len() {
+                if let Partner::Surface(l) = self.pairs[pair].passes[pass].partner {
+                    self.ensure_grid(l, dist);
                 }
             }
         }
-        Ok(())
+        self.for_each_partner_point(cohesive, |sys, pt| {
+            let def = &sys.pairs[pt.pair].def;
+            let dist = def.search_distance;
+            if let Some(b) = &def.debonded {
+                if b.contains(&pt.x[..sys.dim]) {
+                    return Ok(());
+                }
+            }
+            let p = sys.search_partner(pt.l, &pt.x, dist).ok().flatten();
+            if let Some(p) = p.filter(|p| p.dist <= dist) {
+                sys.pairs[pt.pair].passes[pt.pass].points[pt.q].pairing = Some((p.elem, p.xi));
+            }
+            Ok(())
+        })
     }
 }

@@ -1,0 +1,86 @@
+//! The one walk over the points a rank integrates in passes against a surface partner, and the
+//! global search on the partner: the projection of every point (`ContactSystem::update`) and the
+//! cohesive pairings of the reference configuration (`setup.rs`) both go through it.
+
+use super::ContactSystem;
+use crate::contact::pair::{PairDef, Partner};
+use crate::contact::projection::{global_search, Projection, ProjectionFailed};
+
+/// A point of a pass against a surface partner, as [`ContactSystem::for_each_partner_point`]
+/// hands it out.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct PartnerPoint {
+    /// The pair.
+    pub(super) pair: usize,
+    /// Its pass.
+    pub(super) pass: usize,
+    /// The point's index in the pass.
+    pub(super) q: usize,
+    /// The integrated surface.
+    pub(super) k: usize,
+    /// Its element that holds the point.
+    pub(super) e: usize,
+    /// The partner surface.
+    pub(super) l: usize,
+    /// Current position of the point.
+    pub(super) x: [f64; 3],
+}
+
+impl ContactSystem {
+    /// Calls `f` on every point this rank integrates in a pass against a surface partner, of the
+    /// pairs `select` takes: pair by pair, pass by pass, own element by own element, in point
+    /// order, with the point's current position. `f` may change anything but the passes' points
+    /// and elements lists (it sets the points' projections); its first error ends the walk.
+    pub(super) fn for_each_partner_point(
+        &mut self,
+        select: impl Fn(&PairDef) -> bool,
+        mut f: impl FnMut(&mut Self, PartnerPoint) -> Result<(), String>,
+    ) -> Result<(), String> {
+        for pair in 0..self.pairs.len() {
+            if !select(&self.pairs[pair].def) {
+                continue;
+            }
+            for pass in 0..self.pairs[pair].passes.len() {
+                let Partner::Surface(l) = self.pairs[pair].passes[pass].partner else {
+                    continue;
+                };
+                let k = self.pairs[pair].passes[pass].k;
+                for oe in 0..self.pairs[pair].passes[pass].elems.len() {
+                    let o = &self.pairs[pair].passes[pass].elems[oe];
+                    let (e, first, n) = (o.e as usize, o.first, o.n);
+                    for q in first..first + n {
+                        let x = self.pairs[pair].passes[pass].elems[oe].position(
+                            q,
+                            self.pos[k].of(e),
+                            self.dim,
+                        );
+                        let pt = PartnerPoint {
+                            pair,
+                            pass,
+                            q,
+                            k,
+                            e,
+                            l,
+                            x,
+                        };
+                        f(self, pt)?;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The closest point to `x` on surface `l` by the global search in its bin grid, built for
+    /// the search distance `dist` if the surface has none at its current positions.
+    pub(super) fn search_partner(
+        &mut self,
+        l: usize,
+        x: &[f64; 3],
+        dist: f64,
+    ) -> Result<Option<Projection>, ProjectionFailed> {
+        self.ensure_grid(l, dist);
+        let grid = self.grids[l].as_ref().expect("built above");
+        global_search(&self.surfaces[l], &self.pos[l], grid, x, &mut self.cand)
+    }
+}

@@ -1,0 +1,209 @@
+//! The closest-point projection against analytic closest points, onto faceted corners and beyond a
+//! surface's end; the cohesive pairing's debonded box; a projection that fails everywhere.
+
+use super::*;
+
+/// Current (here: reference) positions of every element of a surface.
+fn positions(h: &Harness, s: usize) -> crate::contact::projection::Positions {
+    let surf = &h.model.contact_surfaces[s];
+    let mut pos = crate::contact::projection::Positions::default();
+    pos.offsets.push(0);
+    for e in &surf.elements {
+        pos.x.extend(crate::contact::surface::reference_positions(
+            &h.model.coords,
+            h.model.dim,
+            &e.nodes,
+        ));
+        pos.offsets.push(pos.x.len());
+    }
+    pos
+}
+
+fn grid_of(
+    s: &crate::contact::surface::ContactSurface,
+    pos: &crate::contact::projection::Positions,
+    dist: f64,
+) -> crate::contact::search::BinGrid {
+    crate::contact::projection::surface_grid(s, pos, dist)
+}
+
+#[test]
+fn projection_onto_the_nurbs_circle_and_sphere_matches_the_analytic_closest_point() {
+    use crate::contact::projection::{global_search, walk};
+    // the exact arc of the half disk (Q1N2 and Q1N2.1) and the exact hemisphere (Q1N2)
+    let cases = [
+        (
+            case_2d("Q1C1", "Q1N2", "law = \"penalty\"\neps_n = 1.0"),
+            0usize,
+            [0.0, 1.0, 0.0],
+        ),
+        (
+            case_2d("Q1C1", "Q1N2.1", "law = \"penalty\"\neps_n = 1.0"),
+            0,
+            [0.0, 1.0, 0.0],
+        ),
+        (
+            case_3d_hemisphere("Q1C1", "Q1N2", "law = \"penalty\"\neps_n = 1.0"),
+            0,
+            [0.0, 0.0, 1.0],
+        ),
+    ];
+    for (text, s, c) in cases {
+        let h = Harness::new(&text);
+        let surf = &h.model.contact_surfaces[s];
+        assert!(
+            surf.name.ends_with("arc") || surf.name.ends_with("outer"),
+            "{}",
+            surf.name
+        );
+        let dim = surf.dim;
+        let pos = positions(&h, s);
+        let grid = grid_of(surf, &pos, 0.5);
+        let mut seed = 99u64;
+        let mut scratch = Vec::new();
+        let mut checked = 0;
+        for _ in 0..400 {
+            // a random point near the lower half of the circle / sphere (radius 0.7 .. 1.3)
+            let mut d = [rnd(&mut seed), -1.0 - rnd(&mut seed).abs(), rnd(&mut seed)];
+            if dim == 2 {
+                d[2] = 0.0;
+            } else {
+                d.swap(1, 2);
+            }
+            let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            let r = 1.0 + 0.3 * rnd(&mut seed);
+            let x = [0, 1, 2].map(|k| c[k] + r * d[k] / l);
+            let exact = [0, 1, 2].map(|k| c[k] + d[k] / l);
+            let Ok(Some(p)) = global_search(surf, &pos, &grid, &x, &mut scratch) else {
+                continue; // beyond the rim or farther than the search distance
+            };
+            let el = &surf.elements[p.elem as usize];
+            let xp = crate::contact::surface::frame(el, dim, pos.of(p.elem as usize), &p.xi).0;
+            let err = (0..dim)
+                .map(|k| (xp[k] - exact[k]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            assert!(
+                err < 1e-12,
+                "{}: closest point off by {err:e} for x = {x:?}",
+                surf.name
+            );
+            assert!(((r - 1.0).abs() - p.dist).abs() < 1e-12, "distance");
+            // a warm start on a far element walks across neighbours to the same point
+            let far = if p.elem as usize >= surf.elements.len() / 2 {
+                0
+            } else {
+                surf.elements.len() - 1
+            };
+            if let Some(w) = walk(surf, &pos, &x, (far as u32, [0.0; 2])) {
+                let xw = crate::contact::surface::frame(
+                    &surf.elements[w.elem as usize],
+                    dim,
+                    pos.of(w.elem as usize),
+                    &w.xi,
+                )
+                .0;
+                let ew = (0..dim)
+                    .map(|k| (xw[k] - exact[k]).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                assert!(
+                    ew < 1e-12,
+                    "{}: walk from element {far} off by {ew:e}",
+                    surf.name
+                );
+            }
+            checked += 1;
+        }
+        assert!(
+            checked > 100,
+            "{}: too few points projected ({checked})",
+            surf.name
+        );
+    }
+}
+
+#[test]
+fn projection_onto_a_faceted_corner_and_beyond_the_surface_end() {
+    use crate::contact::projection::global_search;
+    // the faceted half disk with 4 arc elements: vertices at angles 180, 225, 270, 315, 360 degrees
+    let h = Harness::new(&case_2d_arc(
+        "Q1C1",
+        "Q1C1",
+        "law = \"penalty\"\neps_n = 1.0",
+        4,
+    ));
+    let surf = &h.model.contact_surfaces[0];
+    let pos = positions(&h, 0);
+    let grid = grid_of(surf, &pos, 1.0);
+    let mut scratch = Vec::new();
+    // straight below the lowest vertex (0, 0): its closest point is the vertex, no orthogonal one
+    let p = global_search(surf, &pos, &grid, &[0.01, -0.3, 0.0], &mut scratch)
+        .unwrap()
+        .unwrap();
+    assert!(
+        !p.free[0],
+        "a corner projection holds the coordinate on the boundary"
+    );
+    assert!(
+        (p.dist - (0.01f64.powi(2) + 0.09).sqrt()).abs() < 1e-12,
+        "distance to the vertex {}",
+        p.dist
+    );
+    // beside the arc's end (the vertex at (1, 1)), outwards: beyond the surface, no partner
+    let q = global_search(surf, &pos, &grid, &[1.3, 1.2, 0.0], &mut scratch).unwrap();
+    assert!(
+        q.is_none(),
+        "a point beyond the end of the surface has no partner: {q:?}"
+    );
+}
+
+#[test]
+fn cohesive_debonded_box_leaves_its_points_unpaired() {
+    let glued = "law = \"cohesive\"\nt0 = 0.2\ng0 = 0.05\neps_n = 50.0\nsearch_distance = 0.3";
+    let mut h = Harness::new(&case_2d("Q1C1", "Q1C1", glued));
+    let u = pressed(&h, -0.03, 0.0, 0.0, 1);
+    h.eval(&u, false);
+    let bonded: f64 = h.sys.results()[0].1.iter().map(|r| r.force[1].abs()).sum();
+    assert!(
+        bonded > 1e-4,
+        "the pulled disk feels the cohesive traction ({bonded})"
+    );
+    let free = format!("{glued}\ndebonded = {{ min = [-2.0, -2.0], max = [2.0, 3.0] }}");
+    let mut h = Harness::new(&case_2d("Q1C1", "Q1C1", &free));
+    h.eval(&u, false);
+    let none: f64 = h.sys.results()[0].1.iter().map(|r| r.force[1].abs()).sum();
+    assert_eq!(none, 0.0, "every point lies in the debonded box");
+}
+
+#[test]
+fn a_projection_that_fails_on_every_candidate_is_an_error_for_the_step() {
+    // a non-finite partner geometry (what a diverged Newton iterate gives) makes every candidate's
+    // projection fail: `update` reports it (the assembler turns it into a domain error, and the
+    // load step is cut back as for an inverted element)
+    let mut h = Harness::new(&case_2d("Q1C1", "Q1N2", "law = \"penalty\"\neps_n = 100.0"));
+    let u = pressed(&h, 0.05, 0.0, 0.0, 1);
+    h.eval(&u, false);
+    let mut bad = u.clone();
+    // every other node of the block's top (the partner of the disk's points) becomes NaN: each
+    // element's box stays finite (so it is a candidate) but its geometry is not
+    let block = &h.model.bodies[0];
+    assert_eq!(block.name, "block");
+    for g in h
+        .model
+        .set_nodes("block", "top")
+        .unwrap()
+        .into_iter()
+        .step_by(2)
+    {
+        for c in 0..2 {
+            bad[h.dofs.global(g, c).unwrap().0 as usize] = f64::NAN;
+        }
+    }
+    let ut: Vec<f64> = h.table.iter().map(|&g| bad[g as usize]).collect();
+    let e = h.sys.update(&ut).expect_err("the projection must fail");
+    assert!(e.contains("projection") && e.contains("block.top"), "{e}");
+    // and a finite state projects again
+    let ut: Vec<f64> = h.table.iter().map(|&g| u[g as usize]).collect();
+    h.sys.update(&ut).expect("finite state");
+}

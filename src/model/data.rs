@@ -1,0 +1,147 @@
+//! What a built model is: its [`Body`]s and the [`Model`] they make up, as data with the
+//! accessors that need nothing but that data. Built by `build.rs`.
+
+use super::enrich::{EnrichedCell, Enrichment, TiedCell};
+use crate::assembly::{DirichletBc, RigidCoupling, SkewBc};
+use crate::contact::surface::{EnrichedLayer, LayerCell, SurfaceBody};
+use crate::material::Material;
+use crate::mesh::Mesh;
+use crate::scene::ElementFamily;
+
+/// One body: its mesh, where its nodes and cells start in the global numbering, family and material.
+pub struct Body {
+    /// Name in the case.
+    pub name: String,
+    /// Its mesh (body-local numbering).
+    pub mesh: Mesh,
+    /// Global id of its node 0.
+    pub node_offset: u32,
+    /// Global id of its cell 0.
+    pub cell_offset: usize,
+    /// Element family.
+    pub family: ElementFamily,
+    /// Material.
+    pub material: Material,
+    /// The cells below an enriched layer are Q1E4 (2D) instead of Q1C1.
+    pub bulk_q1e4: bool,
+    /// The enriched layer (enriched families): new nodes numbered after the mesh's, enriched cells
+    /// beside the mesh's linear parents (`mesh.cell_kind` keeps meaning "linear parent").
+    pub enrichment: Option<Enrichment>,
+}
+
+impl Body {
+    /// Number of body nodes: mesh nodes, then the enrichment's new nodes.
+    pub fn n_nodes(&self) -> usize {
+        self.mesh.n_nodes() + self.enrichment.as_ref().map_or(0, |e| e.n_extra())
+    }
+
+    /// Body-local element node list of cell `c`: the enriched node list, the node list of a
+    /// linear cell tied to the enriched surface, or the linear cell.
+    pub fn element_nodes(&self, c: usize) -> &[u32] {
+        match (self.enriched_cell(c), self.tied_cell(c)) {
+            (Some(e), _) => &e.nodes,
+            (None, Some(t)) => &t.nodes,
+            (None, None) => self.mesh.cell(c),
+        }
+    }
+
+    /// The tie of linear cell `c` to the enriched surface, if it touches it at a replaced node.
+    pub fn tied_cell(&self, c: usize) -> Option<&TiedCell> {
+        let en = self.enrichment.as_ref()?;
+        en.tied_index[c].map(|i| &en.tied[i])
+    }
+
+    /// The enriched cell of mesh cell `c`, if any.
+    pub fn enriched_cell(&self, c: usize) -> Option<&EnrichedCell> {
+        let en = self.enrichment.as_ref()?;
+        en.cell_index[c].map(|i| &en.cells[i])
+    }
+
+    /// This body as contact surfaces are built on it, `index` being its index in the model.
+    pub fn surface_body(&self, index: usize) -> SurfaceBody<'_> {
+        SurfaceBody {
+            index,
+            name: &self.name,
+            mesh: &self.mesh,
+            node_offset: self.node_offset,
+            cell_offset: self.cell_offset,
+            layer: self.enrichment.as_ref().map(|en| EnrichedLayer {
+                face_set: &en.face_set,
+                cells: en
+                    .cells
+                    .iter()
+                    .map(|ec| LayerCell {
+                        cell: ec.cell,
+                        nodes: &ec.nodes,
+                        corners: &ec.corners,
+                        basis: &ec.basis,
+                    })
+                    .collect(),
+                cell_index: &en.cell_index,
+            }),
+        }
+    }
+
+    /// Reference coordinates of body-local node `n` (mesh node or new node).
+    pub fn node(&self, n: u32) -> &[f64] {
+        let d = self.mesh.dim;
+        match &self.enrichment {
+            Some(e) if n as usize >= e.n_mesh_nodes => {
+                let i = n as usize - e.n_mesh_nodes;
+                &e.extra_coords[i * d..(i + 1) * d]
+            }
+            _ => self.mesh.node(n),
+        }
+    }
+}
+
+/// Everything a run needs, identical on every rank.
+pub struct Model {
+    /// Spatial dimension.
+    pub dim: usize,
+    /// Bodies in case order (alphabetical by name, as TOML tables are).
+    pub bodies: Vec<Body>,
+    /// Reference coordinates of every global node. [n_nodes][dim]
+    pub coords: Vec<f64>,
+    /// CSR connectivity over global node ids. [n_cells + 1]
+    pub cell_offsets: Vec<usize>,
+    /// [sum of cell sizes]
+    pub cell_nodes: Vec<u32>,
+    /// Body of each global cell. [n_cells]
+    pub cell_body: Vec<u32>,
+    /// Dirichlet conditions over global nodes.
+    pub bcs: Vec<DirichletBc>,
+    /// Periodic ties `(slave, master)` over global nodes (including those of rigid couplings).
+    pub ties: Vec<(u32, u32)>,
+    /// Node sets moving rigidly with a prescribed rotation and a free translation; their nodes
+    /// are tied (in `ties`) and move with the offsets of [`crate::assembly::NodeOffsets`].
+    pub couplings: Vec<RigidCoupling>,
+    /// Skew conditions (`radial`, `sliding`); their `bcs` entries are empty.
+    pub skews: Vec<SkewBc>,
+    /// Reaction sets for the history: (column label `<body>_<set>`, global nodes).
+    pub reactions: Vec<(String, Vec<u32>)>,
+    /// Reaction sets whose moment the history reports: (label, global nodes, point [3]).
+    pub reaction_moments: Vec<(String, Vec<u32>, [f64; 3])>,
+    /// Contact surfaces named by the case's pairs (each once).
+    pub contact_surfaces: Vec<crate::contact::surface::ContactSurface>,
+    /// Contact pairs.
+    pub contact_pairs: Vec<crate::contact::PairDef>,
+    /// What is legal but suspicious in the input (e.g. mesh nodes in no cell), for the front end
+    /// to print once.
+    pub warnings: Vec<String>,
+    /// What the front end reports about the built model beside its summary (e.g. the distance of a
+    /// smooth enriched surface from the exact one), one line each.
+    pub notes: Vec<String>,
+}
+
+impl Model {
+    /// Number of global cells.
+    pub fn n_cells(&self) -> usize {
+        self.cell_body.len()
+    }
+
+    /// Number of global nodes.
+    pub fn n_nodes(&self) -> usize {
+        self.coords.len() / self.dim
+    }
+}
