@@ -75,6 +75,37 @@ def h5(path, dataset):
         return [float(v) for v in re.split(r"[,\s]+", open(f.name).read()) if v]
 
 
+def hertz_metrics(fam, n, extra=()):
+    """One Hertz run: family `fam` at `n_arc = n` with further --set values. Returns the load, Hertz's
+    p0 and a for it, the peaks of the current and nominal L2-projected pressures, the half-width from
+    the nominal pressure's second moment, and the run's summary."""
+    out, s = run("hertz_2d.toml", 1, [f"bodies.disk.element={fam}", f"meshes.disk.n_arc={n}",
+                                       f"meshes.disk.n_radial={n // 4}"] + list(extra))
+    hist = open(os.path.join(out, "history.csv")).read().splitlines()
+    head, last = hist[0].split(","), hist[-1].split(",")
+    P = float(last[head.index("P_flat_disk_arc_y")])
+    f = os.path.join(out, "results.h5")
+    grid = "bulk" if fam == "Q1C1" else "surface"
+    steps = sorted(set(re.findall(r"/steps/(\d+)/", subprocess.run(["h5ls", "-r", f], capture_output=True, text=True).stdout)))
+    p = h5(f, f"/steps/{steps[-1]}/{grid}/contact_pressure")
+    pn = h5(f, f"/steps/{steps[-1]}/{grid}/contact_pressure_nominal")
+    x = h5(f, f"/grids/{grid}/coordinates")
+    # the arc's points below the centre (reference coordinates), left to right
+    arc = sorted((x[3 * i], pn[i], p[i]) for i in range(len(p))
+                 if abs(math.hypot(x[3 * i], x[3 * i + 1] - 1.0) - 1.0) < 1e-9 and x[3 * i + 1] < 0.5)
+    peak, peak_n = max(v for _, _, v in arc), max(v for _, v, _ in arc)
+    m0 = m2 = 0.0
+    for (x0, v0, _), (x1, v1, _) in zip(arc, arc[1:]):
+        # exact integrals of the linear interpolant between samples
+        h = x1 - x0
+        m0 += h * (v0 + v1) / 2
+        m2 += h * (v0 * (3 * x0 * x0 + 2 * x0 * x1 + x1 * x1) + v1 * (x0 * x0 + 2 * x0 * x1 + 3 * x1 * x1)) / 12
+    Es = 1.0 / (1 - 0.3 ** 2)
+    a = math.sqrt(4 * P / (math.pi * Es))
+    return dict(P=P, p0=2 * P / (math.pi * a), a=a, peak=peak, peak_n=peak_n,
+                a_ours=2 * math.sqrt(m2 / m0), summary=s, hist=(head, hist[1:]))
+
+
 def hertz(meshes=(64, 128, 256, 512), extra=()):
     """Hertz, 2D. The pressures are the L2-projected ones written to results.h5: `contact_pressure`
     (per current area) and `contact_pressure_nominal` (per reference area); Hertz's theory is
@@ -86,31 +117,8 @@ def hertz(meshes=(64, 128, 256, 512), extra=()):
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for fam in ("Q1C1", "Q1N2", "Q1N2.1"):
         for n in meshes:
-            out, s = run("hertz_2d.toml", 1, [f"bodies.disk.element={fam}", f"meshes.disk.n_arc={n}",
-                                               f"meshes.disk.n_radial={n // 4}"] + list(extra))
-            hist = open(os.path.join(out, "history.csv")).read().splitlines()
-            head, last = hist[0].split(","), hist[-1].split(",")
-            P = float(last[head.index("P_flat_disk_arc_y")])
-            f = os.path.join(out, "results.h5")
-            grid = "bulk" if fam == "Q1C1" else "surface"
-            steps = sorted(set(re.findall(r"/steps/(\d+)/", subprocess.run(["h5ls", "-r", f], capture_output=True, text=True).stdout)))
-            p = h5(f, f"/steps/{steps[-1]}/{grid}/contact_pressure")
-            pn = h5(f, f"/steps/{steps[-1]}/{grid}/contact_pressure_nominal")
-            x = h5(f, f"/grids/{grid}/coordinates")
-            # the arc's points below the centre (reference coordinates), left to right
-            arc = sorted((x[3 * i], pn[i], p[i]) for i in range(len(p))
-                         if abs(math.hypot(x[3 * i], x[3 * i + 1] - 1.0) - 1.0) < 1e-9 and x[3 * i + 1] < 0.5)
-            peak, peak_n = max(v for _, _, v in arc), max(v for _, v, _ in arc)
-            m0 = m2 = 0.0
-            for (x0, v0, _), (x1, v1, _) in zip(arc, arc[1:]):
-                # exact integrals of the linear interpolant between samples
-                h = x1 - x0
-                m0 += h * (v0 + v1) / 2
-                m2 += h * (v0 * (3 * x0 * x0 + 2 * x0 * x1 + x1 * x1) + v1 * (x0 * x0 + 2 * x0 * x1 + 3 * x1 * x1)) / 12
-            a_ours = 2 * math.sqrt(m2 / m0)
-            Es = 1.0 / (1 - 0.3 ** 2)
-            a = math.sqrt(4 * P / (math.pi * Es))
-            p0 = 2 * P / (math.pi * a)
+            m = hertz_metrics(fam, n, extra)
+            P, p0, a, peak, peak_n, a_ours, s = (m[k] for k in ("P", "p0", "a", "peak", "peak_n", "a_ours", "summary"))
             across = 2 * a / (math.pi / n)
             print(f"| {fam} | {n} | {across:.1f} | {s['unknowns']} | {P:.6g} | {p0:.6g} | {peak:.6g} | {100*(peak-p0)/p0:+.2f} % | {peak_n:.6g} | {100*(peak_n-p0)/p0:+.2f} % | "
                   f"{a:.5f} | {a_ours:.5f} | {100*(a_ours-a)/a:+.2f} % | {newton(s)} | {s['wall_time']['total']:.2f} |", flush=True)
