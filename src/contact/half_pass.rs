@@ -18,7 +18,7 @@ pub(crate) mod gap;
 
 use crate::assembly::MatrixSink;
 use crate::contact::kernel::{
-    contact_point_pass, Area, OwnPoint, PartnerPoint, PointIn, Scratch, SlipState,
+    contact_point_pass, Area, OwnPoint, PartnerPoint, PointIn, PointResult, Scratch, SlipState,
 };
 use crate::contact::law::{self, Traction};
 use crate::contact::pair::{law_traction, Anchor, Coupling, Friction, Law, Partner, SlotOf};
@@ -475,6 +475,9 @@ impl HalfPass<'_> {
         if !cohesive {
             po.gap = Some(pr.g[0] * pr.n[0] + pr.g[1] * pr.n[1] + pr.g[2] * pr.n[2]);
             po.p_n = pr.p_n;
+            if !self.jacobian && debug_points() {
+                self.trace_point(qp, q, le, &pp, &pr);
+            }
         }
         if let Some(a) = &at {
             if self.jacobian {
@@ -505,6 +508,37 @@ impl HalfPass<'_> {
                 work.r_table[t as usize * dim + c] += work.rc[(nk + b) * dim + c];
             }
         }
+    }
+
+    /// `NURBS_CONTACT_DEBUG_POINTS`: one line on stderr per law contribution of a residual
+    /// evaluation (the last line of a point at a load is its converged state): load, half-pass,
+    /// the point's reference x, its index, partner element, partner coordinate xi (2D: the first),
+    /// whether the projection is orthogonal (1) or held on an edge (0), current position x y,
+    /// normal gap, pressure, normal n_x n_y, force f_x f_y.
+    fn trace_point(&self, qp: &QPoint, q: usize, le: u32, pp: &PartnerPoint, pr: &PointResult) {
+        let (xi, free) = match pp {
+            PartnerPoint::Projected { xi, free, .. } => (xi[0], free[0]),
+            _ => (f64::NAN, true),
+        };
+        let g_n = pr.g[0] * pr.n[0] + pr.g[1] * pr.n[1] + pr.g[2] * pr.n[2];
+        eprintln!(
+            "POINT {:.9} {} {:.9} {} {} {:.15e} {} {:.15e} {:.15e} {:.15e} {:.15e} {:.15e} {:.15e} {:.15e} {:.15e}",
+            self.pair.lambda,
+            self.pass_id,
+            qp.X[0],
+            q,
+            le,
+            xi,
+            free as u8,
+            pr.x[0],
+            pr.x[1],
+            g_n,
+            pr.p_n,
+            pr.n[0],
+            pr.n[1],
+            pr.force[0],
+            pr.force[1]
+        );
     }
 
     /// The element's residual into the local vector and its blocks into the sink.
@@ -611,4 +645,10 @@ fn area_of(law: &Law) -> Area {
         Law::Penalty { .. } | Law::Cohesive { .. } => Area::Current,
         Law::VanDerWaals { .. } => Area::Reference,
     }
+}
+
+/// True when `NURBS_CONTACT_DEBUG_POINTS` is set (read once): [`HalfPass::trace_point`].
+fn debug_points() -> bool {
+    static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *ON.get_or_init(|| std::env::var_os("NURBS_CONTACT_DEBUG_POINTS").is_some())
 }
