@@ -104,6 +104,8 @@ impl<'c, 'p> StepObserver<'c, 'p> {
         self.interrupted = crate::interrupt::agreed(asm.comm());
         self.newton
             .record(rec.iterations as u32, rec.failed_iterations as u64);
+        self.newton
+            .record_linear(rec.linear_fallbacks as u64, rec.linear_iterations as u64);
         self.step_log.push(io::StepLog {
             step: rec.step,
             load: rec.load,
@@ -113,6 +115,7 @@ impl<'c, 'p> StepObserver<'c, 'p> {
             failed_attempts: rec.failed_attempts.clone(),
             pseudo_steps: rec.pseudo_steps,
             failed_iterations: rec.failed_iterations,
+            linear_fallbacks: rec.linear_fallbacks,
         });
         let reactions: Vec<f64> = model
             .reactions
@@ -131,6 +134,11 @@ impl<'c, 'p> StepObserver<'c, 'p> {
             }
         }
         extra_columns.extend(contact_history(asm, model.dim));
+        if super::options::linear_route(self.case, &asm.dofs)
+            == crate::scene::schema::LinearSolver::Iterative
+        {
+            extra_columns.push(rec.linear_fallbacks as f64);
+        }
         let last = (rec.load - self.n_stages).abs() < 1e-12;
         let scheduled = last || rec.step.is_multiple_of(self.case.output.every);
         self.output

@@ -17,9 +17,25 @@ pub struct NewtonStats {
     /// Newton iterations of the attempts that failed and were cut back (not in `total_iterations`).
     #[serde(default)]
     pub failed_iterations: u64,
+    /// Steps retried with the direct solver after an iterative linear solve failed (`[solver]
+    /// linear = "iterative"`), counted once per retry.
+    #[serde(default)]
+    pub linear_fallbacks: u64,
+    /// Linear (Krylov) iterations of all Newton solves (converged and failed attempts): divided
+    /// by `total_iterations + failed_iterations`, the Krylov iterations per Newton iteration (1
+    /// for the direct solver).
+    #[serde(default)]
+    pub linear_iterations: u64,
 }
 
 impl NewtonStats {
+    /// Account for one converged step's linear solves: its fallbacks to the direct solver and its
+    /// Krylov iterations.
+    pub fn record_linear(&mut self, fallbacks: u64, iterations: u64) {
+        self.linear_fallbacks += fallbacks;
+        self.linear_iterations += iterations;
+    }
+
     /// Account for one converged step and the iterations of its failed attempts.
     pub fn record(&mut self, iterations: u32, failed_iterations: u64) {
         self.failed_iterations += failed_iterations;
@@ -79,6 +95,9 @@ pub struct StepLog {
     /// Newton iterations of the failed attempts (not in `iterations`).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub failed_iterations: usize,
+    /// Retries of the step with the direct solver after an iterative linear solve failed.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub linear_fallbacks: usize,
 }
 
 fn is_zero(n: &usize) -> bool {
@@ -112,6 +131,10 @@ pub struct Summary {
     pub unknowns: u64,
     pub elements: u64,
     pub newton: NewtonStats,
+    /// The linear solver that ran: `"direct"` or `"iterative"` (`[solver] linear`, `"auto"`
+    /// resolved).
+    #[serde(default)]
+    pub linear_solver: String,
     /// How many times the run was continued from a checkpoint (`run --restart`).
     #[serde(default)]
     pub restarts: usize,
@@ -167,6 +190,7 @@ mod tests {
             unknowns: 375,
             elements: 64,
             newton,
+            linear_solver: "direct".to_string(),
             restarts: 0,
             wall_time: PhaseTimes {
                 assembly: 1.5,
@@ -190,6 +214,7 @@ mod tests {
                 failed_attempts: vec![(1.0, "DIVERGED_LINE_SEARCH".into())],
                 pseudo_steps: 0,
                 failed_iterations: 30,
+                linear_fallbacks: 0,
             }],
             status,
         }

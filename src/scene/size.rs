@@ -9,13 +9,39 @@
 //!   entries per row of a structured mesh, plus `24` bytes per element-matrix entry
 //!   (`(n dim)^2` per cell) for the COO assembly buffers.
 //!
-//! It leaves out the linear solver's own memory (a direct factorisation fills in far more), so it
-//! is a lower bound of what a run needs: a case refused by it cannot run here.
+//! - the linear solver of the route that runs (`[solver] linear`, see [`linear_solver_bytes`]):
+//!   the MUMPS factors (direct), or GAMG's hierarchy and the Krylov vectors (iterative), fitted
+//!   to peak memory measured on the 3D block (BENCHMARKS.md, "Scale: direct against iterative").
+//!
+//! A case refused by it cannot run here.
 
 use crate::scene::schema::{Case, Generator, MeshSpec};
 
 /// Largest number of unknowns PETSc can index with its 32-bit `PetscInt` (the build used here).
 pub const MAX_UNKNOWNS: f64 = i32::MAX as f64;
+
+/// `[solver] linear = "auto"` takes the iterative route from this many unknowns on. Measured on
+/// the 3D block and the hemisphere-on-block contact scene (BENCHMARKS.md, "Scale: direct against
+/// iterative"): below it MUMPS's factorisation per Newton iteration costs less than GMRES + GAMG
+/// (set-up and Krylov iterations), above it more, and its memory grows faster.
+pub const AUTO_ITERATIVE_UNKNOWNS: f64 = 5e4;
+
+/// Bytes of the linear solver (whole problem) for `unknowns` unknowns in `dim` dimensions, on the
+/// direct route (MUMPS: factor entries `c n^(4/3)` in 3D by nested dissection, `c n log2 n` in 2D,
+/// 12 bytes each, times the workspace margin of `-mat_mumps_icntl_14`) or the iterative one (GAMG's
+/// coarse operators and prolongators, about the fine matrix again, and GMRES(30)'s 32 vectors plus
+/// the smoother's work vectors, 8 bytes each). Constants fitted to measured peaks.
+pub fn linear_solver_bytes(dim: usize, unknowns: f64, iterative: bool) -> f64 {
+    let n = unknowns.max(1.0);
+    if iterative {
+        let fine = 12.0 * n * 3f64.powi(dim as i32) * dim as f64;
+        fine + 8.0 * 40.0 * n
+    } else if dim == 3 {
+        12.0 * 1.35 * 30.0 * n.powf(4.0 / 3.0)
+    } else {
+        12.0 * 1.35 * 12.0 * n * n.log2()
+    }
+}
 
 /// Node and cell counts of a generated mesh (as `f64`: the parameters may be absurdly large).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -95,6 +121,10 @@ pub struct CaseSize {
     pub mesh_bytes: f64,
     /// [`MeshSize::matrix_bytes`] summed: shared by the ranks.
     pub matrix_bytes: f64,
+    /// [`linear_solver_bytes`] of the route that runs for the case's unknowns: shared by the ranks.
+    pub linear_bytes: f64,
+    /// That route is the iterative one.
+    pub iterative: bool,
     /// The key of the largest mesh's size parameter (`meshes.block.divisions`), where a too-large
     /// case is reported.
     pub largest_key: String,
@@ -119,6 +149,8 @@ impl CaseSize {
                 },
                 mesh_bytes: 0.0,
                 matrix_bytes: 0.0,
+                linear_bytes: 0.0,
+                iterative: false,
                 largest_key: key.clone(),
             });
             if s.unknowns() > largest {
@@ -129,6 +161,11 @@ impl CaseSize {
             t.total.cells += s.cells;
             t.mesh_bytes += s.mesh_bytes();
             t.matrix_bytes += s.matrix_bytes();
+        }
+        if let Some(t) = &mut total {
+            let route = case.solver.linear_setting().resolve(t.total.unknowns());
+            t.iterative = route == crate::scene::schema::LinearSolver::Iterative;
+            t.linear_bytes = linear_solver_bytes(t.total.dim, t.total.unknowns(), t.iterative);
         }
         total
     }

@@ -28,6 +28,7 @@ pub(super) fn solve_settled<'p>(
         let next = snes.solve(asm, x, jac)?;
         out = SolveOutcome {
             iterations: out.iterations + next.iterations,
+            linear_iterations: out.linear_iterations + next.linear_iterations,
             residual_history: out
                 .residual_history
                 .into_iter()
