@@ -408,15 +408,28 @@ pub(super) const CODE_DEFAULT_OPTIONS: [&str; 2] = ["-mat_mumps_icntl_24", "-sne
 
 /// The iterative route's defaults (`[solver] linear = "iterative"`), before the case's and the
 /// command line's options, which override them. Measured on the 3D block and the 3D contact
-/// scene (BENCHMARKS.md, "Scale: direct against iterative").
+/// scene (BENCHMARKS.md, "Scale: direct against iterative", one loaded session):
+/// - unsmoothed aggregation (`-pc_gamg_agg_nsmooths 0`): smoothed aggregation (PETSc's default)
+///   keeps the Krylov count flat (16-17 per Newton iteration from 12^3 to 30^3) but its Galerkin
+///   products with six modes per aggregate cost 5x more per Newton iteration at 30^3 (14.0 s
+///   against 2.6 s) and 12x on the hemisphere scene;
+/// - threshold 0.01 (measured with smoothed aggregation only: 0 as fast or faster, 0.05 slower;
+///   not re-measured with unsmoothed aggregation);
+/// - Chebyshev/Jacobi smoothing (GAMG's own) and its default coarse solve;
+/// - `-ksp_rtol 1e-8`: Newton then takes the direct route's iterations (3-4 per step on the
+///   block, the same total on the contact cases); Eisenstat-Walker (`-snes_ksp_ew`) did not pay
+///   (30^3: 18 Newton iterations and 5 failed against 4, the run 2.2x longer);
+/// - GMRES(100) and at most 400 iterations: a solve that needs more is a failure, retried with
+///   MUMPS.
 pub(super) const ITERATIVE_DEFAULT_OPTIONS: &str = "-ksp_type gmres -ksp_gmres_restart 100 \
-     -ksp_rtol 1e-8 -ksp_max_it 400 -pc_type gamg -pc_gamg_threshold 0.01 \
-     -mg_levels_ksp_type chebyshev -mg_levels_pc_type jacobi";
+     -ksp_rtol 1e-8 -ksp_max_it 400 -pc_type gamg -pc_gamg_agg_nsmooths 0 \
+     -pc_gamg_threshold 0.01 -mg_levels_ksp_type chebyshev -mg_levels_pc_type jacobi";
 
 /// Rows of constrained unknowns (identity rows of the Jacobian) are zeroed in the rigid-body
-/// modes given to GAMG (BENCHMARKS.md, "Scale: direct against iterative"); the environment
+/// modes given to GAMG: 35.5 Krylov iterations per Newton iteration against 45.8 with them kept,
+/// 2.1 s against 2.6 s (30^3 block, BENCHMARKS.md, "Scale: direct against iterative"); the environment
 /// variable `NURBS_CONTACT_FLIP_CONSTRAINED_MODES` flips it, for that measurement.
-const ZERO_CONSTRAINED_MODES: bool = false;
+const ZERO_CONSTRAINED_MODES: bool = true;
 
 /// The case's `solver.petsc_options`, after the defaults that depend on the case and on the
 /// linear route.

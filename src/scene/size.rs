@@ -20,26 +20,31 @@ use crate::scene::schema::{Case, Generator, MeshSpec};
 /// Largest number of unknowns PETSc can index with its 32-bit `PetscInt` (the build used here).
 pub const MAX_UNKNOWNS: f64 = i32::MAX as f64;
 
-/// `[solver] linear = "auto"` takes the iterative route from this many unknowns on. Measured on
-/// the 3D block and the hemisphere-on-block contact scene (BENCHMARKS.md, "Scale: direct against
-/// iterative"): below it MUMPS's factorisation per Newton iteration costs less than GMRES + GAMG
-/// (set-up and Krylov iterations), above it more, and its memory grows faster.
-pub const AUTO_ITERATIVE_UNKNOWNS: f64 = 5e4;
+/// `[solver] linear = "auto"` takes the iterative route from this many unknowns on. Measured
+/// (BENCHMARKS.md, "Scale: direct against iterative", one loaded session, 1 rank): per Newton
+/// iteration the iterative route is 1.5x slower than MUMPS on the hemisphere scene at 2,937
+/// unknowns, 1.4x faster on the 12^3 block (6,591), and at least 2x faster from the 20^3 block
+/// (27,783) on, 4x at 30^3 (89,373); between about 5e3 and 2e4 the gain is small and MUMPS is
+/// the more robust, so `auto` switches at 2e4.
+pub const AUTO_ITERATIVE_UNKNOWNS: f64 = 2e4;
 
 /// Bytes of the linear solver (whole problem) for `unknowns` unknowns in `dim` dimensions, on the
-/// direct route (MUMPS: factor entries `c n^(4/3)` in 3D by nested dissection, `c n log2 n` in 2D,
-/// 12 bytes each, times the workspace margin of `-mat_mumps_icntl_14`) or the iterative one (GAMG's
-/// coarse operators and prolongators, about the fine matrix again, and GMRES(30)'s 32 vectors plus
-/// the smoother's work vectors, 8 bytes each). Constants fitted to measured peaks.
+/// direct route (MUMPS: factor entries `30 n^(4/3)` in 3D by nested dissection, `12 n log2 n` in
+/// 2D, 12 bytes each) or the iterative one (GAMG's hierarchy, smoothers and Galerkin products,
+/// 2.5 times the fine matrix, and GMRES(100)'s vectors, about 40 per unknown in use, 8 bytes
+/// each). Fitted to peaks measured on the 3D block, less the mesh, matrix and ~100 MB of
+/// process: direct 20^3 and 30^3 (644 MB, 2337 MB: 480 and 440 bytes per `n^(4/3)`, taken
+/// low, 360, so that the estimate stays a lower bound), iterative 20^3 to 40^3 (312 MB, 768 MB,
+/// 1821 MB; BENCHMARKS.md, "Scale: direct against iterative").
 pub fn linear_solver_bytes(dim: usize, unknowns: f64, iterative: bool) -> f64 {
     let n = unknowns.max(1.0);
     if iterative {
         let fine = 12.0 * n * 3f64.powi(dim as i32) * dim as f64;
-        fine + 8.0 * 40.0 * n
+        2.5 * fine + 8.0 * 40.0 * n
     } else if dim == 3 {
-        12.0 * 1.35 * 30.0 * n.powf(4.0 / 3.0)
+        12.0 * 30.0 * n.powf(4.0 / 3.0)
     } else {
-        12.0 * 1.35 * 12.0 * n * n.log2()
+        12.0 * 12.0 * n * n.max(2.0).log2()
     }
 }
 
@@ -293,5 +298,32 @@ mod tests {
         assert_eq!(human_bytes(1.5e9), "1.5 GB");
         assert_eq!(human_bytes(12.0), "12 B");
         assert!(machine_memory_bytes().is_none_or(|m| m > 1e8));
+    }
+
+    #[test]
+    fn the_linear_solver_estimate_follows_the_route_and_auto_switches_at_its_size() {
+        use crate::scene::schema::LinearSolver;
+        // 30^3 block, 89,373 unknowns: MUMPS's factors measured at about 1.8 GB, GAMG + GMRES
+        // a few hundred MB
+        let n = 89_373.0;
+        let direct = linear_solver_bytes(3, n, false);
+        let iterative = linear_solver_bytes(3, n, true);
+        assert!(direct > 1.2e9 && direct < 2.0e9, "{direct}");
+        assert!(iterative > 1e8 && iterative < 6e8, "{iterative}");
+        // factors grow faster than the hierarchy
+        let ratio =
+            |k: f64| linear_solver_bytes(3, k * n, false) / linear_solver_bytes(3, k * n, true);
+        assert!(ratio(8.0) > 1.5 * ratio(1.0));
+        assert!(linear_solver_bytes(2, 1e4, false) > 0.0);
+        assert_eq!(LinearSolver::Auto.resolve(n), LinearSolver::Iterative);
+        assert_eq!(
+            LinearSolver::Auto.resolve(AUTO_ITERATIVE_UNKNOWNS - 1.0),
+            LinearSolver::Direct
+        );
+        assert_eq!(LinearSolver::Direct.resolve(1e9), LinearSolver::Direct);
+        assert_eq!(
+            LinearSolver::Iterative.resolve(10.0),
+            LinearSolver::Iterative
+        );
     }
 }
