@@ -193,7 +193,19 @@ pub fn check_main(case_path: &Path, sets: &[String], petsc_args: Vec<String>) ->
     {
         let universe = mpi::initialize().ok_or(Error::Mpi)?;
         let petsc = Petsc::init(&universe.world(), &petsc_args)?;
-        check_solver_options(&petsc, &case, &model, &petsc_args)?;
+        let route = case.solver.linear_setting().resolve(dofs.n_global() as f64);
+        check_solver_options(&petsc, &case, &model, route, &petsc_args)?;
+        if let Some(size) = crate::scene::size::CaseSize::of(&case) {
+            use crate::scene::size::human_bytes;
+            println!(
+                "estimated memory {} (mesh arrays {} on every rank, matrix {}, {} linear solver {})",
+                human_bytes(size.mesh_bytes + size.matrix_bytes + size.linear_bytes),
+                human_bytes(size.mesh_bytes),
+                human_bytes(size.matrix_bytes),
+                if size.iterative { "iterative" } else { "direct" },
+                human_bytes(size.linear_bytes)
+            );
+        }
     }
     println!(
         "{}: ok ({} bodies, {} elements in {} sets, {} nodes, {} unknowns, {} stages)",
@@ -640,6 +652,7 @@ fn finish_and_report(
         unknowns: asm.dofs.n_global() as u64,
         elements: model.n_cells() as u64,
         newton: observer.newton,
+        linear_solver: options::linear_route(case, &asm.dofs).name().to_string(),
         restarts: observer.restarts,
         wall_time: io::PhaseTimes {
             assembly: times[0],

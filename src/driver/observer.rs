@@ -105,6 +105,8 @@ impl<'c, 'p> StepObserver<'c, 'p> {
         self.interrupted = crate::interrupt::agreed(asm.comm());
         self.newton
             .record(rec.iterations as u32, rec.failed_iterations as u64);
+        self.newton
+            .record_linear(rec.linear_fallbacks as u64, rec.linear_iterations as u64);
         self.step_log.push(io::StepLog {
             step: rec.step,
             load: rec.load,
@@ -115,6 +117,7 @@ impl<'c, 'p> StepObserver<'c, 'p> {
             pseudo_steps: rec.pseudo_steps,
             failed_iterations: rec.failed_iterations,
             augmentation_rounds: rec.augmentation_rounds,
+            linear_fallbacks: rec.linear_fallbacks,
         });
         let reactions: Vec<f64> = model
             .reactions
@@ -135,6 +138,11 @@ impl<'c, 'p> StepObserver<'c, 'p> {
         extra_columns.extend(contact_history(asm, model.dim));
         if model.contact_pairs.iter().any(|p| p.augmented.is_some()) {
             extra_columns.push(rec.augmentation_rounds as f64);
+        }
+        if super::options::linear_route(self.case, &asm.dofs)
+            == crate::scene::schema::LinearSolver::Iterative
+        {
+            extra_columns.push(rec.linear_fallbacks as f64);
         }
         let last = (rec.load - self.n_stages).abs() < 1e-12;
         let scheduled = last || rec.step.is_multiple_of(self.case.output.every);

@@ -10,7 +10,9 @@ use crate::petsc::{
     options_missing_values, quiet_errors, tolerance_problems, Matrix, Petsc, PetscError, Snes,
     Vector,
 };
+use crate::scene::schema::LinearSolver;
 use crate::scene::Case;
+use crate::solver::linear::rigid_body_null_space;
 use crate::solver::{run_load_steps_from, LoadPosition, SolverError, StepControl, StepRecord};
 use mpi::traits::*;
 
@@ -61,7 +63,7 @@ pub(super) fn set_up_solver<'p>(
     x.set(0.0)?;
     let skew = SkewRows::new(&model.skews, &dofs, &model.coords, &constrained)
         .map_err(|e| Error::Usage(format!("{}: {e}", case.file.display())))?;
-    let mut asm = Assembler::new(petsc, &x, dofs, sets, constrained)?;
+    let mut asm = Assembler::new(petsc, &x, dofs, sets, constrained.clone())?;
     if !skew.is_empty() {
         asm.set_skew(skew);
     }
@@ -110,9 +112,37 @@ pub(super) fn set_up_solver<'p>(
     }
     // Options: code defaults (in Snes::new), then the case's petsc_options, then the command line;
     // inserted before any object reads them (the matrix reads -mat_* at creation).
-    insert_solver_options(petsc, case, model, &opts.petsc_args)?;
+    let route = case.solver.linear_setting().resolve(n_global as f64);
+    log(rank, opts.verbosity, Verbosity::Verbose, || {
+        format!(
+            "linear solver: {}{}",
+            route.name(),
+            if case.solver.linear == Some(LinearSolver::Auto) {
+                " (chosen by `auto`)"
+            } else {
+                ""
+            }
+        )
+    });
+    insert_solver_options(petsc, case, model, route, &opts.petsc_args)?;
     let jac = Matrix::new_aij(petsc, n_owned)?;
-    let snes = snes_from_options(petsc, case, model, &opts.petsc_args)?;
+    let mut snes = snes_from_options(petsc, case, model, route, &opts.petsc_args)?;
+    if route == LinearSolver::Iterative {
+        // GAMG's coarse spaces from each body's rigid-body modes, attached to every Jacobian
+        // (the contact pattern rebuild makes new matrices); a failed Krylov solve retries the
+        // step with MUMPS (load stepping).
+        let space = rigid_body_null_space(
+            petsc,
+            &x,
+            model,
+            &asm.dofs,
+            &constrained,
+            ZERO_CONSTRAINED_MODES
+                ^ std::env::var_os("NURBS_CONTACT_FLIP_CONSTRAINED_MODES").is_some(),
+        )?;
+        snes.set_near_null_space(space);
+        snes.set_iterative(true);
+    }
 
     let control = StepControl {
         stage_steps: case.stages.iter().map(|s| s.steps).collect(),
@@ -132,6 +162,11 @@ pub(super) fn set_up_solver<'p>(
     })
 }
 
+/// The linear solver that runs: `[solver] linear`, with `"auto"` resolved for the unknowns.
+pub(super) fn linear_route(case: &Case, dofs: &crate::assembly::DofMap) -> LinearSolver {
+    case.solver.linear_setting().resolve(dofs.n_global() as f64)
+}
+
 /// The PETSc options of the command line (after the program name), as one string.
 pub(super) fn command_line_options(petsc_args: &[String]) -> String {
     petsc_args
@@ -148,6 +183,7 @@ pub(super) fn insert_solver_options(
     petsc: &Petsc,
     case: &Case,
     model: &Model,
+    route: LinearSolver,
     petsc_args: &[String],
 ) -> Result<(), Error> {
     let cmdline = command_line_options(petsc_args);
@@ -166,8 +202,85 @@ pub(super) fn insert_solver_options(
             message: problems.join("; "),
         });
     }
-    petsc.insert_options(&case_petsc_options(case, model), &cmdline)?;
+    if let Some(message) = route_contradiction(case, route, &cmdline) {
+        return Err(Error::SolverOptions {
+            file: case.file.clone(),
+            message,
+        });
+    }
+    petsc.insert_options(&case_petsc_options(case, model, route), &cmdline)?;
     Ok(())
+}
+
+/// The value of `option` in force and where it was set: the command line over
+/// `solver.petsc_options`, the last occurrence in each (as PETSc reads them).
+fn option_value<'a>(
+    option: &str,
+    in_case: &'a str,
+    cmdline: &'a str,
+) -> Option<(&'a str, &'static str)> {
+    let last = |text: &'a str| {
+        let tokens: Vec<&str> = text.split_whitespace().collect();
+        tokens
+            .iter()
+            .rposition(|t| *t == option)
+            .map(|i| tokens.get(i + 1).copied().unwrap_or(""))
+    };
+    last(cmdline)
+        .map(|v| (v, "on the command line"))
+        .or_else(|| last(in_case).map(|v| (v, "in `solver.petsc_options`")))
+}
+
+/// Why `[solver] linear` (resolved to `route`) and the `-ksp_type`/`-pc_type` options in force
+/// contradict each other, if they do; a case that does not set `linear` leaves the choice to the
+/// options, as before the setting existed (`-ksp_type gmres -pc_type jacobi` still works). The
+/// direct route is `-ksp_type preonly` with an LU or
+/// Cholesky factorisation, the iterative one a Krylov method (not `preonly`) with a preconditioner
+/// that is not a factorisation (`gamg` by default; `hypre`, `jacobi`, `asm`, ... are fine).
+pub(super) fn route_contradiction(
+    case: &Case,
+    route: LinearSolver,
+    cmdline: &str,
+) -> Option<String> {
+    case.solver.linear?;
+    let in_case = case.solver.petsc_options.as_str();
+    let chosen = if case.solver.linear == Some(LinearSolver::Auto) {
+        format!(
+            "`solver.linear = \"auto\"` (which chose \"{}\" here)",
+            route.name()
+        )
+    } else {
+        format!("`solver.linear = \"{}\"`", route.name())
+    };
+    let factorisation = |pc: &str| pc == "lu" || pc == "cholesky";
+    let mut out = Vec::new();
+    if let Some((ksp, at)) = option_value("-ksp_type", in_case, cmdline) {
+        match route {
+            LinearSolver::Direct if ksp != "preonly" => out.push(format!(
+                "{chosen} contradicts `-ksp_type {ksp}` (set {at}): the direct route is one MUMPS solve \
+                 (`-ksp_type preonly`); for a Krylov method set `solver.linear = \"iterative\"`"
+            )),
+            LinearSolver::Iterative if ksp == "preonly" => out.push(format!(
+                "{chosen} contradicts `-ksp_type preonly` (set {at}): the iterative route needs a Krylov \
+                 method (gmres, cg, ...); for a direct solve set `solver.linear = \"direct\"`"
+            )),
+            _ => {}
+        }
+    }
+    if let Some((pc, at)) = option_value("-pc_type", in_case, cmdline) {
+        match route {
+            LinearSolver::Direct if !factorisation(pc) => out.push(format!(
+                "{chosen} contradicts `-pc_type {pc}` (set {at}): the direct route is a factorisation \
+                 (`lu` or `cholesky`); for a preconditioned Krylov method set `solver.linear = \"iterative\"`"
+            )),
+            LinearSolver::Iterative if factorisation(pc) => out.push(format!(
+                "{chosen} contradicts `-pc_type {pc}` (set {at}): a factorisation is the direct route; \
+                 set `solver.linear = \"direct\"`, or choose a preconditioner such as `gamg` or `hypre`"
+            )),
+            _ => {}
+        }
+    }
+    (!out.is_empty()).then(|| out.join("; "))
 }
 
 /// The Newton solver with the code's defaults, then the options database applied: PETSc's own
@@ -179,10 +292,11 @@ pub(super) fn snes_from_options<'p>(
     petsc: &'p Petsc,
     case: &Case,
     model: &Model,
+    route: LinearSolver,
     petsc_args: &[String],
 ) -> Result<Snes<'p>, Error> {
     let cmdline = command_line_options(petsc_args);
-    let in_case = case_petsc_options(case, model);
+    let in_case = case_petsc_options(case, model, route);
     let source = |option: &str| {
         let names = |s: &str| s.split_whitespace().any(|t| t == option);
         if names(&cmdline) {
@@ -224,14 +338,19 @@ pub(super) fn check_solver_options(
     petsc: &Petsc,
     case: &Case,
     model: &Model,
+    route: LinearSolver,
     petsc_args: &[String],
 ) -> Result<(), Error> {
-    insert_solver_options(petsc, case, model, petsc_args)?;
-    let mut a = Matrix::new_aij(petsc, 1)?;
-    a.preallocate_aij(&[1], &[0])?;
-    a.add_values(&[0], &[0], &[1.0])?;
+    insert_solver_options(petsc, case, model, route, petsc_args)?;
+    // an identity of one node's unknowns (the iterative route sets the matrix block size to dim)
+    let n = model.dim;
+    let mut a = Matrix::new_aij(petsc, n)?;
+    a.preallocate_aij(&vec![1; n], &vec![0; n])?;
+    for i in 0..n as crate::petsc::PetscInt {
+        a.add_values(&[i], &[i], &[1.0])?;
+    }
     a.assemble()?;
-    let mut snes = snes_from_options(petsc, case, model, petsc_args)?;
+    let mut snes = snes_from_options(petsc, case, model, route, petsc_args)?;
     let mut ksp = snes.ksp()?;
     ksp.set_operators(&a)?;
     quiet_errors(|| ksp.set_up()).map_err(|e| Error::SolverOptions {
@@ -257,7 +376,13 @@ pub(super) fn warn_unused_options(petsc: &Petsc) {
     // the code's own defaults (case_petsc_options) are not the user's
     let left: Vec<_> = left
         .into_iter()
-        .filter(|(n, _)| !CODE_DEFAULT_OPTIONS.contains(&n.as_str()))
+        .filter(|(n, _)| {
+            !CODE_DEFAULT_OPTIONS.contains(&n.as_str())
+                && n != "-mat_block_size"
+                && !ITERATIVE_DEFAULT_OPTIONS
+                    .split_whitespace()
+                    .any(|t| t == n.as_str())
+        })
         .collect();
     if left.is_empty() || petsc.comm().rank() != 0 {
         return;
@@ -281,8 +406,42 @@ pub(super) fn warn_unused_options(petsc: &Petsc) {
 /// linear solver).
 pub(super) const CODE_DEFAULT_OPTIONS: [&str; 2] = ["-mat_mumps_icntl_24", "-snes_linesearch_type"];
 
-/// The case's `solver.petsc_options`, after the defaults that depend on the case.
-pub(super) fn case_petsc_options(case: &Case, model: &Model) -> String {
+/// The iterative route's defaults (`[solver] linear = "iterative"`), before the case's and the
+/// command line's options, which override them. Measured on the 3D block and the 3D contact
+/// scene (BENCHMARKS.md, "Scale: direct against iterative", one loaded session):
+/// - unsmoothed aggregation (`-pc_gamg_agg_nsmooths 0`): smoothed aggregation (PETSc's default)
+///   keeps the Krylov count flat (16-17 per Newton iteration from 12^3 to 30^3) but its Galerkin
+///   products with six modes per aggregate cost 5x more per Newton iteration at 30^3 (14.0 s
+///   against 2.6 s) and 12x on the hemisphere scene;
+/// - threshold 0.01 (measured with smoothed aggregation only: 0 as fast or faster, 0.05 slower;
+///   not re-measured with unsmoothed aggregation);
+/// - Chebyshev/Jacobi smoothing (GAMG's own) and its default coarse solve;
+/// - `-ksp_rtol 1e-8`: Newton then takes the direct route's iterations (3-4 per step on the
+///   block, the same total on the contact cases); Eisenstat-Walker (`-snes_ksp_ew`) did not pay
+///   (30^3: 18 Newton iterations and 5 failed against 4, the run 2.2x longer);
+/// - GMRES(100) and at most 400 iterations: a solve that needs more is a failure, retried with
+///   MUMPS.
+pub(super) const ITERATIVE_DEFAULT_OPTIONS: &str = "-ksp_type gmres -ksp_gmres_restart 100 \
+     -ksp_rtol 1e-8 -ksp_max_it 400 -pc_type gamg -pc_gamg_agg_nsmooths 0 \
+     -pc_gamg_threshold 0.01 -mg_levels_ksp_type chebyshev -mg_levels_pc_type jacobi";
+
+/// Rows of constrained unknowns (identity rows of the Jacobian) are zeroed in the rigid-body
+/// modes given to GAMG: 35.5 Krylov iterations per Newton iteration against 45.8 with them kept,
+/// 2.1 s against 2.6 s (30^3 block, BENCHMARKS.md, "Scale: direct against iterative"); the environment
+/// variable `NURBS_CONTACT_FLIP_CONSTRAINED_MODES` flips it, for that measurement.
+const ZERO_CONSTRAINED_MODES: bool = true;
+
+/// The case's `solver.petsc_options`, after the defaults that depend on the case and on the
+/// linear route.
+pub(super) fn case_petsc_options(case: &Case, model: &Model, route: LinearSolver) -> String {
+    // GAMG aggregates nodes, not unknowns, only when the matrix has the node's block size (the
+    // DofMap numbers a node's `dim` unknowns consecutively; MatSetFromOptions reads it at the
+    // creation of every Jacobian): without it, 12^3 block at 4 s per solve instead of 0.35 s.
+    let route_defaults = if route == LinearSolver::Iterative {
+        format!("{ITERATIVE_DEFAULT_OPTIONS} -mat_block_size {}", model.dim)
+    } else {
+        String::new()
+    };
     // With contact, PETSc's backtracking line search creeps where the penalty switches points between
     // active and inactive, and full steps invert elements that a cutback must then repair; the l2
     // line search (a secant minimisation of |F|^2 along the step) does best (BENCHMARKS.md: ironing_2d
@@ -292,10 +451,13 @@ pub(super) fn case_petsc_options(case: &Case, model: &Model) -> String {
     // singular tangent is reported with the free body's name (load stepping checks the count).
     let null_pivots = "-mat_mumps_icntl_24 1";
     if model.contact_pairs.is_empty() {
-        format!("{null_pivots} {}", case.solver.petsc_options)
+        format!(
+            "{null_pivots} {route_defaults} {}",
+            case.solver.petsc_options
+        )
     } else {
         format!(
-            "{null_pivots} -snes_linesearch_type l2 {}",
+            "{null_pivots} -snes_linesearch_type l2 {route_defaults} {}",
             case.solver.petsc_options
         )
     }

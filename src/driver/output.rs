@@ -16,8 +16,10 @@ use mpi::traits::*;
 use std::path::{Path, PathBuf};
 
 /// `history.csv` columns after the reaction forces: reaction moments `M_<body>_<set>[_<x|y|z>]`
-/// (2D: about z), then the contact columns.
-pub(super) fn history_extra_labels(model: &Model) -> Vec<String> {
+/// (2D: about z), then the contact columns, then (on the iterative linear route only, so that the
+/// direct route's history is as before) `linear_fallbacks`: the step's retries with MUMPS after a
+/// failed Krylov solve.
+pub(super) fn history_extra_labels(model: &Model, iterative: bool) -> Vec<String> {
     let mut out = Vec::new();
     for (label, _, _) in &model.reaction_moments {
         if model.dim == 2 {
@@ -27,6 +29,9 @@ pub(super) fn history_extra_labels(model: &Model) -> Vec<String> {
         }
     }
     out.extend(contact_history_labels(model));
+    if iterative {
+        out.push("linear_fallbacks".to_string());
+    }
     out
 }
 
@@ -295,8 +300,10 @@ impl<'p> Output<'p> {
                 .collect(),
             point_ref,
         };
+        let iterative = super::options::linear_route(case, dofs)
+            == crate::scene::schema::LinearSolver::Iterative;
         let created = if root {
-            out.create_files(model, case, out_dir, resume)
+            out.create_files(model, case, iterative, out_dir, resume)
         } else {
             Ok(())
         };
@@ -311,6 +318,7 @@ impl<'p> Output<'p> {
         &mut self,
         model: &Model,
         case: &Case,
+        iterative: bool,
         out_dir: &Path,
         resume: Option<(&Path, &crate::checkpoint::RunLog)>,
     ) -> Result<(), Error> {
@@ -380,7 +388,7 @@ impl<'p> Output<'p> {
                 .iter()
                 .map(|r| (r.body.as_str(), r.set.as_str()))
                 .collect();
-            let extra = history_extra_labels(model);
+            let extra = history_extra_labels(model, iterative);
             out.history = Some(match resume {
                 Some((ckpt, _)) => {
                     HistoryWriter::resume(out_dir, &ckpt.join("history.csv"), dim, &labels, &extra)?

@@ -17,9 +17,25 @@ pub struct NewtonStats {
     /// Newton iterations of the attempts that failed and were cut back (not in `total_iterations`).
     #[serde(default)]
     pub failed_iterations: u64,
+    /// Steps retried with the direct solver after an iterative linear solve failed (`[solver]
+    /// linear = "iterative"`), counted once per retry.
+    #[serde(default)]
+    pub linear_fallbacks: u64,
+    /// Linear (Krylov) iterations of all Newton solves (converged and failed attempts): divided
+    /// by `total_iterations + failed_iterations`, the Krylov iterations per Newton iteration (1
+    /// for the direct solver).
+    #[serde(default)]
+    pub linear_iterations: u64,
 }
 
 impl NewtonStats {
+    /// Account for one converged step's linear solves: its fallbacks to the direct solver and its
+    /// Krylov iterations.
+    pub fn record_linear(&mut self, fallbacks: u64, iterations: u64) {
+        self.linear_fallbacks += fallbacks;
+        self.linear_iterations += iterations;
+    }
+
     /// Account for one converged step and the iterations of its failed attempts.
     pub fn record(&mut self, iterations: u32, failed_iterations: u64) {
         self.failed_iterations += failed_iterations;
@@ -82,6 +98,9 @@ pub struct StepLog {
     /// Augmented Lagrangian rounds of the converged attempt (absent: none).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub augmentation_rounds: usize,
+    /// Retries of the step with the direct solver after an iterative linear solve failed.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub linear_fallbacks: usize,
 }
 
 fn is_zero(n: &usize) -> bool {
@@ -115,6 +134,10 @@ pub struct Summary {
     pub unknowns: u64,
     pub elements: u64,
     pub newton: NewtonStats,
+    /// The linear solver that ran: `"direct"` or `"iterative"` (`[solver] linear`, `"auto"`
+    /// resolved).
+    #[serde(default)]
+    pub linear_solver: String,
     /// How many times the run was continued from a checkpoint (`run --restart`).
     #[serde(default)]
     pub restarts: usize,
@@ -170,6 +193,7 @@ mod tests {
             unknowns: 375,
             elements: 64,
             newton,
+            linear_solver: "direct".to_string(),
             restarts: 0,
             wall_time: PhaseTimes {
                 assembly: 1.5,
@@ -194,6 +218,7 @@ mod tests {
                 pseudo_steps: 0,
                 failed_iterations: 30,
                 augmentation_rounds: 0,
+                linear_fallbacks: 0,
             }],
             status,
         }

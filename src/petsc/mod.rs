@@ -13,6 +13,7 @@ mod error;
 mod init;
 mod ksp;
 mod mat;
+mod nullspace;
 mod options;
 mod scatter;
 mod snes;
@@ -23,6 +24,7 @@ pub use error::{check, PetscError};
 pub use init::Petsc;
 pub use ksp::{Ksp, KspOutcome, Pc};
 pub use mat::Matrix;
+pub use nullspace::NullSpace;
 pub use options::{
     options_missing_values, quiet_errors, tolerance_problems, KspTolerances, SnesTolerances,
 };

@@ -1,7 +1,7 @@
 //! PETSc's nonlinear solver (SNES) driving a Rust [`NonlinearProblem`] through `extern "C"` trampolines.
 
 use super::error::{call, PetscError};
-use super::{handle, sys, Ksp, Matrix, Petsc, PetscInt, Vector};
+use super::{handle, quiet_errors, sys, Ksp, Matrix, NullSpace, Petsc, PetscInt, Vector};
 use mpi::raw::AsRaw;
 use std::ffi::{c_void, CStr};
 use std::marker::PhantomData;
@@ -48,6 +48,13 @@ pub struct SolveOutcome {
     pub residual_history: Vec<f64>,
     /// The last domain error raised by the problem, if any.
     pub domain_error: Option<String>,
+    /// The solve stopped because a linear solve failed (`SNES_DIVERGED_LINEAR_SOLVE`: a Krylov
+    /// solve that did not converge), or, with [`Snes::set_iterative`], PETSc raised an error in
+    /// it (a preconditioner that could not be set up).
+    pub linear_failed: bool,
+    /// Linear (Krylov) iterations of this solve, summed over its Newton iterations (one per
+    /// Newton iteration for a direct solve).
+    pub linear_iterations: usize,
 }
 
 const HISTORY_LEN: usize = 1000;
@@ -64,6 +71,13 @@ pub struct Snes<'p> {
     /// Stop a solve whose best residual norm has not fallen by [`STAGNATION_FACTOR`] within this
     /// many iterations (0: never).
     stagnation_window: usize,
+    /// The rigid-body modes attached to the Jacobian before every solve (for GAMG).
+    near_null: Option<NullSpace<'p>>,
+    /// The options choose an iterative linear solver: a PETSc error in a solve is a linear
+    /// failure (for the caller to retry with [`Snes::use_direct`]), not the end of the run.
+    iterative: bool,
+    /// [`Snes::use_direct`] is in force.
+    on_direct: bool,
     _petsc: PhantomData<&'p Petsc>,
 }
 
@@ -263,6 +277,9 @@ impl<'p> Snes<'p> {
             history,
             history_its,
             stagnation_window: 0,
+            near_null: None,
+            iterative: false,
+            on_direct: false,
             _petsc: PhantomData,
         })
     }
@@ -304,6 +321,57 @@ impl<'p> Snes<'p> {
         self.stagnation_window = window;
     }
 
+    /// Attaches `space` (rigid-body modes) as the near-null space of the Jacobian before every
+    /// solve: the contact pattern rebuild replaces the matrix, and GAMG reads the space from the
+    /// matrix it is set up with.
+    pub fn set_near_null_space(&mut self, space: NullSpace<'p>) {
+        self.near_null = Some(space);
+    }
+
+    /// Marks the linear solver as iterative: a PETSc error raised in a solve (an AMG set-up that
+    /// fails) is then reported as a linear failure ([`SolveOutcome::linear_failed`]) instead of an
+    /// `Err`, so that the caller can retry with [`Snes::use_direct`].
+    pub fn set_iterative(&mut self, iterative: bool) {
+        self.iterative = iterative;
+    }
+
+    /// The linear solver is iterative and not switched to the direct fallback: a linear failure
+    /// can be retried with [`Snes::use_direct`].
+    pub fn can_fall_back(&self) -> bool {
+        self.iterative && !self.on_direct
+    }
+
+    /// [`Snes::use_direct`] is in force.
+    pub fn on_direct(&self) -> bool {
+        self.on_direct
+    }
+
+    /// Switches the linear solver to the direct one (`preonly` + LU by MUMPS, reading the
+    /// `-mat_mumps_*` options), until [`Snes::use_options`].
+    ///
+    /// Collective.
+    pub fn use_direct(&mut self) -> Result<(), PetscError> {
+        {
+            let mut ksp = self.ksp()?;
+            ksp.set_type("preonly")?;
+            let mut pc = ksp.pc()?;
+            pc.set_type("lu")?;
+            pc.set_factor_solver_type("mumps")?;
+        }
+        self.on_direct = true;
+        Ok(())
+    }
+
+    /// Back from [`Snes::use_direct`] to the linear solver the options database chooses (the
+    /// `-ksp_*`/`-pc_*` options are read again).
+    ///
+    /// Collective.
+    pub fn use_options(&mut self) -> Result<(), PetscError> {
+        self.ksp()?.set_from_options()?;
+        self.on_direct = false;
+        Ok(())
+    }
+
     /// Applies the options database (`-snes_*`, `-ksp_*`, `-pc_*`, ...). Call after setting defaults.
     pub fn set_from_options(&mut self) -> Result<(), PetscError> {
         // SAFETY: valid handle.
@@ -322,6 +390,9 @@ impl<'p> Snes<'p> {
         x: &mut Vector,
         jac: &mut Matrix,
     ) -> Result<SolveOutcome, PetscError> {
+        if let Some(space) = &self.near_null {
+            jac.set_near_null_space(space)?;
+        }
         let jac_raw = jac.as_raw();
         let mut ctx = Context {
             problem,
@@ -336,7 +407,7 @@ impl<'p> Snes<'p> {
         let ctx_ptr = &mut ctx as *mut Context as *mut c_void;
         // SAFETY: ctx outlives SNESSolve (it is on this stack frame); the callbacks are re-registered
         // with this pointer before every solve, so a stale pointer is never used.
-        let solve_result = unsafe {
+        unsafe {
             call!(SNESSetFunction(
                 self.raw,
                 std::ptr::null_mut(),
@@ -357,8 +428,13 @@ impl<'p> Snes<'p> {
                 ctx_ptr,
                 None
             ))?;
-            call!(SNESSolve(self.raw, std::ptr::null_mut(), x.as_raw()))
-        };
+        }
+        let raw = self.raw;
+        let x_raw = x.as_raw();
+        // SAFETY: valid handles; the context installed above lives on this stack frame.
+        let run = || unsafe { call!(SNESSolve(raw, std::ptr::null_mut(), x_raw)) };
+        let fall_back = self.can_fall_back();
+        let solve_result = if fall_back { quiet_errors(run) } else { run() };
         if let Some(msg) = ctx.fatal.take() {
             return Err(PetscError {
                 code: PETSC_ERR_USER,
@@ -366,18 +442,41 @@ impl<'p> Snes<'p> {
                 message: msg,
             });
         }
-        solve_result?;
+        if let Err(e) = solve_result {
+            if !fall_back {
+                return Err(e);
+            }
+            // an iterative linear solver that PETSc could not run (e.g. GAMG's set-up failed):
+            // a linear failure, which the caller retries with the direct solver
+            let mut its: PetscInt = 0;
+            // SAFETY: valid handle.
+            unsafe { call!(SNESGetIterationNumber(self.raw, &mut its))? };
+            return Ok(SolveOutcome {
+                converged: false,
+                reason: format!(
+                    "DIVERGED_LINEAR_SOLVE (PETSc error in the linear solver, {}: {})",
+                    e.function, e.message
+                ),
+                iterations: its.max(0) as usize,
+                residual_history: Vec::new(),
+                domain_error: ctx.domain,
+                linear_failed: true,
+                linear_iterations: 0,
+            });
+        }
         let mut reason = sys::SNESConvergedReason(0);
         let mut its: PetscInt = 0;
         let mut text: *const std::os::raw::c_char = std::ptr::null();
         let mut hist_ptr: *mut f64 = std::ptr::null_mut();
         let mut hist_its: *mut PetscInt = std::ptr::null_mut();
         let mut n_hist: PetscInt = 0;
+        let mut lin_its: PetscInt = 0;
         // SAFETY: valid handle; the strings and history pointers refer to PETSc-owned static text and our
         // own buffers.
         unsafe {
             call!(SNESGetConvergedReason(self.raw, &mut reason))?;
             call!(SNESGetIterationNumber(self.raw, &mut its))?;
+            call!(SNESGetLinearSolveIterations(self.raw, &mut lin_its))?;
             call!(SNESGetConvergedReasonString(self.raw, &mut text))?;
             call!(SNESGetConvergenceHistory(
                 self.raw,
@@ -407,6 +506,8 @@ impl<'p> Snes<'p> {
             iterations: its.max(0) as usize,
             residual_history: self.history[..n].to_vec(),
             domain_error: ctx.domain,
+            linear_failed: reason == sys::SNESConvergedReason::SNES_DIVERGED_LINEAR_SOLVE,
+            linear_iterations: lin_its.max(0) as usize,
         })
     }
 }

@@ -580,6 +580,56 @@ pub struct SolverOptions {
     /// (BENCHMARKS.md, "Stopping stagnant Newton solves").
     #[serde(default = "default_stagnation_window")]
     pub stagnation_window: usize,
+    /// The linear solver of the Newton iterations: `"direct"` (MUMPS LU), `"iterative"` (GMRES
+    /// preconditioned by PETSc's algebraic multigrid GAMG, with each body's rigid-body modes; a
+    /// Krylov solve that fails retries the step with MUMPS) or `"auto"` (iterative from
+    /// [`crate::scene::size::AUTO_ITERATIVE_UNKNOWNS`] unknowns on, direct below). Default:
+    /// `"direct"`. Not given, the `-ksp_type`/`-pc_type` options decide as before (no
+    /// contradiction is checked); given, they must agree with it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub linear: Option<LinearSolver>,
+}
+
+impl SolverOptions {
+    /// `linear`, or its default `"direct"`.
+    pub fn linear_setting(&self) -> LinearSolver {
+        self.linear.unwrap_or_default()
+    }
+}
+
+/// `[solver] linear`: which linear solver the Newton iterations use.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LinearSolver {
+    /// MUMPS LU (`-ksp_type preonly -pc_type lu`).
+    #[default]
+    Direct,
+    /// GMRES + GAMG with the rigid-body modes as near-null space; MUMPS as fallback.
+    Iterative,
+    /// Iterative from [`crate::scene::size::AUTO_ITERATIVE_UNKNOWNS`] unknowns on, else direct.
+    Auto,
+}
+
+impl LinearSolver {
+    /// The route that runs for `unknowns` unknowns: `Direct` or `Iterative` (never `Auto`).
+    pub fn resolve(self, unknowns: f64) -> LinearSolver {
+        match self {
+            LinearSolver::Auto if unknowns >= crate::scene::size::AUTO_ITERATIVE_UNKNOWNS => {
+                LinearSolver::Iterative
+            }
+            LinearSolver::Auto => LinearSolver::Direct,
+            r => r,
+        }
+    }
+
+    /// The name in the case file.
+    pub fn name(self) -> &'static str {
+        match self {
+            LinearSolver::Direct => "direct",
+            LinearSolver::Iterative => "iterative",
+            LinearSolver::Auto => "auto",
+        }
+    }
 }
 
 fn default_contact_pattern_ring() -> usize {
@@ -597,6 +647,7 @@ impl Default for SolverOptions {
             contact_pattern_ring: default_contact_pattern_ring(),
             contact_freeze_after: 0,
             stagnation_window: default_stagnation_window(),
+            linear: None,
         }
     }
 }

@@ -9,13 +9,44 @@
 //!   entries per row of a structured mesh, plus `24` bytes per element-matrix entry
 //!   (`(n dim)^2` per cell) for the COO assembly buffers.
 //!
-//! It leaves out the linear solver's own memory (a direct factorisation fills in far more), so it
-//! is a lower bound of what a run needs: a case refused by it cannot run here.
+//! - the linear solver of the route that runs (`[solver] linear`, see [`linear_solver_bytes`]):
+//!   the MUMPS factors (direct), or GAMG's hierarchy and the Krylov vectors (iterative), fitted
+//!   to peak memory measured on the 3D block (BENCHMARKS.md, "Scale: direct against iterative").
+//!
+//! A case refused by it cannot run here.
 
 use crate::scene::schema::{Case, Generator, MeshSpec};
 
 /// Largest number of unknowns PETSc can index with its 32-bit `PetscInt` (the build used here).
 pub const MAX_UNKNOWNS: f64 = i32::MAX as f64;
+
+/// `[solver] linear = "auto"` takes the iterative route from this many unknowns on. Measured
+/// (BENCHMARKS.md, "Scale: direct against iterative", one loaded session, 1 rank): per Newton
+/// iteration the iterative route is 1.5x slower than MUMPS on the hemisphere scene at 2,937
+/// unknowns, 1.4x faster on the 12^3 block (6,591), and at least 2x faster from the 20^3 block
+/// (27,783) on, 4x at 30^3 (89,373); between about 5e3 and 2e4 the gain is small and MUMPS is
+/// the more robust, so `auto` switches at 2e4.
+pub const AUTO_ITERATIVE_UNKNOWNS: f64 = 2e4;
+
+/// Bytes of the linear solver (whole problem) for `unknowns` unknowns in `dim` dimensions, on the
+/// direct route (MUMPS: factor entries `30 n^(4/3)` in 3D by nested dissection, `12 n log2 n` in
+/// 2D, 12 bytes each) or the iterative one (GAMG's hierarchy, smoothers and Galerkin products,
+/// 2.5 times the fine matrix, and GMRES(100)'s vectors, about 40 per unknown in use, 8 bytes
+/// each). Fitted to peaks measured on the 3D block, less the mesh, matrix and ~100 MB of
+/// process: direct 20^3 and 30^3 (644 MB, 2337 MB: 480 and 440 bytes per `n^(4/3)`, taken
+/// low, 360, so that the estimate stays a lower bound), iterative 20^3 to 40^3 (312 MB, 768 MB,
+/// 1821 MB; BENCHMARKS.md, "Scale: direct against iterative").
+pub fn linear_solver_bytes(dim: usize, unknowns: f64, iterative: bool) -> f64 {
+    let n = unknowns.max(1.0);
+    if iterative {
+        let fine = 12.0 * n * 3f64.powi(dim as i32) * dim as f64;
+        2.5 * fine + 8.0 * 40.0 * n
+    } else if dim == 3 {
+        12.0 * 30.0 * n.powf(4.0 / 3.0)
+    } else {
+        12.0 * 12.0 * n * n.max(2.0).log2()
+    }
+}
 
 /// Node and cell counts of a generated mesh (as `f64`: the parameters may be absurdly large).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -95,6 +126,10 @@ pub struct CaseSize {
     pub mesh_bytes: f64,
     /// [`MeshSize::matrix_bytes`] summed: shared by the ranks.
     pub matrix_bytes: f64,
+    /// [`linear_solver_bytes`] of the route that runs for the case's unknowns: shared by the ranks.
+    pub linear_bytes: f64,
+    /// That route is the iterative one.
+    pub iterative: bool,
     /// The key of the largest mesh's size parameter (`meshes.block.divisions`), where a too-large
     /// case is reported.
     pub largest_key: String,
@@ -119,6 +154,8 @@ impl CaseSize {
                 },
                 mesh_bytes: 0.0,
                 matrix_bytes: 0.0,
+                linear_bytes: 0.0,
+                iterative: false,
                 largest_key: key.clone(),
             });
             if s.unknowns() > largest {
@@ -129,6 +166,11 @@ impl CaseSize {
             t.total.cells += s.cells;
             t.mesh_bytes += s.mesh_bytes();
             t.matrix_bytes += s.matrix_bytes();
+        }
+        if let Some(t) = &mut total {
+            let route = case.solver.linear_setting().resolve(t.total.unknowns());
+            t.iterative = route == crate::scene::schema::LinearSolver::Iterative;
+            t.linear_bytes = linear_solver_bytes(t.total.dim, t.total.unknowns(), t.iterative);
         }
         total
     }
@@ -256,5 +298,32 @@ mod tests {
         assert_eq!(human_bytes(1.5e9), "1.5 GB");
         assert_eq!(human_bytes(12.0), "12 B");
         assert!(machine_memory_bytes().is_none_or(|m| m > 1e8));
+    }
+
+    #[test]
+    fn the_linear_solver_estimate_follows_the_route_and_auto_switches_at_its_size() {
+        use crate::scene::schema::LinearSolver;
+        // 30^3 block, 89,373 unknowns: MUMPS's factors measured at about 1.8 GB, GAMG + GMRES
+        // a few hundred MB
+        let n = 89_373.0;
+        let direct = linear_solver_bytes(3, n, false);
+        let iterative = linear_solver_bytes(3, n, true);
+        assert!(direct > 1.2e9 && direct < 2.0e9, "{direct}");
+        assert!(iterative > 1e8 && iterative < 6e8, "{iterative}");
+        // factors grow faster than the hierarchy
+        let ratio =
+            |k: f64| linear_solver_bytes(3, k * n, false) / linear_solver_bytes(3, k * n, true);
+        assert!(ratio(8.0) > 1.5 * ratio(1.0));
+        assert!(linear_solver_bytes(2, 1e4, false) > 0.0);
+        assert_eq!(LinearSolver::Auto.resolve(n), LinearSolver::Iterative);
+        assert_eq!(
+            LinearSolver::Auto.resolve(AUTO_ITERATIVE_UNKNOWNS - 1.0),
+            LinearSolver::Direct
+        );
+        assert_eq!(LinearSolver::Direct.resolve(1e9), LinearSolver::Direct);
+        assert_eq!(
+            LinearSolver::Iterative.resolve(10.0),
+            LinearSolver::Iterative
+        );
     }
 }

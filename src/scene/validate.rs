@@ -80,6 +80,8 @@ fn check_sizes(case: &Case, v: &mut Issues) {
         total: s,
         mesh_bytes,
         matrix_bytes,
+        linear_bytes,
+        iterative,
         largest_key: key,
     }) = CaseSize::of(case)
     else {
@@ -87,13 +89,15 @@ fn check_sizes(case: &Case, v: &mut Issues) {
     };
     let what = format!(
         "{:.3e} nodes, {:.3e} cells, {:.3e} unknowns; estimated memory {} (mesh arrays {} on \
-         every rank + matrix {}, without the linear solver's)",
+         every rank + matrix {} + {} linear solver {})",
         s.nodes,
         s.cells,
         s.unknowns(),
-        human_bytes(mesh_bytes + matrix_bytes),
+        human_bytes(mesh_bytes + matrix_bytes + linear_bytes),
         human_bytes(mesh_bytes),
-        human_bytes(matrix_bytes)
+        human_bytes(matrix_bytes),
+        if iterative { "iterative" } else { "direct" },
+        human_bytes(linear_bytes)
     );
     if s.unknowns() > MAX_UNKNOWNS {
         v.push(
@@ -103,7 +107,9 @@ fn check_sizes(case: &Case, v: &mut Issues) {
                 MAX_UNKNOWNS as i64
             ),
         );
-    } else if let Some(mem) = machine_memory_bytes().filter(|&m| mesh_bytes + matrix_bytes > m) {
+    } else if let Some(mem) =
+        machine_memory_bytes().filter(|&m| mesh_bytes + matrix_bytes + linear_bytes > m)
+    {
         v.push(
             key,
             format!(

@@ -123,6 +123,12 @@ pub struct StepRecord {
     pub augmentation_rounds: usize,
     /// Where the load stepping stands after this step (what a checkpoint keeps).
     pub position: LoadPosition,
+    /// Times this step was retried with the direct solver after an iterative linear solve failed
+    /// (`[solver] linear = "iterative"`; 0 otherwise).
+    pub linear_fallbacks: usize,
+    /// Linear (Krylov) iterations of all the step's Newton solves (converged, resumed and failed
+    /// attempts; not the rescue's): one per Newton iteration for the direct solver.
+    pub linear_iterations: usize,
 }
 
 /// Where the load stepping stands after a converged step: enough to continue it exactly (restart).
@@ -287,6 +293,8 @@ pub fn run_load_steps_from<'p>(
         // iterations of solves that stopped for a new contact pattern and were resumed
         let mut resumed_iterations = 0;
         let mut pseudo = 0;
+        let mut linear_fallbacks = 0;
+        let mut linear_iterations = 0;
         // the last attempt of this step that converged to a folded state: (load, where)
         let mut tangled: Option<(f64, String)> = None;
         let (out, target) = loop {
@@ -303,6 +311,27 @@ pub fn run_load_steps_from<'p>(
             }
             asm.refresh_pattern(x, jac)?;
             let out = super::settle::solve_settled(asm, snes, x, jac)?;
+            linear_iterations += out.linear_iterations;
+            if !out.converged && out.linear_failed && snes.can_fall_back() {
+                // A Krylov solve that failed (or an AMG that could not be set up) says nothing
+                // about the step: the attempt is retried as it was, with MUMPS, which stays for
+                // the rest of this step (switched back after it), and the fallback is counted.
+                if std::env::var_os("NURBS_CONTACT_DEBUG_LINEAR").is_some() {
+                    eprintln!(
+                        "linear fallback: step {} load {target}: {}",
+                        step + 1,
+                        out.reason
+                    );
+                }
+                snes.use_direct()?;
+                linear_fallbacks += 1;
+                failed_iterations += out.iterations + resumed_iterations;
+                resumed_iterations = 0;
+                pattern_retries = 0;
+                asm.rollback();
+                resume = false;
+                continue;
+            }
             // A singular tangent (a body nothing holds) would give an arbitrary answer. A
             // translation that only contact could hold is checked on the tangent itself (exact,
             // whatever the factorisation's roundoff); any other rigid motion through MUMPS's
@@ -406,6 +435,9 @@ pub fn run_load_steps_from<'p>(
             }
             cutbacks += 1;
         };
+        if snes.on_direct() {
+            snes.use_options()?;
+        }
         let iterations = out.iterations + resumed_iterations;
         sizer.accept(target, iterations, cutbacks);
         step += 1;
@@ -426,6 +458,8 @@ pub fn run_load_steps_from<'p>(
             failed_iterations,
             augmentation_rounds,
             position: sizer.position(step),
+            linear_fallbacks,
+            linear_iterations,
         };
         let after = observer(&rec, x, asm).map_err(SolverError::Observer)?;
         let load = rec.load;

@@ -48,6 +48,7 @@ pub(super) fn solve_settled<'p>(
 fn chain(first: SolveOutcome, next: SolveOutcome) -> SolveOutcome {
     SolveOutcome {
         iterations: first.iterations + next.iterations,
+        linear_iterations: first.linear_iterations + next.linear_iterations,
         residual_history: first
             .residual_history
             .into_iter()

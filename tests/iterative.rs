@@ -1,0 +1,267 @@
+//! The iterative linear route (`[solver] linear = "iterative"`: GMRES + GAMG with each body's
+//! rigid-body modes): the same answer as MUMPS to the solver tolerance on 2D and 3D contact cases
+//! on 1 and 2 ranks; a Krylov solve that fails retries the step with MUMPS and is counted in
+//! history.csv and summary.json; contradictory or unknown settings are named errors.
+
+mod common;
+use common::*;
+
+/// The 3D contact scene, coarse: a Q1N2 hemisphere pressed onto a Q1N2 block (two bodies).
+const HEMISPHERE: &[&str] = &[
+    "meshes.block.divisions=[4,4,4]",
+    "meshes.shell.n_surface=4",
+    "stages.0.steps=2",
+];
+
+/// Two deformable blocks pressed together (2D, frictionless, two bodies).
+const PATCH_2D: &[&str] = &[
+    "meshes.lower.divisions=[24,12]",
+    "meshes.upper.divisions=[16,8]",
+];
+
+/// Runs `case` with `sets` and the extra PETSc options `petsc` on `np` ranks; asserts success.
+fn run_in(
+    name: &str,
+    case_file: &str,
+    np: usize,
+    sets: &[&str],
+    petsc: &[&str],
+) -> std::path::PathBuf {
+    let d = scratch(name);
+    let c = case(case_file);
+    let mut args = vec![
+        "run",
+        c.to_str().unwrap(),
+        "--out",
+        d.to_str().unwrap(),
+        "-q",
+    ];
+    for s in sets {
+        args.extend(["--set", s]);
+    }
+    args.extend(petsc);
+    run_ok(np, &args);
+    d
+}
+
+/// The iterative runs on 1 and 2 ranks give the direct run's displacement and reactions to the
+/// Newton tolerance, with Krylov iterations actually taken and no fallback.
+fn iterative_equals_direct(tag: &str, case_file: &str, sets: &[&str], grid: &str, reaction: &str) {
+    let direct = run_in(&format!("{tag}-direct"), case_file, 1, sets, &[]);
+    let mut it_sets = sets.to_vec();
+    it_sets.push("solver.linear=\"iterative\"");
+    let u_d = h5_last(&direct, grid, "displacement");
+    let r_d = history_col(&direct, reaction);
+    assert!(u_d.iter().any(|u| u.abs() > 1e-3), "the case deforms");
+    let s_d = summary(&direct);
+    assert_eq!(s_d["linear_solver"], "direct");
+    for np in [1, 2] {
+        let d = run_in(
+            &format!("{tag}-iterative-np{np}"),
+            case_file,
+            np,
+            &it_sets,
+            &[],
+        );
+        let s = summary(&d);
+        assert_eq!(s["linear_solver"], "iterative", "np {np}");
+        let newton = &s["newton"];
+        let its = newton["total_iterations"].as_u64().unwrap()
+            + newton["failed_iterations"].as_u64().unwrap();
+        let krylov = newton["linear_iterations"].as_u64().unwrap();
+        assert!(
+            krylov > 2 * its,
+            "np {np}: {krylov} Krylov iterations for {its} Newton iterations: no Krylov solve ran"
+        );
+        assert_eq!(
+            newton["linear_fallbacks"].as_u64(),
+            Some(0),
+            "np {np}: a fallback to MUMPS"
+        );
+        assert!(history_col(&d, "linear_fallbacks")
+            .iter()
+            .all(|&f| f == 0.0));
+        // Newton stops at |F| < 1e-10 |F0| (or 1e-11): the displacements agree far below the
+        // deformation, to the Krylov tolerance 1e-8 carried through the last Newton iteration
+        let e = rel_diff(&u_d, &h5_last(&d, grid, "displacement"));
+        assert!(
+            e < 1e-7,
+            "{tag} np {np}: iterative vs direct displacement differ by {e:e}"
+        );
+        let er = rel_diff(&r_d, &history_col(&d, reaction));
+        assert!(er < 1e-7, "{tag} np {np}: reactions differ by {er:e}");
+        // inexact linear solves may cost a Newton iteration now and then, not more
+        let (n_i, n_d) = (
+            history_col(&d, "newton_iterations").iter().sum::<f64>(),
+            history_col(&direct, "newton_iterations")
+                .iter()
+                .sum::<f64>(),
+        );
+        assert!(
+            n_i <= 1.2 * n_d + 1.0,
+            "{tag} np {np}: {n_i} Newton iterations against {n_d}"
+        );
+    }
+}
+
+#[test]
+fn iterative_equals_direct_on_the_2d_contact_patch_on_1_and_2_ranks() {
+    iterative_equals_direct(
+        "patch2d",
+        "contact_patch_2d.toml",
+        PATCH_2D,
+        "bulk",
+        "R_upper_top_y",
+    );
+}
+
+#[test]
+fn iterative_equals_direct_on_the_3d_hemisphere_on_a_block_on_1_and_2_ranks() {
+    iterative_equals_direct(
+        "hemi3d",
+        "hemisphere_block_3d.toml",
+        HEMISPHERE,
+        "bulk",
+        "R_shell_rim_z",
+    );
+}
+
+/// `-ksp_max_it 1`: no Krylov solve converges, every step is retried with MUMPS, counted once per
+/// step in history.csv and summary.json, and the answer is the direct one.
+#[test]
+fn a_failed_krylov_solve_falls_back_to_mumps_and_is_counted() {
+    for np in [1, 2] {
+        let direct = run_in(
+            &format!("fallback-direct-np{np}"),
+            "hemisphere_block_3d.toml",
+            np,
+            HEMISPHERE,
+            &[],
+        );
+        let mut sets = HEMISPHERE.to_vec();
+        sets.push("solver.linear=\"iterative\"");
+        let d = run_in(
+            &format!("fallback-np{np}"),
+            "hemisphere_block_3d.toml",
+            np,
+            &sets,
+            &["-ksp_max_it", "1"],
+        );
+        let per_step = history_col(&d, "linear_fallbacks");
+        assert_eq!(
+            per_step,
+            vec![1.0; per_step.len()],
+            "np {np}: one fallback per step"
+        );
+        let s = summary(&d);
+        assert_eq!(s["status"], "converged");
+        assert_eq!(
+            s["newton"]["linear_fallbacks"].as_u64(),
+            Some(per_step.len() as u64)
+        );
+        let steps = s["steps"].as_array().unwrap();
+        assert!(
+            steps.iter().all(|st| st["linear_fallbacks"] == 1),
+            "np {np}: per-step count in summary.json"
+        );
+        let e = rel_diff(
+            &h5_last(&direct, "bulk", "displacement"),
+            &h5_last(&d, "bulk", "displacement"),
+        );
+        assert!(
+            e < 1e-10,
+            "np {np}: the MUMPS retry differs from the direct run by {e:e}"
+        );
+    }
+}
+
+/// A preconditioner PETSc cannot set up in the solve (ILU has no parallel implementation in
+/// PETSc: an error in `PCSetUp` on 2 ranks) is a counted fallback too, not the end of the run.
+#[test]
+fn a_preconditioner_set_up_failure_falls_back_to_mumps_and_is_counted() {
+    let mut sets = HEMISPHERE.to_vec();
+    sets.push("solver.linear=\"iterative\"");
+    let d = run_in(
+        "pcfail-np2",
+        "hemisphere_block_3d.toml",
+        2,
+        &sets,
+        &["-pc_type", "ilu"],
+    );
+    let s = summary(&d);
+    assert_eq!(s["status"], "converged");
+    let n = s["newton"]["linear_fallbacks"].as_u64().unwrap();
+    assert!(n >= 1, "no fallback counted");
+    assert_eq!(
+        history_col(&d, "linear_fallbacks").iter().sum::<f64>(),
+        n as f64
+    );
+}
+
+/// Unknown and contradictory settings: a named error by key, a non-zero exit, no panic.
+#[test]
+fn bad_linear_solver_settings_are_named_errors() {
+    let c = case("block_compression_3d.toml");
+    let c = c.to_str().unwrap();
+    let cases: [(&[&str], &[&str]); 5] = [
+        (&["--set", "solver.linear=\"bogus\""], &["`solver.linear`", "unknown variant `bogus`", "direct", "iterative", "auto"]),
+        (&["--set", "solver.linear=\"direct\"", "-ksp_type", "gmres"], &["`solver.linear = \"direct\"` contradicts `-ksp_type gmres` (set on the command line)"]),
+        (&["--set", "solver.linear=\"direct\"", "--set", "solver.petsc_options=\"-pc_type gamg\""], &["`solver.linear = \"direct\"` contradicts `-pc_type gamg` (set in `solver.petsc_options`)"]),
+        (&["--set", "solver.linear=\"iterative\"", "-pc_type", "lu"], &["`solver.linear = \"iterative\"` contradicts `-pc_type lu`"]),
+        (&["--set", "solver.linear=\"auto\"", "-ksp_type", "gmres"], &["`solver.linear = \"auto\"` (which chose \"direct\" here) contradicts `-ksp_type gmres`"]),
+    ];
+    for (extra, expected) in cases {
+        for cmd in ["check", "run"] {
+            let d = scratch("bad-linear");
+            let mut args = vec![cmd, c];
+            if cmd == "run" {
+                args.extend(["--out", d.to_str().unwrap(), "-q"]);
+            }
+            args.extend(extra);
+            let out = run(1, &args);
+            let err = stderr(&out);
+            assert!(!out.status.success(), "{cmd} {extra:?} succeeded");
+            assert_eq!(out.status.code(), Some(1), "{cmd} {extra:?}: {err}");
+            assert!(!err.contains("panicked"), "{cmd} {extra:?} panicked: {err}");
+            for e in expected {
+                assert!(err.contains(e), "{cmd} {extra:?}: `{e}` not in: {err}");
+            }
+        }
+    }
+}
+
+/// `check` reports the memory of the route that runs.
+#[test]
+fn check_estimates_the_memory_of_the_route_that_runs() {
+    let c = case("block_compression_3d.toml");
+    let c = c.to_str().unwrap();
+    let direct = run_ok(1, &["check", c]);
+    let iterative = run_ok(1, &["check", c, "--set", "solver.linear=\"iterative\""]);
+    let auto_big = run_ok(
+        1,
+        &[
+            "check",
+            c,
+            "--set",
+            "solver.linear=\"auto\"",
+            "--set",
+            "meshes.block.divisions=[30,30,30]",
+        ],
+    );
+    let text = |o: &std::process::Output| String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        text(&direct).contains("direct linear solver"),
+        "{}",
+        text(&direct)
+    );
+    assert!(
+        text(&iterative).contains("iterative linear solver"),
+        "{}",
+        text(&iterative)
+    );
+    assert!(
+        text(&auto_big).contains("iterative linear solver"),
+        "{}",
+        text(&auto_big)
+    );
+}
