@@ -7,6 +7,12 @@
 //! conditions at its points is at most `tol`: a penetration `-g_N`, or the opening `g_N` of a
 //! point that still carries pressure.
 //!
+//! The pointwise constraints are more than the surfaces can always meet: two deformable surfaces
+//! each drive their own points' gaps to zero against the other's (non-matching) surface, and an
+//! enriched surface has more contact points than control points. The rounds then stall at a
+//! violation set by that mismatch, and `tol` must lie above it (BENCHMARKS.md, "Augmented
+//! Lagrangian on the pointwise gap").
+//!
 //! Multipliers are load-step history: the solves of a step start from those of the last converged
 //! step, a cut back returns to them, checkpoints keep them.
 
@@ -56,7 +62,9 @@ impl ContactSystem {
             if rounds >= a.max {
                 return Augment::Exhausted(format!(
                     "contact `{}`: the augmented Lagrangian left a violation of {v:.3e} > tol \
-                     {:.3e} after {rounds} rounds (raise `augmented.max` or `eps_n`)",
+                     {:.3e} after {rounds} rounds (raise `augmented.max` or `eps_n`, or `augmented.tol` above \
+                     what the surfaces can meet: two deformable surfaces' passes, and enriched \
+                     surfaces' points, cannot all reach a zero gap)",
                     pair.def.name, a.tol
                 ));
             }
