@@ -168,3 +168,30 @@ fn bad_settings_are_named_by_key() {
         assert!(!err.contains("panicked"), "{err}");
     }
 }
+
+/// Two deformable bodies in 2D with Coulomb friction: the augmented pair converges, each half-pass's
+/// penetration ends below `tol`, and rounds are made (measured: one round in 21 of 46 steps).
+#[test]
+fn two_deformable_bodies_with_friction_meet_the_tolerance() {
+    let d = run_case(
+        "augmented/slide",
+        "sliding_flat_2d.toml",
+        1,
+        &[
+            "contact.0.mu=0.3",
+            "contact.0.friction_stages=[false, true]",
+            "contact.0.augmented={ tol = 1e-6, max = 30 }",
+            "output.plots=false",
+        ],
+    );
+    assert_eq!(summary(&d)["status"], "converged");
+    for col in [
+        "penetration_slide_upper_bottom",
+        "penetration_slide_lower_top",
+    ] {
+        let pen = history_col(&d, col);
+        assert!(pen.iter().all(|&p| p <= 1e-6), "{col}: {pen:?}");
+    }
+    let rounds = history_col(&d, "augmentation_rounds");
+    assert!(rounds.iter().any(|&r| r >= 1.0), "{rounds:?}");
+}
