@@ -19,35 +19,10 @@ const PATCH_2D: &[&str] = &[
     "meshes.upper.divisions=[16,8]",
 ];
 
-/// Runs `case` with `sets` and the extra PETSc options `petsc` on `np` ranks; asserts success.
-fn run_in(
-    name: &str,
-    case_file: &str,
-    np: usize,
-    sets: &[&str],
-    petsc: &[&str],
-) -> std::path::PathBuf {
-    let d = scratch(name);
-    let c = case(case_file);
-    let mut args = vec![
-        "run",
-        c.to_str().unwrap(),
-        "--out",
-        d.to_str().unwrap(),
-        "-q",
-    ];
-    for s in sets {
-        args.extend(["--set", s]);
-    }
-    args.extend(petsc);
-    run_ok(np, &args);
-    d
-}
-
 /// The iterative runs on 1 and 2 ranks give the direct run's displacement and reactions to the
 /// Newton tolerance, with Krylov iterations actually taken and no fallback.
 fn iterative_equals_direct(tag: &str, case_file: &str, sets: &[&str], grid: &str, reaction: &str) {
-    let direct = run_in(&format!("{tag}-direct"), case_file, 1, sets, &[]);
+    let direct = run_case_with(&format!("{tag}-direct"), case_file, 1, sets, &[]);
     let mut it_sets = sets.to_vec();
     it_sets.push("solver.linear=\"iterative\"");
     let u_d = h5_last(&direct, grid, "displacement");
@@ -56,7 +31,7 @@ fn iterative_equals_direct(tag: &str, case_file: &str, sets: &[&str], grid: &str
     let s_d = summary(&direct);
     assert_eq!(s_d["linear_solver"], "direct");
     for np in [1, 2] {
-        let d = run_in(
+        let d = run_case_with(
             &format!("{tag}-iterative-np{np}"),
             case_file,
             np,
@@ -131,7 +106,7 @@ fn iterative_equals_direct_on_the_3d_hemisphere_on_a_block_on_1_and_2_ranks() {
 #[test]
 fn a_failed_krylov_solve_falls_back_to_mumps_and_is_counted() {
     for np in [1, 2] {
-        let direct = run_in(
+        let direct = run_case_with(
             &format!("fallback-direct-np{np}"),
             "hemisphere_block_3d.toml",
             np,
@@ -140,7 +115,7 @@ fn a_failed_krylov_solve_falls_back_to_mumps_and_is_counted() {
         );
         let mut sets = HEMISPHERE.to_vec();
         sets.push("solver.linear=\"iterative\"");
-        let d = run_in(
+        let d = run_case_with(
             &format!("fallback-np{np}"),
             "hemisphere_block_3d.toml",
             np,
@@ -181,7 +156,7 @@ fn a_failed_krylov_solve_falls_back_to_mumps_and_is_counted() {
 fn a_preconditioner_set_up_failure_falls_back_to_mumps_and_is_counted() {
     let mut sets = HEMISPHERE.to_vec();
     sets.push("solver.linear=\"iterative\"");
-    let d = run_in(
+    let d = run_case_with(
         "pcfail-np2",
         "hemisphere_block_3d.toml",
         2,

@@ -204,6 +204,17 @@ pub fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
 /// Runs `cases/<case>` on `np` ranks into a fresh scratch directory `name` with `--set` overrides
 /// (quiet, overwriting), asserts success, and returns the output directory.
 pub fn run_case(name: &str, case_file: &str, np: usize, sets: &[&str]) -> PathBuf {
+    run_case_with(name, case_file, np, sets, &[])
+}
+
+/// [`run_case`] with further command-line arguments after the `--set`s (e.g. PETSc options).
+pub fn run_case_with(
+    name: &str,
+    case_file: &str,
+    np: usize,
+    sets: &[&str],
+    extra: &[&str],
+) -> PathBuf {
     let d = scratch(name);
     let c = case(case_file);
     let mut args = vec![
@@ -217,6 +228,7 @@ pub fn run_case(name: &str, case_file: &str, np: usize, sets: &[&str]) -> PathBu
     for s in sets {
         args.extend(["--set", s]);
     }
+    args.extend_from_slice(extra);
     run_ok(np, &args);
     d
 }
