@@ -7,7 +7,8 @@
 //!
 //! Pluggable parts, not branches of one loop:
 //! - [`gap`]: where the penalty law's normal gap is taken (pointwise, the paper's; `element_mean`,
-//!   one pressure per surface element; the mortar gap goes here);
+//!   one pressure per surface element; `mortar`, one pressure per control point of the surface,
+//!   [`mortar`]);
 //! - [`friction`]: Coulomb friction's anchors, their blocks and their update.
 #![allow(clippy::needless_range_loop)]
 #![allow(non_snake_case)]
@@ -15,18 +16,22 @@
 mod element_mean;
 pub(crate) mod friction;
 pub(crate) mod gap;
+pub(crate) mod mortar;
 
 use crate::assembly::MatrixSink;
 use crate::contact::kernel::{
     contact_point_pass, Area, OwnPoint, PartnerPoint, PointIn, PointResult, Scratch, SlipState,
 };
 use crate::contact::law::{self, Traction};
-use crate::contact::pair::{law_traction, Anchor, Coupling, Friction, Law, Partner, SlotOf};
+use crate::contact::pair::{
+    law_traction, Anchor, Coupling, Friction, GapKind, Law, Partner, SlotOf,
+};
 use crate::contact::projection::{Positions, Projection};
 use crate::contact::rigid::{RigidMotion, RigidShape};
 use crate::contact::surface::{raw_normal, ContactSurface};
 use friction::AnchorAt;
 use gap::Gap;
+use mortar::MortarNet;
 
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct QPoint {
@@ -132,11 +137,36 @@ pub struct PassResult {
 pub(crate) struct Pass {
     pub(crate) k: usize,
     pub(crate) partner: Partner,
+    /// The points of `elems`, then those of `halo`.
     pub(crate) points: Vec<QPoint>,
     pub(crate) elems: Vec<OwnElem>,
+    /// Mortar gap: the elements of other ranks that share a control point with `elems`; their
+    /// points are projected (each control point's gap needs its whole support), not integrated.
+    pub(crate) halo: Vec<OwnElem>,
+    /// Mortar gap: the control points of `elems` and `halo`.
+    pub(crate) mortar: Option<MortarNet>,
     /// Rigid shape at the current load.
     pub(crate) shape: Option<RigidShape>,
     pub(crate) result: PassResult,
+}
+
+impl Pass {
+    /// The elements whose points own element `i`'s rows couple with: itself, and under the mortar
+    /// gap every element (own or halo) that shares a control point with it.
+    pub(crate) fn coupled_elems(&self, i: usize) -> Vec<&OwnElem> {
+        match &self.mortar {
+            None => vec![&self.elems[i]],
+            Some(net) => net.near[i]
+                .iter()
+                .map(|&j| {
+                    let j = j as usize;
+                    self.elems
+                        .get(j)
+                        .unwrap_or_else(|| &self.halo[j - self.elems.len()])
+                })
+                .collect(),
+        }
+    }
 }
 
 /// The surfaces a half-pass reads: their elements, current positions and unknowns.
@@ -162,8 +192,8 @@ pub(crate) struct PairView<'a> {
     pub friction: Option<&'a Friction>,
     /// The pair has friction in some stage (its points keep stick/slip and anchors).
     pub has_friction: bool,
-    /// `gap = "element_mean"`.
-    pub element_mean: bool,
+    /// Where the penalty law's gap is taken (`gap`).
+    pub gap: GapKind,
     /// Augmented Lagrangian enforcement (the points' multipliers shift the penalty law).
     pub augmented: bool,
     /// Load parameter (rigid partners' motion).
@@ -248,6 +278,8 @@ pub(crate) fn run(
         partner,
         points,
         elems,
+        halo,
+        mortar,
         shape,
         result,
     } = pass;
@@ -268,20 +300,25 @@ pub(crate) fn run(
         touch: crate::contact::pair::TOUCH * geo.surfaces[*k].h,
         jacobian: jac.is_some(),
     };
-    let mut gap = Gap::new(pair.element_mean);
+    let mut gap = Gap::new(pair.gap, mortar.as_mut());
+    let all: Vec<&OwnElem> = elems.iter().chain(halo.iter()).collect();
+    gap.begin_pass(&hp, &all, points);
     let mut res = PassResult::default();
-    for oe in elems.iter() {
-        hp.element(oe, points, &mut gap, &forced, work, &mut res);
+    for (i, oe) in elems.iter().enumerate() {
+        hp.element(i, oe, points, &mut gap, &forced, work, &mut res);
+        gap.end_element(&hp, i, &all, points, work);
         hp.scatter(oe, work, f_local, jac);
     }
     *result = res;
 }
 
 impl HalfPass<'_> {
-    /// The points of own element `oe`: their residual into `work.r`, their blocks into
-    /// `work.blocks`.
+    /// The points of own element `oe` (number `i`): their residual into `work.r`, their blocks
+    /// into `work.blocks`.
+    #[allow(clippy::too_many_arguments)]
     fn element(
         &self,
+        i: usize,
         oe: &OwnElem,
         points: &mut [QPoint],
         gap: &mut Gap,
@@ -307,9 +344,11 @@ impl HalfPass<'_> {
                 J0: qp.J0,
             };
             let mut po = PointOut::default();
+            let p_mortar = gap.mortar_pressure(i, bN);
             for c in self.contributions(&own, &qp).into_iter().flatten() {
                 let forced = forced(q);
-                self.contribution(&own, &qp, q, c, (&*gap, g_mean), forced, work, res, &mut po);
+                let gm = (&*gap, g_mean, p_mortar);
+                self.contribution(&own, &qp, q, c, gm, forced, work, res, &mut po);
             }
             let p = &mut points[q];
             p.force = po.force;
@@ -335,7 +374,10 @@ impl HalfPass<'_> {
                 }
             }
         }
-        let area = area_of(&self.pair.law);
+        let area = match self.pair.gap {
+            GapKind::Mortar => Area::Reference,
+            _ => area_of(&self.pair.law),
+        };
         let first = self
             .partner(qp.current, &xk)
             .map(|(le, pp)| (le, pp, area, false));
@@ -387,12 +429,15 @@ impl HalfPass<'_> {
         }
     }
 
-    /// The traction of one contribution: the cohesive law on a material pairing; else the pair's
-    /// law, at the gap the gap part gives (`g_mean`), at the status the active set holds, or
-    /// shifted by the point's multiplier `lambda` (augmented Lagrangian).
+    /// The traction of one contribution: the cohesive law on a material pairing; else the
+    /// pressure of the control points (`p_mortar`, mortar gap), or the pair's law at the gap the
+    /// gap part gives (`g_mean`), at the status the active set holds, or shifted by the point's
+    /// multiplier `lambda` (augmented Lagrangian).
+    #[allow(clippy::too_many_arguments)]
     fn traction(
         &self,
         cohesive: bool,
+        p_mortar: Option<f64>,
         g_mean: Option<f64>,
         forced: Option<bool>,
         lambda: f64,
@@ -405,6 +450,8 @@ impl HalfPass<'_> {
                 Law::Cohesive { t0, g0, .. } => law::cohesive(t0, g0, g),
                 _ => Traction::ZERO,
             }
+        } else if let Some(p) = p_mortar {
+            mortar::pressure_traction(p, n)
         } else if let (Some(gm), Law::Penalty { eps_n }) = (g_mean, law) {
             gap::mean_penalty(eps_n, self.touch, gm, g, n)
         } else if let (true, Law::Penalty { eps_n }) = (self.pair.augmented, law) {
@@ -425,7 +472,7 @@ impl HalfPass<'_> {
         qp: &QPoint,
         q: usize,
         (le, pp, area, cohesive): Contribution,
-        (gap, g_mean): (&Gap, Option<f64>),
+        (gap, g_mean, p_mortar): (&Gap, Option<f64>, Option<f64>),
         forced: Option<bool>,
         work: &mut Work,
         res: &mut PassResult,
@@ -452,8 +499,9 @@ impl HalfPass<'_> {
         let master = self.pair.one_pass && nl > 0;
         work.rc.clear();
         work.rc.resize(nc, 0.0);
-        let lawf =
-            |g: &[f64; 3], n: &[f64; 3]| self.traction(cohesive, g_mean, forced, qp.lambda, g, n);
+        let lawf = |g: &[f64; 3], n: &[f64; 3]| {
+            self.traction(cohesive, p_mortar, g_mean, forced, qp.lambda, g, n)
+        };
         let input = PointIn {
             dim,
             own,
@@ -553,12 +601,15 @@ impl HalfPass<'_> {
             for (le, kb) in &work.blocks[..work.n_used] {
                 let c: Coupling = (self.pass_id, oe.e, *le);
                 let own_rows = &self.geo.gdofs[self.k][e];
-                let mut cols = own_rows.clone();
-                if let Some(l) = self.l {
-                    if *le != u32::MAX {
+                let cols = if let Some(e2) = mortar::own_columns(*le) {
+                    self.geo.gdofs[self.k][e2 as usize].clone()
+                } else {
+                    let mut cols = own_rows.clone();
+                    if let (Some(l), true) = (self.l, *le != u32::MAX) {
                         cols.extend_from_slice(&self.geo.gdofs[l][*le as usize]);
                     }
-                }
+                    cols
+                };
                 let rows = if self.pair.one_pass && self.l.is_some() {
                     &cols
                 } else {

@@ -28,7 +28,7 @@ pub mod surface;
 pub mod system;
 
 pub use half_pass::PassResult;
-pub use pair::{Anchor, Augmented, Coupling, Friction, Law, PairDef, Partner};
+pub use pair::{Anchor, Augmented, Coupling, Friction, GapKind, Law, PairDef, Partner};
 pub use system::{ContactSystem, Settle};
 
 #[cfg(test)]

@@ -86,11 +86,24 @@ pub struct PairDef {
     pub one_pass: bool,
     /// Coulomb friction (penalty law, and the cohesive law's penalty against penetration).
     pub friction: Option<Friction>,
-    /// Penalty law on each surface element's mean normal gap instead of the pointwise one
-    /// (two-half-pass only; `gap = "element_mean"`).
-    pub element_mean_gap: bool,
+    /// Where the penalty law's normal gap is taken (`gap`).
+    pub gap: GapKind,
     /// Augmented Lagrangian enforcement of the penalty law (`augmented`).
     pub augmented: Option<Augmented>,
+}
+
+/// Where a penalty pair's normal gap is taken.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum GapKind {
+    /// At every quadrature point (eq. 5 of the paper).
+    #[default]
+    Pointwise,
+    /// One pressure per surface element, the mean over its points (two-half-pass only).
+    ElementMean,
+    /// Weighted by each surface control point's basis function, `g_A = int R_A g_n dA / int R_A
+    /// dA`: one pressure per control point, interpolated by the surface basis (two-half-pass or
+    /// rigid partner; non-negative bases only).
+    Mortar,
 }
 
 /// Augmented Lagrangian (Uzawa) enforcement of a penalty pair: after each converged solve every

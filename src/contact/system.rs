@@ -213,7 +213,7 @@ impl ContactSystem {
                 one_pass: def.one_pass,
                 friction: def.friction.as_ref().filter(|f| f.on_at(self.lambda)),
                 has_friction: def.friction.is_some(),
-                element_mean: def.element_mean_gap,
+                gap: def.gap,
                 augmented: def.augmented.is_some(),
                 lambda: self.lambda,
             };

@@ -5,10 +5,11 @@
 
 use super::data::Body;
 use super::error::ModelError;
+use crate::contact::basis::FaceBasis;
 use crate::contact::rigid::{RigidMotion, RigidShape};
 use crate::contact::search::Aabb;
 use crate::contact::surface::ContactSurface;
-use crate::contact::{Augmented, Friction, Law, PairDef, Partner};
+use crate::contact::{Augmented, Friction, GapKind, Law, PairDef, Partner};
 use crate::scene::GapMode;
 use crate::scene::{
     Algorithm, BoxSpec, Case, ContactSpec, LawKind, PenaltyForm, RigidShapeKind, RigidSpec,
@@ -217,8 +218,8 @@ pub fn build_contact(
             Some(p) => vec3(case, key("moment_point"), p, dim)?,
         };
         let friction = friction(case, i, spec, &law)?;
-        let element_mean_gap = spec.gap == GapMode::ElementMean;
-        if element_mean_gap {
+        let gap = gap_kind(case, i, spec, &idx, &surfaces)?;
+        if gap == GapKind::ElementMean {
             let why = if !matches!(spec.law, LawKind::Penalty) {
                 Some("goes with the `penalty` law only")
             } else if spec.algorithm == Algorithm::OnePass && spec.rigid.is_none() {
@@ -278,11 +279,63 @@ pub fn build_contact(
             region,
             one_pass: spec.algorithm == Algorithm::OnePass && spec.rigid.is_none(),
             friction,
-            element_mean_gap,
+            gap,
             augmented,
         });
     }
     Ok((surfaces, pairs))
+}
+
+/// The gap of pair `i` (`gap`), with the mortar gap's scope checked: the penalty law, two-half-pass
+/// or a rigid partner, no friction, no active-set freezing, surfaces with a non-negative,
+/// interpolating basis.
+fn gap_kind(
+    case: &Case,
+    i: usize,
+    spec: &ContactSpec,
+    idx: &[usize],
+    surfaces: &[ContactSurface],
+) -> Result<GapKind, ModelError> {
+    let kind = match spec.gap {
+        GapMode::Pointwise => return Ok(GapKind::Pointwise),
+        GapMode::ElementMean => return Ok(GapKind::ElementMean),
+        GapMode::Mortar => GapKind::Mortar,
+    };
+    let negative = idx.iter().find(|&&s| {
+        surfaces[s]
+            .elements
+            .iter()
+            .any(|e| matches!(e.basis, FaceBasis::Lagrange2 | FaceBasis::Hermite { .. }))
+    });
+    let why = if !matches!(spec.law, LawKind::Penalty) {
+        Some("goes with the `penalty` law only".to_string())
+    } else if spec.algorithm == Algorithm::OnePass && spec.rigid.is_none() {
+        Some("is implemented for the two-half-pass algorithm (or a rigid partner) only".to_string())
+    } else if spec.mu.is_some() {
+        Some(
+            "is implemented without friction only (drop `mu`, or use the pointwise gap)"
+                .to_string(),
+        )
+    } else if case.solver.contact_freeze_after > 0 {
+        Some("has one status per control point; `solver.contact_freeze_after` holds pointwise statuses (drop one of them)".to_string())
+    } else if let Some(&s) = negative {
+        Some(format!(
+            "needs a non-negative basis on the surface: `{}` is a Q1C2 or Q1CH surface, whose \
+             basis functions go negative (Q1C2) or carry slopes (Q1CH), so the weighted gap is \
+             no average of the point gaps (use Q1C1, Q1Np or Q1Np.t there)",
+            surfaces[s].name
+        ))
+    } else {
+        None
+    };
+    match why {
+        Some(why) => Err(err(
+            case,
+            format!("contact.{i}.gap"),
+            format!("`mortar` {why}"),
+        )),
+        None => Ok(kind),
+    }
 }
 
 /// Augmented Lagrangian enforcement of pair `i`: `augmented = { tol, max }`.

@@ -56,7 +56,12 @@ pub struct ContactSpec {
     /// elements across the contact); it makes Q1C1 worse and steps the force in sliding at the
     /// element scale (BENCHMARKS.md, "One pressure per surface element"). Two-half-pass penalty
     /// contact (deformable or rigid partners, with or without friction: the cone uses the
-    /// element's pressure).
+    /// element's pressure). `mortar`: the gap weighted by each surface control point's basis
+    /// function, `g_A = int R_A g_N dA / int R_A dA` over the surface's own points (reference
+    /// area), one pressure `p_A = eps_n <-g_A>` per control point, interpolated by the surface
+    /// basis, `p = sum_A R_A p_A`, at every point (traction `p n` on the reference area). Needs a
+    /// non-negative basis (Q1C1, Q1Np, Q1Np.t surfaces; not Q1C2 or Q1CH), two-half-pass or a
+    /// rigid partner, frictionless.
     #[serde(default, skip_serializing_if = "GapMode::is_pointwise")]
     pub gap: GapMode,
     /// `penalty`: augmented Lagrangian enforcement, `{ tol = ..., max = ... }`. After each converged
@@ -144,6 +149,8 @@ pub enum GapMode {
     Pointwise,
     /// The mean over each surface element's points.
     ElementMean,
+    /// Weighted by each surface control point's basis function.
+    Mortar,
 }
 
 impl GapMode {

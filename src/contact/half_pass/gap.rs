@@ -1,29 +1,66 @@
 //! The gap part of a half-pass: where the penalty law's normal gap is taken (`gap`). Pointwise
 //! (each point its own gap, the paper's) or `element_mean` (one pressure per own surface element,
-//! [`super::element_mean`]); the mortar gap is the next mode.
+//! [`super::element_mean`]) or `mortar` (one pressure per control point of the surface,
+//! [`super::mortar`]).
 #![allow(clippy::needless_range_loop)]
 #![allow(non_snake_case)]
 
 use super::element_mean::{ElementMean, MeanPoint};
+use super::mortar::MortarNet;
 use super::{block_slot, point_area, HalfPass, OwnElem, QPoint, Work};
 use crate::contact::kernel::{gap_and_normal, OwnPoint, PointResult, SlipState};
 use crate::contact::law::{self, Traction};
-use crate::contact::pair::Law;
+use crate::contact::pair::{GapKind, Law};
 
 /// How a half-pass takes the penalty law's normal gap.
-pub(crate) enum Gap {
+pub(crate) enum Gap<'a> {
     /// Each point's own gap.
     Pointwise,
     /// The element's mean pressure, as an equivalent gap (its buffers).
     ElementMean(ElementMean),
+    /// The control points' pressures (the pass's control net, with its evaluation state).
+    Mortar(&'a mut MortarNet),
 }
 
-impl Gap {
-    pub(super) fn new(element_mean: bool) -> Gap {
-        if element_mean {
-            Gap::ElementMean(ElementMean::default())
-        } else {
-            Gap::Pointwise
+impl<'a> Gap<'a> {
+    /// The gap part of `kind`; the mortar gap uses the pass's control net `net`.
+    pub(super) fn new(kind: GapKind, net: Option<&'a mut MortarNet>) -> Gap<'a> {
+        match (kind, net) {
+            (GapKind::ElementMean, _) => Gap::ElementMean(ElementMean::default()),
+            (GapKind::Mortar, Some(net)) => Gap::Mortar(net),
+            _ => Gap::Pointwise,
+        }
+    }
+
+    /// Before the elements of an evaluation (`all`: the pass's own elements, then its halo): the
+    /// mortar gap's control-point pressures.
+    pub(super) fn begin_pass(&mut self, hp: &HalfPass, all: &[&OwnElem], points: &[QPoint]) {
+        if let (Gap::Mortar(net), Law::Penalty { eps_n }) = (self, hp.pair.law) {
+            net.begin(hp, all, points, eps_n);
+        }
+    }
+
+    /// The pressure the control points give point `q` (basis values `N`) of own element `i`,
+    /// under the mortar gap.
+    pub(super) fn mortar_pressure(&self, i: usize, N: &[f64]) -> Option<f64> {
+        match self {
+            Gap::Mortar(net) => Some(net.pressure(i, N)),
+            _ => None,
+        }
+    }
+
+    /// In a Jacobian evaluation, after the points of own element `i`: the mortar gap's
+    /// control-point terms.
+    pub(super) fn end_element(
+        &mut self,
+        hp: &HalfPass,
+        i: usize,
+        all: &[&OwnElem],
+        points: &[QPoint],
+        work: &mut Work,
+    ) {
+        if let (Gap::Mortar(net), Law::Penalty { eps_n }, true) = (self, hp.pair.law, hp.jacobian) {
+            net.end_element(hp, i, all, points, eps_n, work);
         }
     }
 

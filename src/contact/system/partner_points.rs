@@ -28,8 +28,9 @@ pub(super) struct PartnerPoint {
 
 impl ContactSystem {
     /// Calls `f` on every point this rank integrates in a pass against a surface partner, of the
-    /// pairs `select` takes: pair by pair, pass by pass, own element by own element, in point
-    /// order, with the point's current position. `f` may change anything but the passes' points
+    /// pairs `select` takes, and on the points of the passes' halos (the mortar gap's): pair by
+    /// pair, pass by pass, own element by own element, then halo element by halo element, in
+    /// point order, with the point's current position. `f` may change anything but the passes' points
     /// and elements lists (it sets the points' projections); its first error ends the walk.
     pub(super) fn for_each_partner_point(
         &mut self,
@@ -45,15 +46,16 @@ impl ContactSystem {
                     continue;
                 };
                 let k = self.pairs[pair].passes[pass].k;
-                for oe in 0..self.pairs[pair].passes[pass].elems.len() {
-                    let o = &self.pairs[pair].passes[pass].elems[oe];
+                let n_own = self.pairs[pair].passes[pass].elems.len();
+                let n_halo = self.pairs[pair].passes[pass].halo.len();
+                for oe in 0..n_own + n_halo {
+                    let ps = &self.pairs[pair].passes[pass];
+                    let o = ps.elems.get(oe).unwrap_or_else(|| &ps.halo[oe - n_own]);
                     let (e, first, n) = (o.e as usize, o.first, o.n);
                     for q in first..first + n {
-                        let x = self.pairs[pair].passes[pass].elems[oe].position(
-                            q,
-                            self.pos[k].of(e),
-                            self.dim,
-                        );
+                        let ps = &self.pairs[pair].passes[pass];
+                        let o = ps.elems.get(oe).unwrap_or_else(|| &ps.halo[oe - n_own]);
+                        let x = o.position(q, self.pos[k].of(e), self.dim);
                         let pt = PartnerPoint {
                             pair,
                             pass,

@@ -2,22 +2,29 @@
 //! projections need, and a band around them reserved for points that slide or approach.
 
 use super::ContactSystem;
+use crate::contact::half_pass::mortar::{own_columns, OWN_COLUMNS};
 use crate::contact::pair::{Anchor, Coupling, Partner};
 
 impl ContactSystem {
-    /// The coupling blocks the current projections need (sorted, unique). Cohesive pairings
-    /// always couple; penalty-type points couple when their traction is active.
+    /// The coupling blocks the current projections need (sorted, unique): an element's rows with
+    /// the partner elements of its points (under the mortar gap: of the points of every element
+    /// sharing a control point with it, and those elements' own columns), cohesive pairings and
+    /// friction anchors.
     pub fn couplings(&self) -> Vec<Coupling> {
         let mut out = Vec::new();
         let mut pass_id = 0u32;
         for pair in &self.pairs {
             for pass in &pair.passes {
-                for oe in &pass.elems {
+                for (i, oe) in pass.elems.iter().enumerate() {
+                    let sources = pass.coupled_elems(i);
+                    if pass.mortar.is_some() {
+                        out.extend(sources.iter().map(|s| (pass_id, oe.e, OWN_COLUMNS | s.e)));
+                    }
                     if pass.shape.is_some() {
                         out.push((pass_id, oe.e, u32::MAX));
                         continue;
                     }
-                    for q in oe.first..oe.first + oe.n {
+                    for q in sources.iter().flat_map(|s| s.first..s.first + s.n) {
                         let qp = &pass.points[q];
                         if let Some(p) = qp.current {
                             out.push((pass_id, oe.e, p.elem));
@@ -55,12 +62,16 @@ impl ContactSystem {
                     Partner::Surface(l) => Some(l),
                     Partner::Rigid(..) => None,
                 };
-                for oe in &pass.elems {
+                for (i, oe) in pass.elems.iter().enumerate() {
+                    let sources = pass.coupled_elems(i);
+                    if pass.mortar.is_some() {
+                        out.extend(sources.iter().map(|s| (pass_id, oe.e, OWN_COLUMNS | s.e)));
+                    }
                     let Some(l) = l else {
                         out.push((pass_id, oe.e, u32::MAX));
                         continue;
                     };
-                    for q in oe.first..oe.first + oe.n {
+                    for q in sources.iter().flat_map(|s| s.first..s.first + s.n) {
                         let qp = &pass.points[q];
                         let anchor = match qp.anchor {
                             Some(Anchor::Surface(la, _)) if pair.def.friction.is_some() => Some(la),
@@ -120,22 +131,26 @@ impl ContactSystem {
                     (p.k, p.partner.clone())
                 };
                 if let Partner::Surface(l) = partner {
-                    let waiting: Vec<(u32, [f64; 2])> = {
+                    // (own element, element holding the point, its coordinates)
+                    let waiting: Vec<(u32, u32, [f64; 2])> = {
                         let pass = &self.pairs[pi].passes[qi];
-                        pass.elems
-                            .iter()
-                            .flat_map(|oe| {
-                                (oe.first..oe.first + oe.n)
-                                    .filter(|&q| pass.points[q].current.is_none())
-                                    .map(move |q| (oe.e, pass.points[q].xi))
-                            })
-                            .collect()
+                        let mut w = Vec::new();
+                        for (i, oe) in pass.elems.iter().enumerate() {
+                            for s in pass.coupled_elems(i) {
+                                w.extend(
+                                    (s.first..s.first + s.n)
+                                        .filter(|&q| pass.points[q].current.is_none())
+                                        .map(|q| (oe.e, s.e, pass.points[q].xi)),
+                                );
+                            }
+                        }
+                        w
                     };
                     if !waiting.is_empty() {
                         self.ensure_grid(l, dist);
                     }
-                    for (e, xi) in waiting {
-                        let x = self.point_position(k, e as usize, &xi);
+                    for (e, es, xi) in waiting {
+                        let x = self.point_position(k, es as usize, &xi);
                         let grid = self.grids[l].as_ref().expect("built above");
                         grid.candidates(&x[..self.dim], &mut self.cand);
                         out.extend(self.cand.iter().map(|&f| (pass_id, e, f)));
@@ -147,11 +162,16 @@ impl ContactSystem {
         out
     }
 
-    /// Rows (own element, constrained rows dropped by the caller) and columns of a coupling block.
+    /// Rows (own element, constrained rows dropped by the caller) and columns of a coupling block:
+    /// those of the own element and its partner element, or (mortar gap) of another element of
+    /// the own surface.
     pub fn block_dofs(&self, c: &Coupling) -> (Vec<i32>, Vec<i32>) {
         let (pass, k_e, l_e) = *c;
         let (k, partner, one_pass) = self.pass_surfaces(pass as usize);
         let own = &self.gdofs[k][k_e as usize][..];
+        if let Some(e2) = own_columns(l_e) {
+            return (own.to_vec(), self.gdofs[k][e2 as usize].clone());
+        }
         let mut cols = own.to_vec();
         if let Some(l) = partner {
             cols.extend_from_slice(&self.gdofs[l][l_e as usize]);

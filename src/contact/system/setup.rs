@@ -4,8 +4,9 @@
 
 use super::{ContactSystem, Pair};
 use crate::assembly::DofMap;
+use crate::contact::half_pass::mortar::MortarNet;
 use crate::contact::half_pass::{OwnElem, Pass, PassResult, QPoint};
-use crate::contact::pair::{Law, PairDef, Partner};
+use crate::contact::pair::{GapKind, Law, PairDef, Partner};
 use crate::contact::projection::Positions;
 use crate::contact::surface::{raw_normal, ContactSurface, MAX_FACE_NODES};
 use crate::fem::quadrature::tensor_rule;
@@ -83,69 +84,29 @@ impl ContactSystem {
         for def in defs {
             let mut passes = Vec::new();
             for (k, partner) in &def.passes {
-                let s = &sys.surfaces[*k];
+                let k = *k;
                 let mut points = Vec::new();
                 let mut elems = Vec::new();
-                for (e, el) in s.elements.iter().enumerate() {
-                    if cell_part[el.cell] as usize != rank {
-                        continue;
+                let n_el = sys.surfaces[k].elements.len();
+                for e in 0..n_el {
+                    if cell_part[sys.surfaces[k].elements[e].cell] as usize == rank {
+                        elems.extend(sys.surface_points(&def, k, e, dofs, &mut points)?);
                     }
-                    let rule =
-                        tensor_rule(&el.basis.quadrature_counts()).map_err(|e| e.to_string())?;
-                    let first = points.len();
-                    let m = dim - 1;
-                    let nk = el.basis.n_nodes();
-                    let Xe = sys.pos[*k].of(e).to_vec();
-                    let (mut bN, mut bdN) = (Vec::new(), Vec::new());
-                    let (mut N, mut dN, mut ddN) = (
-                        [0.0; MAX_FACE_NODES],
-                        [0.0; 2 * MAX_FACE_NODES],
-                        [0.0; 4 * MAX_FACE_NODES],
-                    );
-                    for (q, xi) in rule.points.chunks_exact(m).enumerate() {
-                        let mut x2 = [0.0; 2];
-                        x2[..m].copy_from_slice(xi);
-                        let (xr, a, _) = crate::contact::surface::frame(el, dim, &Xe, &x2);
-                        if def.region.as_ref().is_some_and(|b| !b.contains(&xr[..dim])) {
-                            continue;
-                        }
-                        el.basis.eval(&x2[..m], &mut N, &mut dN, &mut ddN);
-                        bN.extend_from_slice(&N[..nk]);
-                        bdN.extend_from_slice(&dN[..nk * m]);
-                        let nu = raw_normal(dim, &a);
-                        let J0 = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt();
-                        points.push(QPoint {
-                            xi: x2,
-                            w: rule.weights[q],
-                            J0,
-                            X: xr,
-                            ..Default::default()
-                        });
-                    }
-                    let local = sys.gdofs[*k][e]
-                        .iter()
-                        .map(|&g| {
-                            dofs.local(crate::assembly::GlobalDof(g))
-                                .map_or(u32::MAX, |l| l.0)
-                        })
-                        .collect();
-                    if points.len() == first {
-                        continue; // outside the pair's region
-                    }
-                    elems.push(OwnElem {
-                        e: e as u32,
-                        first,
-                        n: points.len() - first,
-                        local,
-                        N: bN,
-                        dN: bdN,
-                    });
                 }
+                let (halo, mortar) = if def.gap == GapKind::Mortar {
+                    let halo = sys.halo(&def, k, &elems, dofs, &mut points)?;
+                    let net = MortarNet::new(&sys.slots[k], &elems, &halo, &points);
+                    (halo, Some(net))
+                } else {
+                    (Vec::new(), None)
+                };
                 passes.push(Pass {
-                    k: *k,
+                    k,
                     partner: partner.clone(),
                     points,
                     elems,
+                    halo,
+                    mortar,
                     shape: None,
                     result: PassResult::default(),
                 });
@@ -154,6 +115,95 @@ impl ContactSystem {
         }
         sys.pair_cohesive()?;
         Ok(sys)
+    }
+
+    /// The quadrature points of element `e` of surface `k` inside the pair's region, appended to
+    /// `points`, and the element that holds them (`None`: none inside the region).
+    fn surface_points(
+        &self,
+        def: &PairDef,
+        k: usize,
+        e: usize,
+        dofs: &DofMap,
+        points: &mut Vec<QPoint>,
+    ) -> Result<Option<OwnElem>, String> {
+        let dim = self.dim;
+        let el = &self.surfaces[k].elements[e];
+        let rule = tensor_rule(&el.basis.quadrature_counts()).map_err(|e| e.to_string())?;
+        let first = points.len();
+        let m = dim - 1;
+        let nk = el.basis.n_nodes();
+        let Xe = self.pos[k].of(e);
+        let (mut bN, mut bdN) = (Vec::new(), Vec::new());
+        let (mut N, mut dN, mut ddN) = (
+            [0.0; MAX_FACE_NODES],
+            [0.0; 2 * MAX_FACE_NODES],
+            [0.0; 4 * MAX_FACE_NODES],
+        );
+        for (q, xi) in rule.points.chunks_exact(m).enumerate() {
+            let mut x2 = [0.0; 2];
+            x2[..m].copy_from_slice(xi);
+            let (xr, a, _) = crate::contact::surface::frame(el, dim, Xe, &x2);
+            if def.region.as_ref().is_some_and(|b| !b.contains(&xr[..dim])) {
+                continue;
+            }
+            el.basis.eval(&x2[..m], &mut N, &mut dN, &mut ddN);
+            bN.extend_from_slice(&N[..nk]);
+            bdN.extend_from_slice(&dN[..nk * m]);
+            let nu = raw_normal(dim, &a);
+            let J0 = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt();
+            points.push(QPoint {
+                xi: x2,
+                w: rule.weights[q],
+                J0,
+                X: xr,
+                ..Default::default()
+            });
+        }
+        if points.len() == first {
+            return Ok(None); // outside the pair's region
+        }
+        let local = self.gdofs[k][e]
+            .iter()
+            .map(|&g| {
+                dofs.local(crate::assembly::GlobalDof(g))
+                    .map_or(u32::MAX, |l| l.0)
+            })
+            .collect();
+        Ok(Some(OwnElem {
+            e: e as u32,
+            first,
+            n: points.len() - first,
+            local,
+            N: bN,
+            dN: bdN,
+        }))
+    }
+
+    /// The mortar gap's halo of `elems` on surface `k`: the elements of other ranks that share a
+    /// control point with them, with their points appended to `points` (in element order).
+    fn halo(
+        &self,
+        def: &PairDef,
+        k: usize,
+        elems: &[OwnElem],
+        dofs: &DofMap,
+        points: &mut Vec<QPoint>,
+    ) -> Result<Vec<OwnElem>, String> {
+        let slots = &self.slots[k];
+        let own: std::collections::HashSet<u32> = elems.iter().map(|o| o.e).collect();
+        let cps: std::collections::HashSet<u32> = elems
+            .iter()
+            .flat_map(|o| slots[o.e as usize].iter().copied())
+            .collect();
+        let mut halo = Vec::new();
+        for (e, nodes) in slots.iter().enumerate() {
+            if own.contains(&(e as u32)) || !nodes.iter().any(|t| cps.contains(t)) {
+                continue;
+            }
+            halo.extend(self.surface_points(def, k, e, dofs, points)?);
+        }
+        Ok(halo)
     }
 
     /// Material point pairing of cohesive pairs, in the reference configuration (positions are

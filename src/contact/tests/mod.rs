@@ -20,6 +20,7 @@ use std::path::Path;
 
 mod element_mean;
 mod friction;
+mod mortar;
 mod projection;
 mod rigid;
 mod tangents;
@@ -87,7 +88,15 @@ impl Harness {
         let mut f = vec![0.0; n];
         let out = if jac {
             let mut sink = DenseSink::new(n);
-            let slot = |_: &crate::contact::Coupling| Some(0usize);
+            // every block the evaluation writes must be one the pattern gets from `couplings`
+            let needed = self.sys.couplings();
+            let slot = |c: &crate::contact::Coupling| {
+                assert!(
+                    needed.binary_search(c).is_ok(),
+                    "block {c:?} is not in the couplings"
+                );
+                Some(0usize)
+            };
             self.sys.assemble(&mut f, Some((&mut sink, &slot)));
             Some(sink.a)
         } else {

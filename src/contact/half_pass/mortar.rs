@@ -1,0 +1,322 @@
+//! The mortar gap (`gap = "mortar"`): the normal gap weighted by each control point's basis
+//! function.
+//!
+//! On the integrated surface, every control point (surface node) `A` gets the weighted gap
+//! `g_A = sum_q R_A(xi_q) c_q g_N,q / W_A`, `W_A = sum_q R_A(xi_q) c_q`, over the quadrature
+//! points `q` of the elements in `A`'s support (`c_q = w_q J0_q`, reference area; `R_A` the
+//! surface basis, non-negative, so `g_A` is a convex average of the point gaps). A point with no
+//! partner within the search distance counts as open by that distance. The pressure lives on the
+//! control points, `p_A = -eps_n g_A` where `g_A <= touch` (else 0), and every point carries the
+//! traction `t_q = p_q n_q` on its reference area, `p_q = sum_A R_A(xi_q) p_A`: one pressure
+//! field interpolated by the same basis as the surface, instead of one pressure per quadrature
+//! point (the pointwise law's odd-even control-point mode has no room left).
+//!
+//! It is the gradient of the energy `sum_A W_A eps_n <-g_A>^2 / 2`. With `G_A` the own rows of
+//! `d (W_A g_A) / du` (`G_A,a = sum_q R_A N_a c_q n_q`) the residual is `r = -sum_A p_A G_A`
+//! and the tangent
+//! `K = -sum_A p_A dG_A/du + sum_{A active} eps_n / W_A G_A (x) D_A`, with
+//! `D_A = d (W_A g_A) / du = sum_q R_A(xi_q) c_q n_q . (N_b(xi_q) du_b - N^l_b(xi_p,q) dy_b)`
+//! (closest-point and edge projections alike: `d g_N = n . dg`). The first part is the point
+//! kernel with the pressure held fixed (`dt/dn = p I`, `dt/dg = 0`); the second couples an
+//! element's rows with the unknowns of every element that shares a control point with it and
+//! with their points' partners: blocks keyed [`OWN_COLUMNS`]` | e'` (columns of own-surface
+//! element `e'`) and the usual partner blocks.
+//!
+//! `g_A` needs every point of `A`'s support, also those of elements another rank integrates:
+//! each rank keeps a halo of the elements that share a control point with its own ones and
+//! projects their points too (they are not integrated).
+#![allow(clippy::needless_range_loop)]
+#![allow(non_snake_case)]
+
+use super::{block_slot, HalfPass, OwnElem, QPoint, Work};
+use crate::contact::kernel::gap_and_normal;
+use crate::contact::law::Traction;
+use crate::contact::surface::MAX_FACE_NODES;
+use std::collections::HashMap;
+
+/// The bit of a coupling block's third key that says its columns are those of an element of the
+/// integrated surface itself (the key's other bits), not of a partner element. Partner element
+/// indices stay below it; `u32::MAX` (a rigid partner) is not such a key.
+pub(crate) const OWN_COLUMNS: u32 = 1 << 31;
+
+/// The own-surface element whose columns a block key `key` names, if it is such a key.
+pub(crate) fn own_columns(key: u32) -> Option<u32> {
+    (key != u32::MAX && key & OWN_COLUMNS != 0).then_some(key & !OWN_COLUMNS)
+}
+
+/// A point's partner at the current evaluation.
+#[derive(Debug, Clone, Copy)]
+struct MPoint {
+    /// Partner element (`u32::MAX`: rigid).
+    le: u32,
+    /// Normal [3].
+    n: [f64; 3],
+    /// Partner basis at the projection [nl], and its size (0: rigid).
+    nl_vals: [f64; MAX_FACE_NODES],
+    nl: usize,
+    /// Normal gap.
+    g_n: f64,
+}
+
+/// The control points of one half-pass's surface near this rank's elements, and the state of an
+/// evaluation.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct MortarNet {
+    /// Per element of the pass (its own elements, then its halo): the control point of each node.
+    elem_cps: Vec<Vec<u32>>,
+    /// Per control point: the elements (indices as in `elem_cps`) whose basis it belongs to.
+    support: Vec<Vec<u32>>,
+    /// Per control point: `W_A` (reference).
+    w: Vec<f64>,
+    /// Per own element: the elements sharing a control point with it, itself included (indices
+    /// as in `elem_cps`), sorted.
+    pub(crate) near: Vec<Vec<u32>>,
+    /// Per point of the pass: its partner at the current evaluation.
+    pts: Vec<Option<MPoint>>,
+    /// Per control point: weighted gap and pressure at the current evaluation.
+    g: Vec<f64>,
+    p: Vec<f64>,
+    /// Per control point: its Jacobian columns `D_A` (block key, values), built when first needed
+    /// in a Jacobian evaluation.
+    d: Vec<Option<Vec<(u32, Vec<f64>)>>>,
+}
+
+impl MortarNet {
+    /// The control points of `elems` and `halo` (elements of the surface whose nodes sit at table
+    /// slots `slots` [element][node]) and their weights from `points`.
+    pub(crate) fn new(
+        slots: &[Vec<u32>],
+        elems: &[OwnElem],
+        halo: &[OwnElem],
+        points: &[QPoint],
+    ) -> MortarNet {
+        let mut index: HashMap<u32, u32> = HashMap::new();
+        let mut net = MortarNet::default();
+        for oe in elems.iter().chain(halo) {
+            let cps = slots[oe.e as usize]
+                .iter()
+                .map(|&t| {
+                    let n = index.len() as u32;
+                    *index.entry(t).or_insert(n)
+                })
+                .collect();
+            net.elem_cps.push(cps);
+        }
+        net.support = vec![Vec::new(); index.len()];
+        net.w = vec![0.0; index.len()];
+        for (i, (oe, cps)) in elems.iter().chain(halo).zip(&net.elem_cps).enumerate() {
+            for (b, &a) in cps.iter().enumerate() {
+                net.support[a as usize].push(i as u32);
+                for q in oe.first..oe.first + oe.n {
+                    net.w[a as usize] += oe.basis(q).0[b] * points[q].w * points[q].J0;
+                }
+            }
+        }
+        net.near = (0..elems.len())
+            .map(|i| {
+                let mut v: Vec<u32> = net.elem_cps[i]
+                    .iter()
+                    .flat_map(|&a| net.support[a as usize].iter().copied())
+                    .collect();
+                v.sort_unstable();
+                v.dedup();
+                v
+            })
+            .collect();
+        net
+    }
+
+    /// Before the elements of an evaluation: every point's partner and gap (own and halo
+    /// elements, `all` in the order of `elem_cps`), then each control point's weighted gap and
+    /// pressure.
+    pub(super) fn begin(&mut self, hp: &HalfPass, all: &[&OwnElem], points: &[QPoint], eps_n: f64) {
+        let dim = hp.geo.dim;
+        self.pts.clear();
+        self.pts.resize(points.len(), None);
+        for oe in all {
+            let x = hp.geo.pos[hp.k].of(oe.e as usize);
+            for q in oe.first..oe.first + oe.n {
+                let xk = oe.position(q, x, dim);
+                let Some((le, pp)) = hp.partner(points[q].current, &xk) else {
+                    continue;
+                };
+                if let Some(pg) = gap_and_normal(dim, &xk, &pp) {
+                    let g_n = pg.g[0] * pg.n[0] + pg.g[1] * pg.n[1] + pg.g[2] * pg.n[2];
+                    self.pts[q] = Some(MPoint {
+                        le,
+                        n: pg.n,
+                        nl_vals: pg.basis,
+                        nl: pg.n_nodes,
+                        g_n,
+                    });
+                }
+            }
+        }
+        let n_cp = self.w.len();
+        self.g.clear();
+        self.g.resize(n_cp, 0.0);
+        for (oe, cps) in all.iter().zip(&self.elem_cps) {
+            for q in oe.first..oe.first + oe.n {
+                let g = self.pts[q].map_or(hp.pair.search_distance, |p| p.g_n);
+                let c = points[q].w * points[q].J0;
+                for (&a, &Nb) in cps.iter().zip(oe.basis(q).0) {
+                    self.g[a as usize] += Nb * c * g;
+                }
+            }
+        }
+        self.p.clear();
+        self.p.resize(n_cp, 0.0);
+        for a in 0..n_cp {
+            if self.w[a] > 0.0 {
+                self.g[a] /= self.w[a];
+                if self.g[a] <= hp.touch {
+                    self.p[a] = -eps_n * self.g[a];
+                }
+            } else {
+                self.g[a] = f64::INFINITY;
+            }
+        }
+        self.d.clear();
+        self.d.resize(n_cp, None);
+    }
+
+    /// The pressure at point `q` (basis values `N`) of own element `i`.
+    pub(super) fn pressure(&self, i: usize, N: &[f64]) -> f64 {
+        self.elem_cps[i]
+            .iter()
+            .zip(N)
+            .map(|(&a, &Nb)| Nb * self.p[a as usize])
+            .sum()
+    }
+
+    /// In a Jacobian evaluation, after the points of own element `i` (`oe`): the variation of
+    /// its control points' pressures, `eps_n / W_A G_A (x) D_A` for each active `A`, into the
+    /// element's blocks.
+    pub(super) fn end_element(
+        &mut self,
+        hp: &HalfPass,
+        i: usize,
+        all: &[&OwnElem],
+        points: &[QPoint],
+        eps_n: f64,
+        work: &mut Work,
+    ) {
+        let dim = hp.geo.dim;
+        let oe = all[i];
+        let nk = self.elem_cps[i].len();
+        let rows = nk * dim;
+        let mut G = [0.0; 3 * MAX_FACE_NODES];
+        for b in 0..nk {
+            let a = self.elem_cps[i][b] as usize;
+            if !(self.g[a] <= hp.touch) {
+                continue;
+            }
+            G[..rows].fill(0.0);
+            let mut any = false;
+            for q in oe.first..oe.first + oe.n {
+                let Some(mp) = &self.pts[q] else { continue };
+                let N = oe.basis(q).0;
+                let c = N[b] * points[q].w * points[q].J0;
+                for a2 in 0..nk {
+                    for k in 0..dim {
+                        G[a2 * dim + k] += c * N[a2] * mp.n[k];
+                    }
+                }
+                any = true;
+            }
+            if !any {
+                continue;
+            }
+            if self.d[a].is_none() {
+                self.d[a] = Some(self.columns(a, all, points, dim));
+            }
+            let f = eps_n / self.w[a];
+            for (key, vals) in self.d[a].as_ref().expect("built above") {
+                let (ncols, off) = if own_columns(*key).is_some() {
+                    (vals.len(), 0)
+                } else {
+                    (rows + vals.len(), rows)
+                };
+                let ib = block_slot(&mut work.blocks, &mut work.n_used, *key, rows * ncols);
+                let kb = &mut work.blocks[ib].1;
+                for r in 0..rows {
+                    let gr = f * G[r];
+                    if gr == 0.0 {
+                        continue;
+                    }
+                    let row = &mut kb[r * ncols + off..r * ncols + off + vals.len()];
+                    for (v, &d) in row.iter_mut().zip(vals) {
+                        *v += gr * d;
+                    }
+                }
+            }
+        }
+    }
+
+    /// `D_A` of control point `a`: per own-surface element of its support (key
+    /// [`OWN_COLUMNS`]` | e`) and per partner element of its points, the column values.
+    fn columns(
+        &self,
+        a: usize,
+        all: &[&OwnElem],
+        points: &[QPoint],
+        dim: usize,
+    ) -> Vec<(u32, Vec<f64>)> {
+        let mut out: Vec<(u32, Vec<f64>)> = Vec::new();
+        for &j in &self.support[a] {
+            let oe = all[j as usize];
+            let cps = &self.elem_cps[j as usize];
+            let bj = cps
+                .iter()
+                .position(|&c| c as usize == a)
+                .expect("in support");
+            let own_key = OWN_COLUMNS | oe.e;
+            let io = piece(&mut out, own_key, cps.len() * dim);
+            for q in oe.first..oe.first + oe.n {
+                let Some(mp) = &self.pts[q] else { continue };
+                let N = oe.basis(q).0;
+                let c = N[bj] * points[q].w * points[q].J0;
+                let own = &mut out[io].1;
+                for b in 0..cps.len() {
+                    for k in 0..dim {
+                        own[b * dim + k] += c * mp.n[k] * N[b];
+                    }
+                }
+                if mp.nl > 0 {
+                    let ip = piece(&mut out, mp.le, mp.nl * dim);
+                    let part = &mut out[ip].1;
+                    for b in 0..mp.nl {
+                        for k in 0..dim {
+                            part[b * dim + k] -= c * mp.n[k] * mp.nl_vals[b];
+                        }
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+/// The index of the piece keyed `key` in `out`, added with `len` zeros if new.
+fn piece(out: &mut Vec<(u32, Vec<f64>)>, key: u32, len: usize) -> usize {
+    if let Some(i) = out.iter().position(|(k, _)| *k == key) {
+        return i;
+    }
+    out.push((key, vec![0.0; len]));
+    out.len() - 1
+}
+
+/// The traction of a point under the pressure `p` of the control points, held fixed:
+/// `t = p n`, `dt/dn = p I` (its variation through the pressure is
+/// [`MortarNet::end_element`]'s).
+pub(super) fn pressure_traction(p: f64, n: &[f64; 3]) -> Traction {
+    if p == 0.0 {
+        return Traction::ZERO;
+    }
+    let mut out = Traction::ZERO;
+    for i in 0..3 {
+        out.t[i] = p * n[i];
+        out.dt_dn[4 * i] = p;
+    }
+    out
+}

@@ -1,0 +1,136 @@
+//! The mortar gap: its tangent against central differences (deformable partners smooth and
+//! faceted, rigid partners, 2D and 3D), the halo that makes each rank's control-point gaps whole,
+//! and the pressure it interpolates.
+
+use super::*;
+
+const MORTAR: &str = "law = \"penalty\"\neps_n = 100.0\ngap = \"mortar\"";
+
+#[test]
+fn mortar_gap_tangent_matches_central_differences() {
+    // every point's traction depends on the gaps of every point in the supports of its element's
+    // control points, and so on their partners and on the neighbouring elements' unknowns
+    for (block, disk) in [
+        ("Q1C1", "Q1C1"),
+        ("Q1N2", "Q1N2"),
+        ("Q1C1", "Q1N2"),
+        ("Q1N2.1", "Q1N3"),
+    ] {
+        let mut h = Harness::new(&case_2d(block, disk, MORTAR));
+        let u = pressed(&h, 0.08, 0.13, 2e-3, 11);
+        let (err, kmax) = tangent_error(&mut h, &u);
+        assert!(kmax > 1.0, "{block}/{disk}: no contact stiffness ({kmax})");
+        assert!(err < 1e-6, "{block}/{disk}: tangent error {err:e}");
+    }
+    for (lower, upper) in [("Q1N2", "Q1N2"), ("Q1C1", "Q1N2")] {
+        let mut h = Harness::new(&case_3d_blocks(lower, upper, MORTAR));
+        let u = pressed_3d(&h, 0.04, [0.11, -0.07], 2e-3, 17);
+        let (err, kmax) = tangent_error(&mut h, &u);
+        assert!(kmax > 1.0, "{lower}/{upper}: no contact stiffness ({kmax})");
+        assert!(err < 1e-6, "{lower}/{upper}: tangent error {err:e}");
+    }
+    let mut h = Harness::new(&case_3d_hemisphere("Q1N2", "Q1N2", MORTAR));
+    let u = pressed_3d(&h, 0.06, [0.05, 0.08], 2e-3, 23);
+    let (err, kmax) = tangent_error(&mut h, &u);
+    assert!(kmax > 1.0 && err < 1e-6, "hemisphere: {err:e} ({kmax})");
+    for (dim, fam, r) in [
+        (
+            2,
+            "Q1N2",
+            "{ shape = \"circle\", center = [0.3, -2.0], radius = 2.0 }",
+        ),
+        (
+            2,
+            "Q1C1",
+            "{ shape = \"plane\", point = [0.0, 0.0], normal = [0.2, 1.0] }",
+        ),
+        (
+            3,
+            "Q1N2",
+            "{ shape = \"sphere\", center = [0.2, 0.1, -3.0], radius = 3.0 }",
+        ),
+    ] {
+        let mut h = Harness::new(&case_rigid_law(dim, fam, r, MORTAR));
+        let shift = if dim == 2 {
+            vec![0.05, -0.06]
+        } else {
+            vec![0.02, 0.01, -0.05]
+        };
+        let u = h.shifted_noisy(&shift, 3);
+        let (err, kmax) = tangent_error(&mut h, &u);
+        assert!(kmax > 1.0, "{fam} {r}: no contact stiffness ({kmax})");
+        assert!(err < 1e-6, "{fam} {r}: tangent error {err:e}");
+    }
+}
+
+/// The residual and dense tangent of `h`'s pairs evaluated by two systems that each integrate
+/// the surface elements of alternate cells (the worst split for the halo: every neighbour of an
+/// element belongs to the other part), summed.
+fn split_eval(h: &Harness, u: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let n = h.n();
+    let (mut f, mut k) = (vec![0.0; n], vec![0.0; n * n]);
+    let part: Vec<u32> = (0..h.model.n_cells()).map(|c| (c % 2) as u32).collect();
+    for rank in 0..2 {
+        let mut sys = ContactSystem::new(
+            h.model.dim,
+            h.model.contact_surfaces.clone(),
+            h.model.contact_pairs.clone(),
+            &h.model.coords,
+            &h.dofs,
+            &part,
+            rank,
+        )
+        .unwrap();
+        let ut: Vec<f64> = h.table.iter().map(|&g| u[g as usize]).collect();
+        sys.update(&ut).expect("projection");
+        let mut sink = DenseSink::new(n);
+        let slot = |_: &crate::contact::Coupling| Some(0usize);
+        sys.assemble(&mut f, Some((&mut sink, &slot)));
+        for (a, b) in k.iter_mut().zip(&sink.a) {
+            *a += b;
+        }
+    }
+    (f, k)
+}
+
+#[test]
+fn mortar_gap_split_over_two_ranks_sums_to_the_whole() {
+    // each part projects the points of its halo (the other part's elements that share a control
+    // point with its own) so that every control point's gap is whole: the parts' residuals and
+    // tangents add up to the one-part ones to round-off
+    let cases = [
+        case_2d("Q1N2", "Q1N2", MORTAR),
+        case_2d("Q1C1", "Q1N3", MORTAR),
+        case_3d_hemisphere("Q1N2", "Q1N2", MORTAR),
+    ];
+    for (i, case) in cases.iter().enumerate() {
+        let mut h = Harness::new(case);
+        let u = if h.model.dim == 2 {
+            pressed(&h, 0.08, 0.13, 2e-3, 11)
+        } else {
+            pressed_3d(&h, 0.06, [0.05, 0.08], 2e-3, 23)
+        };
+        let (f1, k1) = h.eval(&u, true);
+        let k1 = k1.unwrap();
+        let (f2, k2) = split_eval(&h, &u);
+        let fmax = f1.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let kmax = k1.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(fmax > 1e-3, "case {i}: no contact force");
+        let df = f1
+            .iter()
+            .zip(&f2)
+            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        let dk = k1
+            .iter()
+            .zip(&k2)
+            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        assert!(
+            df < 1e-12 * fmax,
+            "case {i}: residual differs by {df:e} ({fmax})"
+        );
+        assert!(
+            dk < 1e-12 * kmax,
+            "case {i}: tangent differs by {dk:e} ({kmax})"
+        );
+    }
+}
