@@ -115,7 +115,9 @@ def hertz(meshes=(64, 128, 256, 512), extra=()):
     ripples at the contact edges."""
     print("| family | n_arc | elements across 2a | unknowns | load P | p0 (Hertz) | peak p current | error | peak p nominal | error | a (Hertz) | a (2nd moment) | error | Newton its | wall s |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for fam in ("Q1C1", "Q1N2", "Q1N2.1"):
+    fams = os.environ.get("HERTZ_FAMILIES", "Q1C1,Q1N2,Q1N2.1").split(",")
+    meshes = [int(n) for n in os.environ.get("HERTZ_MESHES", ",".join(map(str, meshes))).split(",")]
+    for fam in fams:
         for n in meshes:
             m = hertz_metrics(fam, n, extra)
             P, p0, a, peak, peak_n, a_ours, s = (m[k] for k in ("P", "p0", "a", "peak", "peak_n", "a_ours", "summary"))
@@ -126,7 +128,9 @@ def hertz(meshes=(64, 128, 256, 512), extra=()):
 
 if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else "all"
-    if what == "hertz" and len(sys.argv) > 2:  # further --set values, e.g. contact.0.gap=element_mean
+    # further --set values, e.g. contact.0.gap=element_mean; families and meshes from the
+    # environment: HERTZ_FAMILIES=Q1C1,Q1N3 HERTZ_MESHES=64,128
+    if what == "hertz" and len(sys.argv) > 2:
         hertz(extra=sys.argv[2:])
         sys.exit(0)
     for name, f in (("share", share), ("pattern", pattern), ("hertz", hertz)):

@@ -335,43 +335,6 @@ fn hertz_peaks(family: &str, n_arc: usize) -> (f64, f64, f64) {
     hertz_peaks_with(family, n_arc, 1, &[])
 }
 
-/// [`hertz_peaks`] on `np` ranks with further `--set` overrides.
-fn hertz_peaks_with(family: &str, n_arc: usize, np: usize, extra: &[&str]) -> (f64, f64, f64) {
-    let mut sets = vec![
-        format!("bodies.disk.element={family}"),
-        format!("meshes.disk.n_arc={n_arc}"),
-        format!("meshes.disk.n_radial={}", n_arc / 4),
-    ];
-    sets.extend(extra.iter().map(|s| s.to_string()));
-    let sets: Vec<&str> = sets.iter().map(String::as_str).collect();
-    let tag = extra.join("-").replace(['=', '.'], "_");
-    let d = run_case(
-        &format!("hertz-{family}-{n_arc}-np{np}-{tag}"),
-        "hertz_2d.toml",
-        np,
-        &sets,
-    );
-    let grid = if family == "Q1C1" { "bulk" } else { "surface" };
-    let max = |v: Vec<f64>| v.iter().fold(f64::MIN, |m, &x| m.max(x));
-    let peak = max(h5_last(&d, grid, "contact_pressure"));
-    let peak_nominal = max(h5_last(&d, grid, "contact_pressure_nominal"));
-    let load = last(&d, "P_flat_disk_arc_y");
-    let r = last(&d, "R_disk_top_y");
-    assert!(
-        (load + r).abs() < 1e-8 * load,
-        "contact force {load} vs reaction {r}"
-    );
-    (peak, peak_nominal, load)
-}
-
-/// Relative error of a peak pressure against Hertz's p0 for load `p` (R = 1, E = 1, nu = 0.3).
-fn hertz_error(peak: f64, p: f64) -> f64 {
-    let e_star = 1.0 / (1.0 - 0.3f64 * 0.3);
-    let a = (4.0 * p / (std::f64::consts::PI * e_star)).sqrt();
-    let p0 = 2.0 * p / (std::f64::consts::PI * a);
-    (peak - p0) / p0
-}
-
 #[test]
 fn hertz_2d_nominal_peak_pressure_converges_to_hertz() {
     // Hertz's theory is geometrically linear: its pressure is the force per reference area. The

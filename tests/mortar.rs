@@ -1,0 +1,133 @@
+//! The mortar gap (`gap = "mortar"`) end to end: the contact patch test on non-matching meshes in
+//! 2D and 3D, Hertz at one refinement, the same answer on 1 and 2 ranks (halo elements across the
+//! METIS split), and its scope refused by key.
+
+mod common;
+use common::*;
+
+#[test]
+fn mortar_gap_passes_the_contact_patch_test_in_2d_and_3d() {
+    // non-matching meshes pressed together: homogeneous compression, the same pressure at every
+    // point of both surfaces, and each half-pass carrying the load the top reaction measures
+    for (file, dim, upper, lower) in [
+        ("contact_patch_2d.toml", 2, "upper.bottom", "lower.top"),
+        ("contact_patch_3d.toml", 3, "upper.zmin", "lower.zmax"),
+    ] {
+        for fam in ["Q1C1", "Q1N2"] {
+            let d = run_case(
+                &format!("mortar/patch-{dim}d-{fam}"),
+                file,
+                1,
+                &[
+                    &format!("bodies.lower.element={fam}"),
+                    &format!("bodies.upper.element={fam}"),
+                    "contact.0.gap=mortar",
+                    "output.plots=false",
+                ],
+            );
+            let p = h5_last(&d, "bulk", "contact_pressure");
+            let on: Vec<f64> = p.iter().copied().filter(|&v| v != 0.0).collect();
+            let (n_lower, n_upper) = if dim == 2 { (7, 5) } else { (49, 25) };
+            assert!(
+                on.len() >= n_lower + n_upper,
+                "{file} {fam}: {} nodes",
+                on.len()
+            );
+            let mean = on.iter().sum::<f64>() / on.len() as f64;
+            let dev = on.iter().fold(0.0f64, |m, v| m.max((v - mean).abs())) / mean;
+            assert!(mean > 0.0, "{file} {fam}: compressive pressure expected");
+            assert!(dev < 1e-10, "{file} {fam}: pressure varies by {dev:e}");
+            let z = if dim == 2 { "y" } else { "z" };
+            let top = if dim == 2 { "top" } else { "zmax" };
+            let r = last(&d, &format!("R_upper_{top}_{z}"));
+            for s in [upper, lower] {
+                let p = last(&d, &format!("P_patch_{}_{z}", s.replace('.', "_")));
+                assert!(
+                    (p.abs() - r.abs()).abs() < 1e-9 * r.abs(),
+                    "{file} {fam} {s}: pass force {p} vs reaction {r}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn mortar_gap_hertz_at_eight_elements_across_the_contact_on_1_and_2_ranks() {
+    // measured (BENCHMARKS.md, "Mortar gap"): nominal peak +0.54 % (Q1C1) and +2.05 % (Q1N2) from
+    // Hertz at n_arc 128; the pointwise gap gives +0.77 % and +1.95 %
+    for (fam, lo, hi) in [("Q1C1", 0.0, 0.01), ("Q1N2", 0.01, 0.03)] {
+        let (_, peak1, p1) = hertz_peaks_with(fam, 128, 1, &["contact.0.gap=mortar"]);
+        let (_, peak2, p2) = hertz_peaks_with(fam, 128, 2, &["contact.0.gap=mortar"]);
+        let e = hertz_error(peak1, p1);
+        assert!(
+            (lo..hi).contains(&e),
+            "{fam}: nominal peak {e:+.4} from Hertz"
+        );
+        assert!(
+            (peak1 - peak2).abs() < 1e-10 * peak1 && (p1 - p2).abs() < 1e-10 * p1,
+            "{fam}: 1 rank {peak1} {p1}, 2 ranks {peak2} {p2}"
+        );
+    }
+}
+
+#[test]
+fn mortar_gap_3d_hemisphere_is_the_same_on_1_and_2_ranks() {
+    // the METIS split cuts the enriched surfaces: each rank projects its halo's points (the
+    // unit test `mortar_gap_split_over_two_ranks_sums_to_the_whole` checks the halo's sums)
+    let sets = ["contact.0.gap=mortar", "output.plots=false"];
+    let d1 = run_case("mortar/hemi-np1", "hemisphere_block_3d.toml", 1, &sets);
+    let d2 = run_case("mortar/hemi-np2", "hemisphere_block_3d.toml", 2, &sets);
+    let e = rel_diff(
+        &h5_last(&d1, "bulk", "displacement"),
+        &h5_last(&d2, "bulk", "displacement"),
+    );
+    assert!(e < 1e-10, "1 vs 2 ranks differ by {e:e}");
+    let s = summary(&d1);
+    assert_eq!(s["status"], "converged");
+}
+
+#[test]
+fn mortar_gap_outside_its_scope_is_refused_with_the_key() {
+    for (file, sets, want) in [
+        ("peeling_2d.toml", vec!["contact.0.gap=mortar"], "penalty"),
+        (
+            "hertz_2d.toml",
+            vec!["contact.0.gap=mortar", "solver.contact_freeze_after=4"],
+            "contact_freeze_after",
+        ),
+        (
+            "ironing_2d.toml",
+            vec!["contact.0.gap=mortar", "contact.0.algorithm=one_pass"],
+            "two-half-pass",
+        ),
+        (
+            "cattaneo_mindlin_2d.toml",
+            vec!["contact.0.gap=mortar"],
+            "friction",
+        ),
+        (
+            "hertz_2d.toml",
+            vec!["contact.0.gap=mortar", "bodies.disk.element=Q1C2"],
+            "non-negative",
+        ),
+        (
+            "hertz_2d.toml",
+            vec!["contact.0.gap=mortar", "bodies.disk.element=Q1CH"],
+            "non-negative",
+        ),
+    ] {
+        let c = case(file);
+        let mut args = vec!["check", c.to_str().unwrap()];
+        for s in &sets {
+            args.extend(["--set", s]);
+        }
+        let out = run(1, &args);
+        let err = stderr(&out);
+        assert!(!out.status.success(), "{sets:?}: accepted");
+        assert!(!err.contains("panicked"), "{sets:?}: panic:\n{err}");
+        assert!(
+            err.contains("contact.0.gap") && err.contains(want) && err.contains(file),
+            "{sets:?}: message does not name the key, the reason and the file:\n{err}"
+        );
+    }
+}
