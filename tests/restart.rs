@@ -504,3 +504,27 @@ fn augmented_multipliers_killed_and_restarted_equal_an_uninterrupted_run() {
     );
     assert!(d <= 1e-12, "difference {d:e}");
 }
+
+/// The mortar gap's multipliers live on the control points (rows keyed by global node in the
+/// checkpoint): a restart that lost them would take other rounds.
+#[test]
+fn mortar_multipliers_killed_and_restarted_equal_an_uninterrupted_run() {
+    let sets = [
+        "contact.0.eps_n=1e2",
+        "contact.0.gap=mortar",
+        "contact.0.augmented={ tol = 1e-7, max = 50 }",
+        "stages.0.steps=30",
+        "output.plots=false",
+    ];
+    let (_, d) = kill_and_restart(
+        "mortar-augmented-np1",
+        None,
+        "hertz_2d.toml",
+        &sets,
+        1,
+        1,
+        "5",
+        true,
+    );
+    assert!(d <= 1e-12, "difference {d:e}");
+}

@@ -344,7 +344,7 @@ impl HalfPass<'_> {
                 J0: qp.J0,
             };
             let mut po = PointOut::default();
-            let p_mortar = gap.mortar_pressure(i, bN);
+            let p_mortar = gap.mortar_pressure(i, q - oe.first);
             for c in self.contributions(&own, &qp).into_iter().flatten() {
                 let forced = forced(q);
                 let gm = (&*gap, g_mean, p_mortar);
@@ -375,7 +375,7 @@ impl HalfPass<'_> {
             }
         }
         let area = match self.pair.gap {
-            GapKind::Mortar => Area::Reference,
+            GapKind::Mortar | GapKind::MortarLinear => Area::Reference,
             _ => area_of(&self.pair.law),
         };
         let first = self

@@ -104,6 +104,9 @@ pub enum GapKind {
     /// dA`: one pressure per control point, interpolated by the surface basis (two-half-pass or
     /// rigid partner; non-negative bases only).
     Mortar,
+    /// As `Mortar`, weighted by the linear parent's corner functions instead of the surface
+    /// basis: one pressure per element corner (any surface family).
+    MortarLinear,
 }
 
 /// Augmented Lagrangian (Uzawa) enforcement of a penalty pair: after each converged solve every

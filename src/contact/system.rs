@@ -384,6 +384,9 @@ impl ContactSystem {
             q.anchor = q.anchor_trial;
             q.lambda_committed = q.lambda;
         });
+        for net in self.mortar_nets_mut() {
+            net.lambda_committed.clone_from(&net.lambda);
+        }
     }
 
     /// Commits the projection warm starts only: the friction anchors stay those of the last
@@ -403,6 +406,9 @@ impl ContactSystem {
             q.anchor_trial = q.anchor;
             q.lambda = q.lambda_committed;
         });
+        for net in self.mortar_nets_mut() {
+            net.lambda.clone_from(&net.lambda_committed);
+        }
     }
 
     /// Drops what the evaluations since the last commit or rollback left: the cached update and
@@ -419,6 +425,14 @@ impl ContactSystem {
             .flat_map(|p| &mut p.passes)
             .flat_map(|pass| &mut pass.points)
             .for_each(f);
+    }
+
+    /// The control nets of the mortar-gap passes.
+    fn mortar_nets_mut(&mut self) -> impl Iterator<Item = &mut half_pass::mortar::MortarNet> {
+        self.pairs
+            .iter_mut()
+            .flat_map(|p| &mut p.passes)
+            .filter_map(|pass| pass.mortar.as_mut())
     }
 
     /// The contact surfaces.

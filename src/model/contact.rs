@@ -300,6 +300,11 @@ fn gap_kind(
         GapMode::Pointwise => return Ok(GapKind::Pointwise),
         GapMode::ElementMean => return Ok(GapKind::ElementMean),
         GapMode::Mortar => GapKind::Mortar,
+        GapMode::MortarLinear => GapKind::MortarLinear,
+    };
+    let name = match kind {
+        GapKind::Mortar => "mortar",
+        _ => "mortar_linear",
     };
     let negative = idx.iter().find(|&&s| {
         surfaces[s]
@@ -317,12 +322,13 @@ fn gap_kind(
                 .to_string(),
         )
     } else if case.solver.contact_freeze_after > 0 {
-        Some("has one status per control point; `solver.contact_freeze_after` holds pointwise statuses (drop one of them)".to_string())
-    } else if let Some(&s) = negative {
+        Some("has one status per weight node; `solver.contact_freeze_after` holds pointwise statuses (drop one of them)".to_string())
+    } else if let (Some(&s), GapKind::Mortar) = (negative, kind) {
         Some(format!(
             "needs a non-negative basis on the surface: `{}` is a Q1C2 or Q1CH surface, whose \
              basis functions go negative (Q1C2) or carry slopes (Q1CH), so the weighted gap is \
-             no average of the point gaps (use Q1C1, Q1Np or Q1Np.t there)",
+             no average of the point gaps (use Q1C1, Q1Np or Q1Np.t there, or \
+             `mortar_linear`)",
             surfaces[s].name
         ))
     } else {
@@ -332,7 +338,7 @@ fn gap_kind(
         Some(why) => Err(err(
             case,
             format!("contact.{i}.gap"),
-            format!("`mortar` {why}"),
+            format!("`{name}` {why}"),
         )),
         None => Ok(kind),
     }
@@ -349,10 +355,11 @@ fn augmented(case: &Case, i: usize, spec: &ContactSpec) -> Result<Option<Augment
             String::new(),
             "goes with the `penalty` law only".to_string(),
         ))
-    } else if spec.gap != GapMode::Pointwise {
+    } else if spec.gap == GapMode::ElementMean {
         Some((
             String::new(),
-            "is implemented for the pointwise gap only (drop `gap`)".to_string(),
+            "is implemented for the pointwise and the mortar gap only (not `element_mean`)"
+                .to_string(),
         ))
     } else if spec.algorithm == Algorithm::OnePass && spec.rigid.is_none() {
         Some((

@@ -61,7 +61,9 @@ pub struct ContactSpec {
     /// area), one pressure `p_A = eps_n <-g_A>` per control point, interpolated by the surface
     /// basis, `p = sum_A R_A p_A`, at every point (traction `p n` on the reference area). Needs a
     /// non-negative basis (Q1C1, Q1Np, Q1Np.t surfaces; not Q1C2 or Q1CH), two-half-pass or a
-    /// rigid partner, frictionless.
+    /// rigid partner, frictionless. `mortar_linear`: the same with the linear parent's corner
+    /// functions as weights (one pressure per element corner, a coarser pressure than the
+    /// control points of an enriched surface; any surface family).
     #[serde(default, skip_serializing_if = "GapMode::is_pointwise")]
     pub gap: GapMode,
     /// `penalty`: augmented Lagrangian enforcement, `{ tol = ..., max = ... }`. After each converged
@@ -72,7 +74,8 @@ pub struct ContactSpec {
     /// cut back like a failed Newton step. The converged pressure no longer depends on `eps_n`
     /// (which then only sets the convergence speed of the rounds). Multipliers are load-step
     /// history (checkpointed); rounds are counted in `history.csv` (`augmentation_rounds`) and
-    /// `summary.json`. Pointwise gap only; not with `algorithm = "one_pass"` or
+    /// `summary.json`. Pointwise or mortar gap (the mortar gap: one multiplier per control point);
+    /// not `element_mean`, not with `algorithm = "one_pass"` or
     /// `solver.contact_freeze_after`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub augmented: Option<AugmentedSpec>,
@@ -151,6 +154,8 @@ pub enum GapMode {
     ElementMean,
     /// Weighted by each surface control point's basis function.
     Mortar,
+    /// Weighted by the linear parent's corner functions.
+    MortarLinear,
 }
 
 impl GapMode {

@@ -27,7 +27,7 @@ impl<'a> Gap<'a> {
     pub(super) fn new(kind: GapKind, net: Option<&'a mut MortarNet>) -> Gap<'a> {
         match (kind, net) {
             (GapKind::ElementMean, _) => Gap::ElementMean(ElementMean::default()),
-            (GapKind::Mortar, Some(net)) => Gap::Mortar(net),
+            (GapKind::Mortar | GapKind::MortarLinear, Some(net)) => Gap::Mortar(net),
             _ => Gap::Pointwise,
         }
     }
@@ -40,11 +40,11 @@ impl<'a> Gap<'a> {
         }
     }
 
-    /// The pressure the control points give point `q` (basis values `N`) of own element `i`,
-    /// under the mortar gap.
-    pub(super) fn mortar_pressure(&self, i: usize, N: &[f64]) -> Option<f64> {
+    /// The pressure the weight nodes give point `j` (of the element's points) of own element
+    /// `i`, under the mortar gap.
+    pub(super) fn mortar_pressure(&self, i: usize, j: usize) -> Option<f64> {
         match self {
-            Gap::Mortar(net) => Some(net.pressure(i, N)),
+            Gap::Mortar(net) => Some(net.pressure(i, j)),
             _ => None,
         }
     }

@@ -22,6 +22,11 @@
 //! with their points' partners: blocks keyed [`OWN_COLUMNS`]` | e'` (columns of own-surface
 //! element `e'`) and the usual partner blocks.
 //!
+//! Augmented Lagrangian (`augmented = { tol, max }`): each control point carries a multiplier
+//! `lambda_A` (a pressure), `p_A = lambda_A - eps_n g_A` where `g_A <= lambda_A / eps_n + touch`;
+//! after a converged solve `lambda_A <- <p_A>` until every `|g_A|` of a pressed control point (and
+//! every penetration) is within `tol`. With `lambda = 0` it is the plain penalty.
+//!
 //! `g_A` needs every point of `A`'s support, also those of elements another rank integrates:
 //! each rank keeps a halo of the elements that share a control point with its own ones and
 //! projects their points too (they are not integrated).
@@ -44,6 +49,9 @@ pub(crate) fn own_columns(key: u32) -> Option<u32> {
     (key != u32::MAX && key & OWN_COLUMNS != 0).then_some(key & !OWN_COLUMNS)
 }
 
+/// Jacobian columns of a control point: per block key, the column values.
+type Columns = Vec<(u32, Vec<f64>)>;
+
 /// A point's partner at the current evaluation.
 #[derive(Debug, Clone, Copy)]
 struct MPoint {
@@ -62,8 +70,12 @@ struct MPoint {
 /// evaluation.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct MortarNet {
-    /// Per element of the pass (its own elements, then its halo): the control point of each node.
+    /// Per element of the pass (its own elements, then its halo): its weight nodes (indices into
+    /// the per-node vectors below): the surface's control points (`gap = "mortar"`), or the linear
+    /// parent's corners (`gap = "mortar_linear"`).
     elem_cps: Vec<Vec<u32>>,
+    /// Per element as `elem_cps`: the weight functions at its points [n_points][n_weight nodes].
+    phi: Vec<Vec<f64>>,
     /// Per control point: the elements (indices as in `elem_cps`) whose basis it belongs to.
     support: Vec<Vec<u32>>,
     /// Per control point: `W_A` (reference).
@@ -71,6 +83,16 @@ pub(crate) struct MortarNet {
     /// Per own element: the elements sharing a control point with it, itself included (indices
     /// as in `elem_cps`), sorted.
     pub(crate) near: Vec<Vec<u32>>,
+    /// Per weight node: its global node, and whether it belongs to an own element (its pressure
+    /// acts on this rank).
+    pub(crate) node: Vec<u32>,
+    own: Vec<bool>,
+    /// Augmented Lagrangian: per control point, the multiplier the current solves use and the one
+    /// of the last converged step (load-step history). Zero without augmentation.
+    pub(crate) lambda: Vec<f64>,
+    pub(crate) lambda_committed: Vec<f64>,
+    /// Per control point: pressed (in the law's active set) at the current evaluation.
+    active: Vec<bool>,
     /// Per point of the pass: its partner at the current evaluation.
     pts: Vec<Option<MPoint>>,
     /// Per control point: weighted gap and pressure at the current evaluation.
@@ -78,22 +100,27 @@ pub(crate) struct MortarNet {
     p: Vec<f64>,
     /// Per control point: its Jacobian columns `D_A` (block key, values), built when first needed
     /// in a Jacobian evaluation.
-    d: Vec<Option<Vec<(u32, Vec<f64>)>>>,
+    d: Vec<Option<Columns>>,
 }
 
 impl MortarNet {
-    /// The control points of `elems` and `halo` (elements of the surface whose nodes sit at table
-    /// slots `slots` [element][node]) and their weights from `points`.
+    /// The weight nodes of `elems` and `halo`: per element (own, then halo) its weight nodes'
+    /// global ids `nodes` and its weight functions at its points `phi` [n_points][n_nodes]; and
+    /// the nodes' weights `W_A` from `points`.
     pub(crate) fn new(
-        slots: &[Vec<u32>],
+        nodes: &[Vec<u32>],
+        phi: Vec<Vec<f64>>,
         elems: &[OwnElem],
         halo: &[OwnElem],
         points: &[QPoint],
     ) -> MortarNet {
         let mut index: HashMap<u32, u32> = HashMap::new();
-        let mut net = MortarNet::default();
-        for oe in elems.iter().chain(halo) {
-            let cps = slots[oe.e as usize]
+        let mut net = MortarNet {
+            phi,
+            ..Default::default()
+        };
+        for ids in nodes {
+            let cps = ids
                 .iter()
                 .map(|&t| {
                     let n = index.len() as u32;
@@ -102,13 +129,27 @@ impl MortarNet {
                 .collect();
             net.elem_cps.push(cps);
         }
-        net.support = vec![Vec::new(); index.len()];
-        net.w = vec![0.0; index.len()];
+        let n_cp = index.len();
+        net.support = vec![Vec::new(); n_cp];
+        net.w = vec![0.0; n_cp];
+        net.node = vec![0; n_cp];
+        for (&t, &a) in &index {
+            net.node[a as usize] = t;
+        }
+        net.own = vec![false; n_cp];
+        for cps in &net.elem_cps[..elems.len()] {
+            for &a in cps {
+                net.own[a as usize] = true;
+            }
+        }
+        net.lambda = vec![0.0; n_cp];
+        net.lambda_committed = vec![0.0; n_cp];
         for (i, (oe, cps)) in elems.iter().chain(halo).zip(&net.elem_cps).enumerate() {
             for (b, &a) in cps.iter().enumerate() {
                 net.support[a as usize].push(i as u32);
                 for q in oe.first..oe.first + oe.n {
-                    net.w[a as usize] += oe.basis(q).0[b] * points[q].w * points[q].J0;
+                    let phi = net.weights(i, q - oe.first);
+                    net.w[a as usize] += phi[b] * points[q].w * points[q].J0;
                 }
             }
         }
@@ -155,22 +196,28 @@ impl MortarNet {
         let n_cp = self.w.len();
         self.g.clear();
         self.g.resize(n_cp, 0.0);
-        for (oe, cps) in all.iter().zip(&self.elem_cps) {
+        for (i, oe) in all.iter().enumerate() {
+            let (cps, phi) = (&self.elem_cps[i], &self.phi[i]);
             for q in oe.first..oe.first + oe.n {
                 let g = self.pts[q].map_or(hp.pair.search_distance, |p| p.g_n);
                 let c = points[q].w * points[q].J0;
-                for (&a, &Nb) in cps.iter().zip(oe.basis(q).0) {
-                    self.g[a as usize] += Nb * c * g;
+                let j = q - oe.first;
+                for (&a, &f) in cps.iter().zip(&phi[j * cps.len()..(j + 1) * cps.len()]) {
+                    self.g[a as usize] += f * c * g;
                 }
             }
         }
         self.p.clear();
         self.p.resize(n_cp, 0.0);
+        self.active.clear();
+        self.active.resize(n_cp, false);
         for a in 0..n_cp {
             if self.w[a] > 0.0 {
                 self.g[a] /= self.w[a];
-                if self.g[a] <= hp.touch {
-                    self.p[a] = -eps_n * self.g[a];
+                let lambda = self.lambda[a];
+                if self.g[a] <= lambda / eps_n + hp.touch {
+                    self.active[a] = true;
+                    self.p[a] = lambda - eps_n * self.g[a];
                 }
             } else {
                 self.g[a] = f64::INFINITY;
@@ -180,12 +227,18 @@ impl MortarNet {
         self.d.resize(n_cp, None);
     }
 
-    /// The pressure at point `q` (basis values `N`) of own element `i`.
-    pub(super) fn pressure(&self, i: usize, N: &[f64]) -> f64 {
+    /// The weight functions at point `j` (of the element's points) of element `i`.
+    fn weights(&self, i: usize, j: usize) -> &[f64] {
+        let n = self.elem_cps[i].len();
+        &self.phi[i][j * n..(j + 1) * n]
+    }
+
+    /// The pressure at point `j` (of the element's points) of own element `i`.
+    pub(super) fn pressure(&self, i: usize, j: usize) -> f64 {
         self.elem_cps[i]
             .iter()
-            .zip(N)
-            .map(|(&a, &Nb)| Nb * self.p[a as usize])
+            .zip(self.weights(i, j))
+            .map(|(&a, &phi)| phi * self.p[a as usize])
             .sum()
     }
 
@@ -203,12 +256,12 @@ impl MortarNet {
     ) {
         let dim = hp.geo.dim;
         let oe = all[i];
-        let nk = self.elem_cps[i].len();
+        let nk = oe.N.len() / oe.n;
         let rows = nk * dim;
         let mut G = [0.0; 3 * MAX_FACE_NODES];
-        for b in 0..nk {
+        for b in 0..self.elem_cps[i].len() {
             let a = self.elem_cps[i][b] as usize;
-            if !(self.g[a] <= hp.touch) {
+            if !self.active[a] {
                 continue;
             }
             G[..rows].fill(0.0);
@@ -216,7 +269,7 @@ impl MortarNet {
             for q in oe.first..oe.first + oe.n {
                 let Some(mp) = &self.pts[q] else { continue };
                 let N = oe.basis(q).0;
-                let c = N[b] * points[q].w * points[q].J0;
+                let c = self.weights(i, q - oe.first)[b] * points[q].w * points[q].J0;
                 for a2 in 0..nk {
                     for k in 0..dim {
                         G[a2 * dim + k] += c * N[a2] * mp.n[k];
@@ -253,6 +306,35 @@ impl MortarNet {
         }
     }
 
+    /// Whether control point `a` belongs to an element this rank integrates.
+    pub(crate) fn is_own(&self, a: usize) -> bool {
+        self.own[a]
+    }
+
+    /// Augmented Lagrangian: the largest violation of the contact conditions at this rank's
+    /// control points at the last evaluation, a penetration `-g_A` or the opening `g_A` of a
+    /// control point that still carries pressure.
+    pub(crate) fn violation(&self) -> f64 {
+        (0..self.w.len())
+            .filter(|&a| self.own[a] && self.w[a] > 0.0)
+            .map(|a| {
+                if self.p[a] > 0.0 {
+                    self.g[a].abs()
+                } else {
+                    (-self.g[a]).max(0.0)
+                }
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// Augmented Lagrangian: every multiplier becomes its control point's pressure at the last
+    /// evaluation.
+    pub(crate) fn augment(&mut self) {
+        for (l, &p) in self.lambda.iter_mut().zip(&self.p) {
+            *l = p.max(0.0);
+        }
+    }
+
     /// `D_A` of control point `a`: per own-surface element of its support (key
     /// [`OWN_COLUMNS`]` | e`) and per partner element of its points, the column values.
     fn columns(
@@ -261,8 +343,8 @@ impl MortarNet {
         all: &[&OwnElem],
         points: &[QPoint],
         dim: usize,
-    ) -> Vec<(u32, Vec<f64>)> {
-        let mut out: Vec<(u32, Vec<f64>)> = Vec::new();
+    ) -> Columns {
+        let mut out: Columns = Vec::new();
         for &j in &self.support[a] {
             let oe = all[j as usize];
             let cps = &self.elem_cps[j as usize];
@@ -271,13 +353,14 @@ impl MortarNet {
                 .position(|&c| c as usize == a)
                 .expect("in support");
             let own_key = OWN_COLUMNS | oe.e;
-            let io = piece(&mut out, own_key, cps.len() * dim);
+            let nk = oe.N.len() / oe.n;
+            let io = piece(&mut out, own_key, nk * dim);
             for q in oe.first..oe.first + oe.n {
                 let Some(mp) = &self.pts[q] else { continue };
                 let N = oe.basis(q).0;
-                let c = N[bj] * points[q].w * points[q].J0;
+                let c = self.weights(j as usize, q - oe.first)[bj] * points[q].w * points[q].J0;
                 let own = &mut out[io].1;
-                for b in 0..cps.len() {
+                for b in 0..nk {
                     for k in 0..dim {
                         own[b * dim + k] += c * mp.n[k] * N[b];
                     }
@@ -298,7 +381,7 @@ impl MortarNet {
 }
 
 /// The index of the piece keyed `key` in `out`, added with `len` zeros if new.
-fn piece(out: &mut Vec<(u32, Vec<f64>)>, key: u32, len: usize) -> usize {
+fn piece(out: &mut Columns, key: u32, len: usize) -> usize {
     if let Some(i) = out.iter().position(|(k, _)| *k == key) {
         return i;
     }

@@ -13,6 +13,9 @@
 //! violation set by that mismatch, and `tol` must lie above it (BENCHMARKS.md, "Augmented
 //! Lagrangian on the pointwise gap").
 //!
+//! Under the mortar gap the multipliers and the violations are the control points'
+//! ([`crate::contact::half_pass::mortar`]).
+//!
 //! Multipliers are load-step history: the solves of a step start from those of the last converged
 //! step, a cut back returns to them, checkpoints keep them.
 
@@ -34,10 +37,16 @@ impl ContactSystem {
                 }
                 pair.passes
                     .iter()
-                    .flat_map(|pass| &pass.points)
-                    .filter_map(|q| {
-                        q.gap
-                            .map(|g| if q.p_n > 0.0 { g.abs() } else { (-g).max(0.0) })
+                    .map(|pass| match &pass.mortar {
+                        Some(net) => net.violation(),
+                        None => pass
+                            .points
+                            .iter()
+                            .filter_map(|q| {
+                                q.gap
+                                    .map(|g| if q.p_n > 0.0 { g.abs() } else { (-g).max(0.0) })
+                            })
+                            .fold(0.0, f64::max),
                     })
                     .fold(0.0, f64::max)
             })
@@ -73,8 +82,14 @@ impl ContactSystem {
             return Augment::Satisfied;
         }
         for pair in self.pairs.iter_mut().filter(|p| p.def.augmented.is_some()) {
-            for q in pair.passes.iter_mut().flat_map(|pass| &mut pass.points) {
-                q.lambda = if q.gap.is_some() { q.p_n.max(0.0) } else { 0.0 };
+            for pass in &mut pair.passes {
+                if let Some(net) = &mut pass.mortar {
+                    net.augment();
+                    continue;
+                }
+                for q in &mut pass.points {
+                    q.lambda = if q.gap.is_some() { q.p_n.max(0.0) } else { 0.0 };
+                }
             }
         }
         Augment::Updated

@@ -1,6 +1,9 @@
 //! The committed per-point state of the contact system as plain rows, for checkpoints: each
 //! quadrature point is keyed by its pair, half-pass, surface element and index inside the element,
 //! which do not depend on the partition, so a checkpoint written on N ranks restarts on M.
+//! Mortar-gap passes add one row per control point of their own elements, keyed by (pair, pass,
+//! -1, global node), with the augmented Lagrangian multiplier in the last value (a control point
+//! shared by ranks has a row from each, equal to round-off).
 
 use super::{Anchor, ContactSystem};
 
@@ -40,6 +43,15 @@ impl ContactSystem {
                         out.push(q.lambda_committed);
                     }
                 }
+                if let Some(net) = &pass.mortar {
+                    for a in (0..net.node.len()).filter(|&a| net.is_own(a)) {
+                        let node = net.node[a];
+                        let mut row = [0.0; ROW];
+                        row[..4].copy_from_slice(&[pi as f64, qi as f64, -1.0, node as f64]);
+                        row[ROW - 1] = net.lambda_committed[a];
+                        out.extend_from_slice(&row);
+                    }
+                }
             }
         }
         out
@@ -63,7 +75,14 @@ impl ContactSystem {
         let index: std::collections::HashMap<_, usize> = rows
             .chunks_exact(ROW)
             .enumerate()
+            .filter(|(_, r)| r[2] >= 0.0)
             .map(|(i, r)| (key(r), i))
+            .collect();
+        // mortar control points: (pair, pass, global node) -> multiplier
+        let cps: std::collections::HashMap<_, f64> = rows
+            .chunks_exact(ROW)
+            .filter(|r| r[2] < 0.0)
+            .map(|r| ((r[0] as usize, r[1] as usize, r[3] as u32), r[ROW - 1]))
             .collect();
         self.last_update = None;
         for (pi, pair) in self.pairs.iter_mut().enumerate() {
@@ -89,6 +108,19 @@ impl ContactSystem {
                         q.pairing = get2(&r[12..16]);
                         q.lambda_committed = r[16];
                         q.lambda = r[16];
+                    }
+                }
+                if let Some(net) = &mut pass.mortar {
+                    for a in 0..net.node.len() {
+                        let node = net.node[a];
+                        let l = cps.get(&(pi, qi, node)).copied();
+                        if l.is_none() && net.is_own(a) {
+                            return Err(format!(
+                                "no multiplier for contact pair {pi}, pass {qi}, control point (node) {node}"
+                            ));
+                        }
+                        net.lambda_committed[a] = l.unwrap_or(0.0);
+                        net.lambda[a] = l.unwrap_or(0.0);
                     }
                 }
             }

@@ -93,9 +93,17 @@ impl ContactSystem {
                         elems.extend(sys.surface_points(&def, k, e, dofs, &mut points)?);
                     }
                 }
-                let (halo, mortar) = if def.gap == GapKind::Mortar {
-                    let halo = sys.halo(&def, k, &elems, dofs, &mut points)?;
-                    let net = MortarNet::new(&sys.slots[k], &elems, &halo, &points);
+                let (halo, mortar) = if matches!(def.gap, GapKind::Mortar | GapKind::MortarLinear) {
+                    let linear = def.gap == GapKind::MortarLinear;
+                    let halo = sys.halo(&def, k, linear, &elems, dofs, &mut points)?;
+                    let all: Vec<&OwnElem> = elems.iter().chain(&halo).collect();
+                    let nodes: Vec<Vec<u32>> =
+                        all.iter().map(|o| sys.weight_nodes(k, o.e, linear)).collect();
+                    let phi = all
+                        .iter()
+                        .map(|o| weight_values(dim, o, &points, linear))
+                        .collect();
+                    let net = MortarNet::new(&nodes, phi, &elems, &halo, &points);
                     (halo, Some(net))
                 } else {
                     (Vec::new(), None)
@@ -180,28 +188,44 @@ impl ContactSystem {
         }))
     }
 
+    /// The mortar gap's weight nodes of element `e` of surface `k` (global ids): its control
+    /// points, or with `linear` its linear parent's corners.
+    fn weight_nodes(&self, k: usize, e: u32, linear: bool) -> Vec<u32> {
+        let el = &self.surfaces[k].elements[e as usize];
+        if linear {
+            el.corners.clone()
+        } else {
+            el.nodes.clone()
+        }
+    }
+
     /// The mortar gap's halo of `elems` on surface `k`: the elements of other ranks that share a
-    /// control point with them, with their points appended to `points` (in element order).
+    /// weight node with them, with their points appended to `points` (in element order).
     fn halo(
         &self,
         def: &PairDef,
         k: usize,
+        linear: bool,
         elems: &[OwnElem],
         dofs: &DofMap,
         points: &mut Vec<QPoint>,
     ) -> Result<Vec<OwnElem>, String> {
-        let slots = &self.slots[k];
         let own: std::collections::HashSet<u32> = elems.iter().map(|o| o.e).collect();
         let cps: std::collections::HashSet<u32> = elems
             .iter()
-            .flat_map(|o| slots[o.e as usize].iter().copied())
+            .flat_map(|o| self.weight_nodes(k, o.e, linear))
             .collect();
         let mut halo = Vec::new();
-        for (e, nodes) in slots.iter().enumerate() {
-            if own.contains(&(e as u32)) || !nodes.iter().any(|t| cps.contains(t)) {
+        for e in 0..self.surfaces[k].elements.len() as u32 {
+            if own.contains(&e)
+                || !self
+                    .weight_nodes(k, e, linear)
+                    .iter()
+                    .any(|t| cps.contains(t))
+            {
                 continue;
             }
-            halo.extend(self.surface_points(def, k, e, dofs, points)?);
+            halo.extend(self.surface_points(def, k, e as usize, dofs, points)?);
         }
         Ok(halo)
     }
@@ -238,4 +262,28 @@ impl ContactSystem {
             Ok(())
         })
     }
+}
+
+/// The mortar gap's weight functions at the points of `oe` [n_points][n_weight_nodes]: the
+/// element's surface basis, or with `linear` its linear parent's corner functions (2D corners at
+/// xi = -1, +1; 3D bilinear, corners (-1,-1), (1,-1), (1,1), (-1,1), as `SurfaceElement::corners`).
+fn weight_values(dim: usize, oe: &OwnElem, points: &[QPoint], linear: bool) -> Vec<f64> {
+    if !linear {
+        return oe.N.clone();
+    }
+    let mut out = Vec::new();
+    for q in &points[oe.first..oe.first + oe.n] {
+        let [x, y] = q.xi;
+        if dim == 2 {
+            out.extend([0.5 * (1.0 - x), 0.5 * (1.0 + x)]);
+        } else {
+            out.extend([
+                0.25 * (1.0 - x) * (1.0 - y),
+                0.25 * (1.0 + x) * (1.0 - y),
+                0.25 * (1.0 + x) * (1.0 + y),
+                0.25 * (1.0 - x) * (1.0 + y),
+            ]);
+        }
+    }
+    out
 }

@@ -5,32 +5,49 @@
 use super::*;
 
 const MORTAR: &str = "law = \"penalty\"\neps_n = 100.0\ngap = \"mortar\"";
+const MORTAR_LINEAR: &str = "law = \"penalty\"\neps_n = 100.0\ngap = \"mortar_linear\"";
 
 #[test]
 fn mortar_gap_tangent_matches_central_differences() {
     // every point's traction depends on the gaps of every point in the supports of its element's
     // control points, and so on their partners and on the neighbouring elements' unknowns
-    for (block, disk) in [
+    mortar_tangents(MORTAR, &[("Q1N2.1", "Q1N3")], 0.06);
+}
+
+#[test]
+fn mortar_linear_gap_tangent_matches_central_differences() {
+    // weights of the linear parent's corners: any surface family, Q1C2 and Q1CH included (the
+    // hemisphere pressed deeper: a corner's weight spans four coarse elements, whose mean gap is
+    // still open at the depth of the control-point test)
+    mortar_tangents(MORTAR_LINEAR, &[("Q1C2", "Q1CH"), ("Q1CH", "Q1N2.1")], 0.2);
+}
+
+/// FD checks of `law` on 2D pairs (three, then `extra_2d`), 3D blocks, the hemisphere (pressed
+/// by `hemisphere_depth`) and rigid partners.
+fn mortar_tangents(law: &str, extra_2d: &[(&str, &str)], hemisphere_depth: f64) {
+    for &(block, disk) in [
         ("Q1C1", "Q1C1"),
         ("Q1N2", "Q1N2"),
         ("Q1C1", "Q1N2"),
-        ("Q1N2.1", "Q1N3"),
-    ] {
-        let mut h = Harness::new(&case_2d(block, disk, MORTAR));
+    ]
+    .iter()
+    .chain(extra_2d)
+    {
+        let mut h = Harness::new(&case_2d(block, disk, law));
         let u = pressed(&h, 0.08, 0.13, 2e-3, 11);
         let (err, kmax) = tangent_error(&mut h, &u);
         assert!(kmax > 1.0, "{block}/{disk}: no contact stiffness ({kmax})");
         assert!(err < 1e-6, "{block}/{disk}: tangent error {err:e}");
     }
     for (lower, upper) in [("Q1N2", "Q1N2"), ("Q1C1", "Q1N2")] {
-        let mut h = Harness::new(&case_3d_blocks(lower, upper, MORTAR));
+        let mut h = Harness::new(&case_3d_blocks(lower, upper, law));
         let u = pressed_3d(&h, 0.04, [0.11, -0.07], 2e-3, 17);
         let (err, kmax) = tangent_error(&mut h, &u);
         assert!(kmax > 1.0, "{lower}/{upper}: no contact stiffness ({kmax})");
         assert!(err < 1e-6, "{lower}/{upper}: tangent error {err:e}");
     }
-    let mut h = Harness::new(&case_3d_hemisphere("Q1N2", "Q1N2", MORTAR));
-    let u = pressed_3d(&h, 0.06, [0.05, 0.08], 2e-3, 23);
+    let mut h = Harness::new(&case_3d_hemisphere("Q1N2", "Q1N2", law));
+    let u = pressed_3d(&h, hemisphere_depth, [0.05, 0.08], 2e-3, 23);
     let (err, kmax) = tangent_error(&mut h, &u);
     assert!(kmax > 1.0 && err < 1e-6, "hemisphere: {err:e} ({kmax})");
     for (dim, fam, r) in [
@@ -50,7 +67,7 @@ fn mortar_gap_tangent_matches_central_differences() {
             "{ shape = \"sphere\", center = [0.2, 0.1, -3.0], radius = 3.0 }",
         ),
     ] {
-        let mut h = Harness::new(&case_rigid_law(dim, fam, r, MORTAR));
+        let mut h = Harness::new(&case_rigid_law(dim, fam, r, law));
         let shift = if dim == 2 {
             vec![0.05, -0.06]
         } else {
@@ -102,13 +119,15 @@ fn mortar_gap_split_over_two_ranks_sums_to_the_whole() {
         case_2d("Q1N2", "Q1N2", MORTAR),
         case_2d("Q1C1", "Q1N3", MORTAR),
         case_3d_hemisphere("Q1N2", "Q1N2", MORTAR),
+        case_2d("Q1N2", "Q1C2", MORTAR_LINEAR),
+        case_3d_hemisphere("Q1N2", "Q1N2", MORTAR_LINEAR),
     ];
     for (i, case) in cases.iter().enumerate() {
         let mut h = Harness::new(case);
         let u = if h.model.dim == 2 {
             pressed(&h, 0.08, 0.13, 2e-3, 11)
         } else {
-            pressed_3d(&h, 0.06, [0.05, 0.08], 2e-3, 23)
+            pressed_3d(&h, 0.2, [0.05, 0.08], 2e-3, 23)
         };
         let (f1, k1) = h.eval(&u, true);
         let k1 = k1.unwrap();
