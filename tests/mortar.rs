@@ -1,6 +1,7 @@
 //! The mortar gap (`gap = "mortar"`) end to end: the contact patch test on non-matching meshes in
 //! 2D and 3D, Hertz at one refinement, the same answer on 1 and 2 ranks (halo elements across the
-//! METIS split), and its scope refused by key.
+//! METIS split), the augmented Lagrangian on the control points, `mortar_linear` on a Q1C2
+//! surface, and the scope refused by key.
 
 mod common;
 use common::*;
@@ -87,6 +88,67 @@ fn mortar_gap_3d_hemisphere_is_the_same_on_1_and_2_ranks() {
 }
 
 #[test]
+fn mortar_gap_augmented_does_not_depend_on_the_penalty() {
+    // one multiplier per control point: the rounds drive every pressed control point's weighted
+    // gap to within tol, so the load no longer depends on eps_n (measured, Q1N2 at n_arc 32:
+    // 8.476193e-3 at eps_n 1e2 in 16 rounds, 8.476150e-3 at 1e4 in 3, 5e-6 apart; BENCHMARKS.md
+    // "Mortar gap")
+    let mut loads = Vec::new();
+    for eps in ["1e2", "1e4"] {
+        let d = run_case(
+            &format!("mortar/augmented-{eps}"),
+            "hertz_2d.toml",
+            1,
+            &[
+                &format!("contact.0.eps_n={eps}"),
+                "contact.0.gap=mortar",
+                "contact.0.augmented={ tol = 1e-7, max = 200 }",
+                "output.plots=false",
+            ],
+        );
+        let s = summary(&d);
+        assert_eq!(s["status"], "converged", "eps_n {eps}");
+        let rounds: u64 = s["steps"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|st| st["augmentation_rounds"].as_u64().unwrap_or(0))
+            .sum();
+        assert!(rounds >= 1, "eps_n {eps}: no augmentation round");
+        loads.push(last(&d, "P_flat_disk_arc_y"));
+    }
+    let plain = run_case(
+        "mortar/plain-1e2",
+        "hertz_2d.toml",
+        1,
+        &[
+            "contact.0.eps_n=1e2",
+            "contact.0.gap=mortar",
+            "output.plots=false",
+        ],
+    );
+    let p_plain = last(&plain, "P_flat_disk_arc_y");
+    assert!(
+        (loads[0] - loads[1]).abs() < 2e-5 * loads[1],
+        "augmented loads {loads:?}"
+    );
+    assert!(
+        (p_plain - loads[1]).abs() > 5e-3 * loads[1],
+        "the plain penalty at 1e2 should be visibly softer (measured 1 %): {p_plain} vs {}",
+        loads[1]
+    );
+}
+
+#[test]
+fn mortar_linear_gap_takes_a_q1c2_surface() {
+    // the corner weights are non-negative on any family: Q1C2, which `mortar` refuses, runs
+    let (_, peak, p) = hertz_peaks_with("Q1C2", 64, 1, &["contact.0.gap=mortar_linear"]);
+    let e = hertz_error(peak, p);
+    // measured +13.61 % at this coarse mesh (4 elements across the contact), +0.66 % at n_arc 128
+    assert!(e.abs() < 0.2, "Q1C2 mortar_linear n_arc 64: {e:+.4}");
+}
+
+#[test]
 fn mortar_gap_outside_its_scope_is_refused_with_the_key() {
     for (file, sets, want) in [
         ("peeling_2d.toml", vec!["contact.0.gap=mortar"], "penalty"),
@@ -114,6 +176,11 @@ fn mortar_gap_outside_its_scope_is_refused_with_the_key() {
             "hertz_2d.toml",
             vec!["contact.0.gap=mortar", "bodies.disk.element=Q1CH"],
             "non-negative",
+        ),
+        (
+            "cattaneo_mindlin_2d.toml",
+            vec!["contact.0.gap=mortar_linear"],
+            "friction",
         ),
     ] {
         let c = case(file);

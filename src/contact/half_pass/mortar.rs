@@ -337,13 +337,7 @@ impl MortarNet {
 
     /// `D_A` of control point `a`: per own-surface element of its support (key
     /// [`OWN_COLUMNS`]` | e`) and per partner element of its points, the column values.
-    fn columns(
-        &self,
-        a: usize,
-        all: &[&OwnElem],
-        points: &[QPoint],
-        dim: usize,
-    ) -> Columns {
+    fn columns(&self, a: usize, all: &[&OwnElem], points: &[QPoint], dim: usize) -> Columns {
         let mut out: Columns = Vec::new();
         for &j in &self.support[a] {
             let oe = all[j as usize];

@@ -97,8 +97,10 @@ impl ContactSystem {
                     let linear = def.gap == GapKind::MortarLinear;
                     let halo = sys.halo(&def, k, linear, &elems, dofs, &mut points)?;
                     let all: Vec<&OwnElem> = elems.iter().chain(&halo).collect();
-                    let nodes: Vec<Vec<u32>> =
-                        all.iter().map(|o| sys.weight_nodes(k, o.e, linear)).collect();
+                    let nodes: Vec<Vec<u32>> = all
+                        .iter()
+                        .map(|o| sys.weight_nodes(k, o.e, linear))
+                        .collect();
                     let phi = all
                         .iter()
                         .map(|o| weight_values(dim, o, &points, linear))

@@ -25,13 +25,9 @@ fn mortar_linear_gap_tangent_matches_central_differences() {
 /// FD checks of `law` on 2D pairs (three, then `extra_2d`), 3D blocks, the hemisphere (pressed
 /// by `hemisphere_depth`) and rigid partners.
 fn mortar_tangents(law: &str, extra_2d: &[(&str, &str)], hemisphere_depth: f64) {
-    for &(block, disk) in [
-        ("Q1C1", "Q1C1"),
-        ("Q1N2", "Q1N2"),
-        ("Q1C1", "Q1N2"),
-    ]
-    .iter()
-    .chain(extra_2d)
+    for &(block, disk) in [("Q1C1", "Q1C1"), ("Q1N2", "Q1N2"), ("Q1C1", "Q1N2")]
+        .iter()
+        .chain(extra_2d)
     {
         let mut h = Harness::new(&case_2d(block, disk, law));
         let u = pressed(&h, 0.08, 0.13, 2e-3, 11);
