@@ -374,10 +374,7 @@ impl HalfPass<'_> {
                 }
             }
         }
-        let area = match self.pair.gap {
-            GapKind::Mortar | GapKind::MortarLinear => Area::Reference,
-            _ => area_of(&self.pair.law),
-        };
+        let area = area_of(&self.pair.law);
         let first = self
             .partner(qp.current, &xk)
             .map(|(le, pp)| (le, pp, area, false));

@@ -1,26 +1,29 @@
 //! The mortar gap (`gap = "mortar"`): the normal gap weighted by each control point's basis
 //! function.
 //!
-//! On the integrated surface, every control point (surface node) `A` gets the weighted gap
-//! `g_A = sum_q R_A(xi_q) c_q g_N,q / W_A`, `W_A = sum_q R_A(xi_q) c_q`, over the quadrature
-//! points `q` of the elements in `A`'s support (`c_q = w_q J0_q`, reference area; `R_A` the
-//! surface basis, non-negative, so `g_A` is a convex average of the point gaps). A point with no
-//! partner within the search distance counts as open by that distance. The pressure lives on the
-//! control points, `p_A = -eps_n g_A` where `g_A <= touch` (else 0), and every point carries the
-//! traction `t_q = p_q n_q` on its reference area, `p_q = sum_A R_A(xi_q) p_A`: one pressure
-//! field interpolated by the same basis as the surface, instead of one pressure per quadrature
-//! point (the pointwise law's odd-even control-point mode has no room left).
+//! On the integrated surface, every weight node `A` (a control point, or with `mortar_linear` a
+//! corner of the linear parent) gets the weighted gap `g_A = sum_q R_A(xi_q) c_q g_N,q / W_A`,
+//! `W_A = sum_q R_A(xi_q) c_q`, over the quadrature points `q` of the elements in `A`'s support
+//! (`c_q = w_q J_q`, current area as the paper's penalty law; `R_A` non-negative, so `g_A` is a
+//! convex average of the point gaps). A point with no partner within the search distance counts
+//! as open by that distance. The pressure lives on the weight nodes, `p_A = -eps_n g_A` where
+//! `g_A <= touch` (else 0), and every point carries the traction `t_q = p_q n_q` on its current
+//! area, `p_q = sum_A R_A(xi_q) p_A`: one pressure field interpolated by the weight functions,
+//! instead of one pressure per quadrature point.
 //!
-//! It is the gradient of the energy `sum_A W_A eps_n <-g_A>^2 / 2`. With `G_A` the own rows of
-//! `d (W_A g_A) / du` (`G_A,a = sum_q R_A N_a c_q n_q`) the residual is `r = -sum_A p_A G_A`
-//! and the tangent
-//! `K = -sum_A p_A dG_A/du + sum_{A active} eps_n / W_A G_A (x) D_A`, with
-//! `D_A = d (W_A g_A) / du = sum_q R_A(xi_q) c_q n_q . (N_b(xi_q) du_b - N^l_b(xi_p,q) dy_b)`
-//! (closest-point and edge projections alike: `d g_N = n . dg`). The first part is the point
-//! kernel with the pressure held fixed (`dt/dn = p I`, `dt/dg = 0`); the second couples an
-//! element's rows with the unknowns of every element that shares a control point with it and
-//! with their points' partners: blocks keyed [`OWN_COLUMNS`]` | e'` (columns of own-surface
-//! element `e'`) and the usual partner blocks.
+//! With `G_A,a = sum_q R_A N_a c_q n_q` (the own rows) the residual is `r = -sum_A p_A G_A` and
+//! the tangent `K = K_kernel + sum_{A active} eps_n / W_A G_A (x) D_A`, with
+//! `D_A = W_A dg_A = sum_q R_A(xi_q) w_q [J_q n_q . (N_b(xi_q) du_b - N^l_b(xi_p,q) dy_b)
+//! + (g_N,q - g_A) dJ_q]` (closest-point and edge projections alike: `d g_N = n . dg`; `dJ_q`
+//! the variation of the area element, also of points without a partner). `K_kernel` is the point
+//! kernel with the pressure held fixed (`dt/dn = p I`, `dt/dg = 0`, and the current area's
+//! variation); the second part couples an element's rows with the unknowns of every element that
+//! shares a weight node with it and with their points' partners: blocks keyed
+//! [`OWN_COLUMNS`]` | e'` (columns of own-surface element `e'`) and the usual partner blocks.
+//!
+//! The current area (not the reference one) keeps the two half-passes' forces alike when a
+//! surface stretches: on ironing the reference-area version gave the cylinder's pass 14 % more
+//! force than the block's (BENCHMARKS.md, "Mortar gap").
 //!
 //! Augmented Lagrangian (`augmented = { tol, max }`): each control point carries a multiplier
 //! `lambda_A` (a pressure), `p_A = lambda_A - eps_n g_A` where `g_A <= lambda_A / eps_n + touch`;
@@ -36,7 +39,7 @@
 use super::{block_slot, HalfPass, OwnElem, QPoint, Work};
 use crate::contact::kernel::gap_and_normal;
 use crate::contact::law::Traction;
-use crate::contact::surface::MAX_FACE_NODES;
+use crate::contact::surface::{raw_normal, MAX_FACE_NODES};
 use std::collections::HashMap;
 
 /// The bit of a coupling block's third key that says its columns are those of an element of the
@@ -95,6 +98,10 @@ pub(crate) struct MortarNet {
     active: Vec<bool>,
     /// Per point of the pass: its partner at the current evaluation.
     pts: Vec<Option<MPoint>>,
+    /// Per point of the pass: its normal gap as the weights take it (the search distance without a
+    /// partner), its current area element `J` and tangent vectors (for `dJ`).
+    gq: Vec<f64>,
+    area: Vec<(f64, [[f64; 3]; 2])>,
     /// Per control point: weighted gap and pressure at the current evaluation.
     g: Vec<f64>,
     p: Vec<f64>,
@@ -193,17 +200,29 @@ impl MortarNet {
                 }
             }
         }
+        self.gq.clear();
+        self.gq.resize(points.len(), 0.0);
+        self.area.clear();
+        self.area.resize(points.len(), (0.0, [[0.0; 3]; 2]));
+        for oe in all {
+            let x = hp.geo.pos[hp.k].of(oe.e as usize);
+            for q in oe.first..oe.first + oe.n {
+                self.gq[q] = self.pts[q].map_or(hp.pair.search_distance, |p| p.g_n);
+                self.area[q] = area_element(dim, oe.basis(q).1, x);
+            }
+        }
         let n_cp = self.w.len();
         self.g.clear();
         self.g.resize(n_cp, 0.0);
+        self.w.fill(0.0);
         for (i, oe) in all.iter().enumerate() {
             let (cps, phi) = (&self.elem_cps[i], &self.phi[i]);
             for q in oe.first..oe.first + oe.n {
-                let g = self.pts[q].map_or(hp.pair.search_distance, |p| p.g_n);
-                let c = points[q].w * points[q].J0;
+                let c = points[q].w * self.area[q].0;
                 let j = q - oe.first;
                 for (&a, &f) in cps.iter().zip(&phi[j * cps.len()..(j + 1) * cps.len()]) {
-                    self.g[a as usize] += f * c * g;
+                    self.g[a as usize] += f * c * self.gq[q];
+                    self.w[a as usize] += f * c;
                 }
             }
         }
@@ -269,7 +288,7 @@ impl MortarNet {
             for q in oe.first..oe.first + oe.n {
                 let Some(mp) = &self.pts[q] else { continue };
                 let N = oe.basis(q).0;
-                let c = self.weights(i, q - oe.first)[b] * points[q].w * points[q].J0;
+                let c = self.weights(i, q - oe.first)[b] * points[q].w * self.area[q].0;
                 for a2 in 0..nk {
                     for k in 0..dim {
                         G[a2 * dim + k] += c * N[a2] * mp.n[k];
@@ -349,11 +368,23 @@ impl MortarNet {
             let own_key = OWN_COLUMNS | oe.e;
             let nk = oe.N.len() / oe.n;
             let io = piece(&mut out, own_key, nk * dim);
+            let m = dim - 1;
             for q in oe.first..oe.first + oe.n {
-                let Some(mp) = &self.pts[q] else { continue };
-                let N = oe.basis(q).0;
-                let c = self.weights(j as usize, q - oe.first)[bj] * points[q].w * points[q].J0;
+                let (N, dN) = oe.basis(q);
+                let fw = self.weights(j as usize, q - oe.first)[bj] * points[q].w;
+                let (J, t) = &self.area[q];
+                // the area's variation, dJ = sum_b dJ/dx_b . du_b
+                let dj = dj_dx(dim, t, *J);
+                let ca = fw * (self.gq[q] - self.g[a]);
                 let own = &mut out[io].1;
+                for b in 0..nk {
+                    for k in 0..dim {
+                        let dJ: f64 = (0..m).map(|i| dN[b * m + i] * dj[i][k]).sum();
+                        own[b * dim + k] += ca * dJ;
+                    }
+                }
+                let Some(mp) = &self.pts[q] else { continue };
+                let c = fw * J;
                 for b in 0..nk {
                     for k in 0..dim {
                         own[b * dim + k] += c * mp.n[k] * N[b];
@@ -381,6 +412,39 @@ fn piece(out: &mut Columns, key: u32, len: usize) -> usize {
     }
     out.push((key, vec![0.0; len]));
     out.len() - 1
+}
+
+/// The current area element `J` of a point (basis derivatives `dN` [n][m], current nodes `x`
+/// [n][dim]) and its tangent vectors.
+fn area_element(dim: usize, dN: &[f64], x: &[f64]) -> (f64, [[f64; 3]; 2]) {
+    let m = dim - 1;
+    let mut a = [[0.0; 3]; 2];
+    for (b, row) in x.chunks_exact(dim).enumerate() {
+        for i in 0..m {
+            for c in 0..dim {
+                a[i][c] += dN[b * m + i] * row[c];
+            }
+        }
+    }
+    let nu = raw_normal(dim, &a);
+    ((nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt(), a)
+}
+
+/// `dJ / da_i` [m][3] of the area element `J` with tangent vectors `a`: 2D `a_1 / J`; 3D
+/// `a_2 x nu` and `nu x a_1` (`nu` the unit normal), so `dJ = sum_i dJ/da_i . da_i`.
+fn dj_dx(dim: usize, a: &[[f64; 3]; 2], J: f64) -> [[f64; 3]; 2] {
+    if dim == 2 {
+        return [a[0].map(|c| c / J), [0.0; 3]];
+    }
+    let nu = raw_normal(dim, a).map(|c| c / J);
+    let cross = |u: &[f64; 3], v: &[f64; 3]| {
+        [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
+        ]
+    };
+    [cross(&a[1], &nu), cross(&nu, &a[0])]
 }
 
 /// The traction of a point under the pressure `p` of the control points, held fixed:
