@@ -41,8 +41,14 @@ fn mortar_gap_passes_the_contact_patch_test_in_2d_and_3d() {
             );
             let mean = on.iter().sum::<f64>() / on.len() as f64;
             let dev = on.iter().fold(0.0f64, |m, v| m.max((v - mean).abs())) / mean;
-            assert!(mean > 0.0, "{file} {fam} {gap}: compressive pressure expected");
-            assert!(dev < 1e-10, "{file} {fam} {gap}: pressure varies by {dev:e}");
+            assert!(
+                mean > 0.0,
+                "{file} {fam} {gap}: compressive pressure expected"
+            );
+            assert!(
+                dev < 1e-10,
+                "{file} {fam} {gap}: pressure varies by {dev:e}"
+            );
             let z = if dim == 2 { "y" } else { "z" };
             let top = if dim == 2 { "top" } else { "zmax" };
             let r = last(&d, &format!("R_upper_{top}_{z}"));

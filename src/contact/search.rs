@@ -65,6 +65,14 @@ pub struct BinGrid {
 const MAX_BINS_PER_AXIS: usize = 1024;
 
 impl BinGrid {
+    /// Bytes of the grid's arrays (bins, their items, the boxes).
+    pub fn heap_bytes(&self) -> usize {
+        use std::mem::size_of;
+        self.start.len() * size_of::<usize>()
+            + self.items.len() * size_of::<u32>()
+            + (self.boxes.len() + self.raw.len()) * size_of::<Aabb>()
+    }
+
     /// Bins `boxes` (one per element, already inflated by the search distance).
     pub fn new(dim: usize, boxes: Vec<Aabb>) -> BinGrid {
         let mut all = Aabb::EMPTY;

@@ -23,12 +23,14 @@ mod active_set;
 mod augment;
 mod checkpoint;
 mod coupling;
+mod footprint;
 mod partner_points;
 mod pattern;
 mod pressure;
 mod setup;
 pub use active_set::{Settle, MAX_ROUNDS as MAX_ACTIVE_SET_ROUNDS};
 pub use checkpoint::ROW as CHECKPOINT_ROW;
+pub use footprint::Footprint;
 
 /// Values per point of [`ContactSystem::point_records`].
 pub const POINT_RECORD: usize = 18;

@@ -86,3 +86,34 @@ where
     }
     Some((buf, lens, displs))
 }
+
+/// What every rank holds for contact and receives per evaluation (summary.json `contact_data`),
+/// or `None` without a contact system.
+///
+/// Collective.
+pub(super) fn contact_data(
+    world: &SimpleCommunicator,
+    asm: &crate::assembly::Assembler,
+) -> Option<crate::io::ContactDataStats> {
+    let sys = asm.coupling_set::<crate::contact::ContactSystem>()?;
+    let f = sys.footprint();
+    let (remote, gathers) = asm.coupling_traffic().unwrap_or((0, 0));
+    let mine = [
+        f.table_nodes as u64,
+        f.surface_bytes as u64,
+        f.point_bytes as u64,
+        8 * remote as u64,
+    ];
+    let mut all = vec![0u64; 4 * world.size() as usize];
+    world.all_gather_into(&mine[..], &mut all[..]);
+    let column = |k: usize| all.chunks_exact(4).map(|r| r[k]).collect::<Vec<u64>>();
+    let mut evaluations = gathers as u64;
+    world.process_at_rank(0).broadcast_into(&mut evaluations);
+    Some(crate::io::ContactDataStats {
+        table_nodes: column(0),
+        surface_bytes: column(1),
+        point_bytes: column(2),
+        received_bytes_per_evaluation: column(3),
+        evaluations,
+    })
+}

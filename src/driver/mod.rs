@@ -7,7 +7,7 @@ mod options;
 mod output;
 mod restore;
 
-use gather::gather_errors;
+use gather::{contact_data, gather_errors};
 use observer::StepObserver;
 use options::{check_solver_options, set_up_solver, warn_unused_options, Solver};
 use output::{gather_points, Output};
@@ -675,6 +675,7 @@ fn finish_and_report(
                 ring,
             }
         }),
+        contact_data: contact_data(comm, asm),
         steps: observer.step_log,
         status,
     };

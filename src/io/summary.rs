@@ -148,6 +148,9 @@ pub struct Summary {
     /// Jacobians left out because the pattern lacked them (summed over ranks). Absent without contact.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub contact_pattern: Option<ContactPatternStats>,
+    /// What each rank holds for contact and receives per evaluation. Absent without contact.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact_data: Option<ContactDataStats>,
     /// One entry per converged load step, with its Newton residual history.
     pub steps: Vec<StepLog>,
     #[serde(flatten)]
@@ -163,6 +166,24 @@ pub struct ContactPatternStats {
     pub missing_blocks: usize,
     /// Side-neighbour rings reserved around each point's partner element.
     pub ring: usize,
+}
+
+/// What each rank holds for contact and what it receives per evaluation (issue 21's measure of
+/// distributed contact surfaces). Per-rank lists, in rank order.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ContactDataStats {
+    /// Contact-surface nodes whose displacement the rank gathers before every evaluation.
+    pub table_nodes: Vec<u64>,
+    /// Bytes of the surfaces as the rank holds them (elements, basis data, node table, current
+    /// positions, search grids).
+    pub surface_bytes: Vec<u64>,
+    /// Bytes of the rank's contact points and their elements (and mortar nets).
+    pub point_bytes: Vec<u64>,
+    /// Bytes the rank receives from other ranks in each gather (8 per value).
+    pub received_bytes_per_evaluation: Vec<u64>,
+    /// Gathers over the run (one per residual, Jacobian and pattern refresh), rank 0's count
+    /// (the gather is collective, so every rank's is the same).
+    pub evaluations: u64,
 }
 
 /// Write `dir/summary.json` atomically; returns its path.
@@ -208,6 +229,7 @@ mod tests {
             },
             peak_memory_mb: 54.0,
             contact_pattern: None,
+            contact_data: None,
             steps: vec![StepLog {
                 step: 1,
                 load: 0.5,

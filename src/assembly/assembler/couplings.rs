@@ -28,6 +28,10 @@ pub(super) struct CouplingHook<'p> {
     pub(super) preset: Option<Vec<Block>>,
     /// Augmentation rounds since the last commit or rollback (this load step's).
     pub(super) rounds: usize,
+    /// Values of each gather that other ranks own (what this rank receives per evaluation).
+    pub(super) remote_values: usize,
+    /// Gathers so far (one per coupling update: residual, Jacobian, pattern refresh).
+    pub(super) gathers: usize,
 }
 
 impl<'p> Assembler<'p> {
@@ -52,6 +56,15 @@ impl<'p> Assembler<'p> {
         ring: usize,
     ) -> Result<(), PetscError> {
         let idx: Vec<PetscInt> = self.dofs.gather_indices(set.nodes());
+        let (lo, hi) = self.dofs.owned_range();
+        // constrained unknowns gather a dummy entry; count the free ones other ranks own
+        let dofs = &self.dofs;
+        let remote_values = set
+            .nodes()
+            .iter()
+            .flat_map(|&a| (0..dofs.dim).filter_map(move |c| dofs.global(a, c)))
+            .filter(|g| !(lo..hi).contains(&g.0))
+            .count();
         let u_table = Vector::new_seq(self.petsc, idx.len())?;
         let scatter = Scatter::new(self.petsc, global_template, &u_table, &idx)?;
         self.coupled = Some(CouplingHook {
@@ -65,6 +78,8 @@ impl<'p> Assembler<'p> {
             missing_blocks: 0,
             preset: None,
             rounds: 0,
+            remote_values,
+            gathers: 0,
         });
         self.pattern_ready = false;
         Ok(())
@@ -143,6 +158,11 @@ impl<'p> Assembler<'p> {
         (self.pattern_ready && !c.stale).then_some(&c.blocks[..])
     }
 
+    /// The coupling set's gathers: (values other ranks own in each, gathers so far).
+    pub fn coupling_traffic(&self) -> Option<(usize, usize)> {
+        self.coupled.as_ref().map(|c| (c.remote_values, c.gathers))
+    }
+
     /// The blocks the next pattern is built from (a restart: those of
     /// [`coupling_pattern`](Self::coupling_pattern) on every rank; this rank keeps its own).
     pub fn preset_coupling_pattern(&mut self, all: &[Block]) {
@@ -169,6 +189,7 @@ impl<'p> Assembler<'p> {
         };
         let t0 = Instant::now();
         c.scatter.gather(x, &mut c.u_table).map_err(fatal)?;
+        c.gathers += 1;
         let u = c.u_table.read().map_err(fatal)?;
         let u: &[f64] = if self.offsets.is_empty() {
             &u

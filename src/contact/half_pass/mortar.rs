@@ -325,6 +325,24 @@ impl MortarNet {
         }
     }
 
+    /// Bytes of the net's arrays (weights per point, supports, per-node and per-point state;
+    /// the Jacobian columns built in an evaluation not counted).
+    pub(crate) fn heap_bytes(&self) -> usize {
+        use std::mem::size_of;
+        let nested = |v: &Vec<Vec<u32>>| v.iter().map(|x| x.len() * 4 + 24).sum::<usize>();
+        nested(&self.elem_cps)
+            + nested(&self.support)
+            + nested(&self.near)
+            + self.phi.iter().map(|x| x.len() * 8 + 24).sum::<usize>()
+            + (self.w.len() + self.lambda.len() + self.lambda_committed.len()) * 8
+            + (self.g.len() + self.p.len() + self.gq.len()) * 8
+            + self.node.len() * 4
+            + self.own.len()
+            + self.active.len()
+            + self.pts.len() * size_of::<Option<MPoint>>()
+            + self.area.len() * size_of::<(f64, [[f64; 3]; 2])>()
+    }
+
     /// Whether control point `a` belongs to an element this rank integrates.
     pub(crate) fn is_own(&self, a: usize) -> bool {
         self.own[a]
