@@ -65,7 +65,7 @@ fn mortar_gap_passes_the_contact_patch_test_in_2d_and_3d() {
 
 #[test]
 fn mortar_gap_hertz_at_eight_elements_across_the_contact_on_1_and_2_ranks() {
-    // measured (BENCHMARKS.md, "Mortar gap"): nominal peak +0.54 % (Q1C1) and +2.05 % (Q1N2) from
+    // measured (BENCHMARKS.md, "Mortar gap"): nominal peak +0.54 % (Q1C1) and +2.07 % (Q1N2) from
     // Hertz at n_arc 128; the pointwise gap gives +0.77 % and +1.95 %
     for (fam, lo, hi) in [("Q1C1", 0.0, 0.01), ("Q1N2", 0.01, 0.03)] {
         let (_, peak1, p1) = hertz_peaks_with(fam, 128, 1, &["contact.0.gap=mortar"]);
