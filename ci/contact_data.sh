@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# summary.json `contact_data` on 1, 2 and 4 ranks for the hemisphere pressed onto the block at
+# several sizes (BENCHMARKS.md "Scale: contact data per rank"). Usage: ci/contact_data.sh [n ...]
+# (default 4 8 16 24); one Markdown row per run. Output folders under ${OUT:-/tmp/contact-data}.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+source ci/env.sh
+out=${OUT:-/tmp/contact-data}
+mkdir -p "$out"
+for n in "${@:-4 8 16 24}"; do
+  for n1 in $n; do
+    t=$(( n1 / 4 < 2 ? 2 : n1 / 4 ))
+    for np in 1 2 4; do
+      d=$out/$n1-$np
+      mpirun --oversubscribe -np "$np" ./target/release/nurbs-contact run cases/hemisphere_block_3d.toml \
+        --out "$d" -q --overwrite --set "meshes.block.divisions=[$n1,$n1,$n1]" \
+        --set meshes.shell.n_surface="$n1" --set meshes.shell.n_thickness="$t" --set stages.0.steps=1 \
+        --set "bcs.1.value=[[0.0,0.0,-0.05]]" --set solver.linear=iterative --set output.plots=false \
+        --set 'output.fields=["displacement"]' > "$d.log" 2>&1
+      python3 - "$d" "$n1" "$np" <<'PY'
+import json, sys
+d, n, np = sys.argv[1:]
+s = json.load(open(d + "/summary.json"))
+c = s["contact_data"]
+kb = lambda v: ", ".join(f"{x / 1000:,.1f}" for x in v)
+print(f"| {n} | {s['unknowns']:,} | {np} | {c['table_nodes'][0]:,} | {kb(c['surface_bytes'])} | "
+      f"{kb(c['point_bytes'])} | {kb(c['received_bytes_per_evaluation'])} | {c['evaluations']} |")
+PY
+    done
+  done
+done
