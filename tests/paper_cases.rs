@@ -302,7 +302,7 @@ fn a_snapping_peel_front_is_carried_through_by_the_pseudo_transient_rescue() {
     let out = run(1, &args);
     assert!(!out.status.success(), "the plain load stepping should fail");
     assert!(
-        stderr(&out).contains("minimum increment"),
+        stderr(&out).contains("minimum increment") && !stderr(&out).contains("rescue"),
         "{}",
         stderr(&out)
     );

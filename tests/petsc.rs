@@ -66,8 +66,10 @@ fn command_line_petsc_options_reach_petsc_and_override_the_case() {
         !out.status.success(),
         "one Newton iteration per step should not converge"
     );
+    // the rescue (on by default) was tried too, and the message says so
     assert!(
-        stderr(&out).contains("minimum increment"),
+        stderr(&out).contains("minimum increment")
+            && stderr(&out).contains("rescue found no equilibrium"),
         "{}",
         stderr(&out)
     );

@@ -428,7 +428,12 @@ pub fn run_load_steps_from<'p>(
                     load: target,
                     cutbacks,
                     reason: format!(
-                        "the minimum increment {min:.3e} was reached; last attempt: {}",
+                        "the minimum increment {min:.3e} was reached{}; last attempt: {}",
+                        if control.pseudo_steps > 0 {
+                            " and the pseudo-transient rescue found no equilibrium"
+                        } else {
+                            ""
+                        },
                         out.domain_error.unwrap_or(out.reason)
                     ),
                 });
