@@ -153,6 +153,10 @@ fn bad_settings_are_named_by_key() {
             "contact.0.augmented",
         ),
         (
+            vec![AL, "contact.0.gap=\"mortar_mean\""],
+            "contact.0.augmented",
+        ),
+        (
             vec!["contact.0.augmented={ tol = 1e-6, max = 5, rounds = 3 }"],
             "rounds",
         ),

@@ -107,6 +107,9 @@ pub enum GapKind {
     /// As `Mortar`, weighted by the linear parent's corner functions instead of the surface
     /// basis: one pressure per element corner (any surface family).
     MortarLinear,
+    /// The control points' weights applied to the points' penalty pressures instead of their
+    /// gaps, `p_A = int R_A eps_n <-g_n> da / int R_A da`, interpolated by the surface basis.
+    MortarMean,
 }
 
 /// Augmented Lagrangian (Uzawa) enforcement of a penalty pair: after each converged solve every

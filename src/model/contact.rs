@@ -301,9 +301,11 @@ fn gap_kind(
         GapMode::ElementMean => return Ok(GapKind::ElementMean),
         GapMode::Mortar => GapKind::Mortar,
         GapMode::MortarLinear => GapKind::MortarLinear,
+        GapMode::MortarMean => GapKind::MortarMean,
     };
     let name = match kind {
         GapKind::Mortar => "mortar",
+        GapKind::MortarMean => "mortar_mean",
         _ => "mortar_linear",
     };
     let negative = idx.iter().find(|&&s| {
@@ -323,7 +325,7 @@ fn gap_kind(
         )
     } else if case.solver.contact_freeze_after > 0 {
         Some("has one status per weight node; `solver.contact_freeze_after` holds pointwise statuses (drop one of them)".to_string())
-    } else if let (Some(&s), GapKind::Mortar) = (negative, kind) {
+    } else if let (Some(&s), GapKind::Mortar | GapKind::MortarMean) = (negative, kind) {
         Some(format!(
             "needs a non-negative basis on the surface: `{}` is a Q1C2 or Q1CH surface, whose \
              basis functions go negative (Q1C2) or carry slopes (Q1CH), so the weighted gap is \
@@ -355,10 +357,11 @@ fn augmented(case: &Case, i: usize, spec: &ContactSpec) -> Result<Option<Augment
             String::new(),
             "goes with the `penalty` law only".to_string(),
         ))
-    } else if spec.gap == GapMode::ElementMean {
+    } else if matches!(spec.gap, GapMode::ElementMean | GapMode::MortarMean) {
         Some((
             String::new(),
-            "is implemented for the pointwise and the mortar gap only (not `element_mean`)"
+            "is implemented for the pointwise gap and `mortar`/`mortar_linear` only (not \
+             `element_mean` or `mortar_mean`)"
                 .to_string(),
         ))
     } else if spec.algorithm == Algorithm::OnePass && spec.rigid.is_none() {

@@ -63,7 +63,11 @@ pub struct ContactSpec {
     /// non-negative basis (Q1C1, Q1Np, Q1Np.t surfaces; not Q1C2 or Q1CH), two-half-pass or a
     /// rigid partner, frictionless. `mortar_linear`: the same with the linear parent's corner
     /// functions as weights (one pressure per element corner, a coarser pressure than the
-    /// control points of an enriched surface; any surface family).
+    /// control points of an enriched surface; any surface family). `mortar_mean`: each control
+    /// point's pressure is the mean of the points' penalty pressures weighted by its basis
+    /// function, `p_A = int R_A eps_n <-g_N> da / int R_A da` (points join one by one, as in
+    /// `element_mean`), interpolated by the surface basis; the scope of `mortar`, without
+    /// `augmented`.
     #[serde(default, skip_serializing_if = "GapMode::is_pointwise")]
     pub gap: GapMode,
     /// `penalty`: augmented Lagrangian enforcement, `{ tol = ..., max = ... }`. After each converged
@@ -156,6 +160,8 @@ pub enum GapMode {
     Mortar,
     /// Weighted by the linear parent's corner functions.
     MortarLinear,
+    /// The points' penalty pressures weighted by each surface control point's basis function.
+    MortarMean,
 }
 
 impl GapMode {

@@ -27,7 +27,9 @@ impl<'a> Gap<'a> {
     pub(super) fn new(kind: GapKind, net: Option<&'a mut MortarNet>) -> Gap<'a> {
         match (kind, net) {
             (GapKind::ElementMean, _) => Gap::ElementMean(ElementMean::default()),
-            (GapKind::Mortar | GapKind::MortarLinear, Some(net)) => Gap::Mortar(net),
+            (GapKind::Mortar | GapKind::MortarLinear | GapKind::MortarMean, Some(net)) => {
+                Gap::Mortar(net)
+            }
             _ => Gap::Pointwise,
         }
     }

@@ -25,6 +25,14 @@
 //! surface stretches: on ironing the reference-area version gave the cylinder's pass 14 % more
 //! force than the block's (BENCHMARKS.md, "Mortar gap").
 //!
+//! `gap = "mortar_mean"` (`mean`): the same weights applied to the points' penalty pressures
+//! instead of their gaps, `p_A = sum_q R_A(xi_q) c_q p_q / W_A`, `p_q = -eps_n g_N,q` where
+//! `g_N,q <= touch` (else 0): points join a control point's pressure one by one, as in
+//! `element_mean`, so no control point at the edge of the contact zone stays open while points of
+//! its support penetrate. Its variation, carried as `D_A = -W_A dp_A / eps_n` so that the tangent
+//! above applies unchanged: `sum_q R_A w_q [H_q J_q n_q . (N_b du_b - N^l_b dy_b) + (p_A - p_q) /
+//! eps_n dJ_q]`, `H_q` the point's active flag.
+//!
 //! Augmented Lagrangian (`augmented = { tol, max }`): each control point carries a multiplier
 //! `lambda_A` (a pressure), `p_A = lambda_A - eps_n g_A` where `g_A <= lambda_A / eps_n + touch`;
 //! after a converged solve `lambda_A <- <p_A>` until every `|g_A|` of a pressed control point (and
@@ -105,6 +113,12 @@ pub(crate) struct MortarNet {
     /// Per control point: weighted gap and pressure at the current evaluation.
     g: Vec<f64>,
     p: Vec<f64>,
+    /// The pressure is the weighted mean of the points' penalty pressures (`mortar_mean`) instead
+    /// of the penalty of the weighted gap.
+    pub(crate) mean: bool,
+    /// Per point of the pass (`mean`): its penalty pressure; the pass's contact tolerance.
+    pq: Vec<f64>,
+    touch: f64,
     /// Per control point: its Jacobian columns `D_A` (block key, values), built when first needed
     /// in a Jacobian evaluation.
     d: Vec<Option<Columns>>,
@@ -230,7 +244,39 @@ impl MortarNet {
         self.p.resize(n_cp, 0.0);
         self.active.clear();
         self.active.resize(n_cp, false);
+        self.touch = hp.touch;
+        if self.mean {
+            self.pq.clear();
+            self.pq.resize(points.len(), 0.0);
+            for (i, oe) in all.iter().enumerate() {
+                let (cps, phi) = (&self.elem_cps[i], &self.phi[i]);
+                for q in oe.first..oe.first + oe.n {
+                    let Some(mp) = &self.pts[q] else { continue };
+                    if mp.g_n > hp.touch {
+                        continue;
+                    }
+                    self.pq[q] = -eps_n * mp.g_n;
+                    let c = points[q].w * self.area[q].0;
+                    let j = q - oe.first;
+                    for (&a, &f) in cps.iter().zip(&phi[j * cps.len()..(j + 1) * cps.len()]) {
+                        self.p[a as usize] += f * c * self.pq[q];
+                        if f > 0.0 {
+                            self.active[a as usize] = true;
+                        }
+                    }
+                }
+            }
+        }
         for a in 0..n_cp {
+            if self.mean {
+                if self.w[a] > 0.0 {
+                    self.g[a] /= self.w[a];
+                    self.p[a] /= self.w[a];
+                } else {
+                    self.g[a] = f64::INFINITY;
+                }
+                continue;
+            }
             if self.w[a] > 0.0 {
                 self.g[a] /= self.w[a];
                 let lambda = self.lambda[a];
@@ -300,7 +346,7 @@ impl MortarNet {
                 continue;
             }
             if self.d[a].is_none() {
-                self.d[a] = Some(self.columns(a, all, points, dim));
+                self.d[a] = Some(self.columns(a, all, points, dim, eps_n));
             }
             let f = eps_n / self.w[a];
             for (key, vals) in self.d[a].as_ref().expect("built above") {
@@ -374,7 +420,14 @@ impl MortarNet {
 
     /// `D_A` of control point `a`: per own-surface element of its support (key
     /// [`OWN_COLUMNS`]` | e`) and per partner element of its points, the column values.
-    fn columns(&self, a: usize, all: &[&OwnElem], points: &[QPoint], dim: usize) -> Columns {
+    fn columns(
+        &self,
+        a: usize,
+        all: &[&OwnElem],
+        points: &[QPoint],
+        dim: usize,
+        eps_n: f64,
+    ) -> Columns {
         let mut out: Columns = Vec::new();
         for &j in &self.support[a] {
             let oe = all[j as usize];
@@ -393,7 +446,13 @@ impl MortarNet {
                 let (J, t) = &self.area[q];
                 // the area's variation, dJ = sum_b dJ/dx_b . du_b
                 let dj = dj_dx(dim, t, *J);
-                let ca = fw * (self.gq[q] - self.g[a]);
+                // `mean`: W_A dp_A = sum R w [(p_q - p_A) dJ + J dp_q], dp_q = -eps_n H_q dg_q,
+                // carried as D_A = -W_A dp_A / eps_n
+                let ca = if self.mean {
+                    fw * (self.p[a] - self.pq[q]) / eps_n
+                } else {
+                    fw * (self.gq[q] - self.g[a])
+                };
                 let own = &mut out[io].1;
                 for b in 0..nk {
                     for k in 0..dim {
@@ -402,6 +461,9 @@ impl MortarNet {
                     }
                 }
                 let Some(mp) = &self.pts[q] else { continue };
+                if self.mean && mp.g_n > self.touch {
+                    continue;
+                }
                 let c = fw * J;
                 for b in 0..nk {
                     for k in 0..dim {

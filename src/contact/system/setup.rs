@@ -93,7 +93,10 @@ impl ContactSystem {
                         elems.extend(sys.surface_points(&def, k, e, dofs, &mut points)?);
                     }
                 }
-                let (halo, mortar) = if matches!(def.gap, GapKind::Mortar | GapKind::MortarLinear) {
+                let (halo, mortar) = if matches!(
+                    def.gap,
+                    GapKind::Mortar | GapKind::MortarLinear | GapKind::MortarMean
+                ) {
                     let linear = def.gap == GapKind::MortarLinear;
                     let halo = sys.halo(&def, k, linear, &elems, dofs, &mut points)?;
                     let all: Vec<&OwnElem> = elems.iter().chain(&halo).collect();
@@ -105,7 +108,8 @@ impl ContactSystem {
                         .iter()
                         .map(|o| weight_values(dim, o, &points, linear))
                         .collect();
-                    let net = MortarNet::new(&nodes, phi, &elems, &halo, &points);
+                    let mut net = MortarNet::new(&nodes, phi, &elems, &halo, &points);
+                    net.mean = def.gap == GapKind::MortarMean;
                     (halo, Some(net))
                 } else {
                     (Vec::new(), None)

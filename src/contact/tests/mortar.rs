@@ -6,12 +6,20 @@ use super::*;
 
 const MORTAR: &str = "law = \"penalty\"\neps_n = 100.0\ngap = \"mortar\"";
 const MORTAR_LINEAR: &str = "law = \"penalty\"\neps_n = 100.0\ngap = \"mortar_linear\"";
+const MORTAR_MEAN: &str = "law = \"penalty\"\neps_n = 100.0\ngap = \"mortar_mean\"";
 
 #[test]
 fn mortar_gap_tangent_matches_central_differences() {
     // every point's traction depends on the gaps of every point in the supports of its element's
     // control points, and so on their partners and on the neighbouring elements' unknowns
     mortar_tangents(MORTAR, &[("Q1N2.1", "Q1N3")], 0.06);
+}
+
+#[test]
+fn mortar_mean_tangent_matches_central_differences() {
+    // the control points' weighted means of the points' penalty pressures: points join one by
+    // one, and each point's active flag and area enter the mean
+    mortar_tangents(MORTAR_MEAN, &[("Q1N2.1", "Q1N3")], 0.06);
 }
 
 #[test]
