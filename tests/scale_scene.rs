@@ -44,7 +44,7 @@ fn check_unknowns(sets: &[&str]) -> (bool, Option<u64>, String) {
     let out = run(1, &args);
     let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), stderr(&out));
     let n = text
-        .split(|c: char| c == '(' || c == ',')
+        .split(['(', ','])
         .filter_map(|w| w.trim().strip_suffix(" unknowns"))
         .find_map(|w| w.trim().parse().ok());
     (out.status.success(), n, text)
