@@ -21,7 +21,10 @@ use super::sink::MatrixSink;
 use std::any::Any;
 
 /// The key of one block of matrix entries of a coupling set, chosen by the set (contact: the
-/// half-pass, its surface element and the partner element). Blocks are sorted by key.
+/// half-pass, its surface element and the partner element). Blocks are sorted by key. Blocks
+/// whose keys share the first two components share their COO entries in the pattern (the union of
+/// their rows times the union of their columns), so a set should put blocks with many common rows
+/// and columns (contact: those of one surface element) under such a common prefix.
 pub type Block = (u32, u32, u32);
 
 /// The COO slot of a block in the current pattern (`None`: not in it).

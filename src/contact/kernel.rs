@@ -136,6 +136,9 @@ pub struct Scratch {
     dJ: Vec<f64>,
     dxi: Vec<[f64; 2]>,
     dtt: Vec<[f64; 3]>,
+    /// Variation of the traction times area `d(t J)` per traction component and column [dim][nc]
+    /// (the same for every row node, which only scales it).
+    dtJ: Vec<f64>,
 }
 
 fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
@@ -386,16 +389,27 @@ pub fn contact_point_pass(
     if let Some(state) = fric {
         friction_variations(dim, own, &tr, (&n, p_n), &fr, state, s);
     }
+    // d(t J) per component and column, once: every row node only scales it
+    s.dtJ.clear();
+    s.dtJ.resize(dim * nc, 0.0);
+    for i in 0..dim {
+        for c in 0..nc {
+            let mut v = s.dtt[c][i];
+            for j in 0..dim {
+                v += tr.dt_dg[3 * i + j] * s.dg[c][j] + tr.dt_dn[3 * i + j] * s.dn[c][j];
+            }
+            s.dtJ[i * nc + c] = v * J + t_tot[i] * s.dJ[c];
+        }
+    }
     for a in 0..nk {
         for i in 0..dim {
             let row = (a * dim + i) * nc;
             let f = -own.N[a] * own.w;
-            for c in 0..nc {
-                let mut v = s.dtt[c][i];
-                for j in 0..dim {
-                    v += tr.dt_dg[3 * i + j] * s.dg[c][j] + tr.dt_dn[3 * i + j] * s.dn[c][j];
-                }
-                K[row + c] += f * (v * J + t_tot[i] * s.dJ[c]);
+            for (k, &d) in K[row..row + nc]
+                .iter_mut()
+                .zip(&s.dtJ[i * nc..(i + 1) * nc])
+            {
+                *k += f * d;
             }
         }
     }
@@ -406,13 +420,8 @@ pub fn contact_point_pass(
             for i in 0..dim {
                 let row = ((nk + b) * dim + i) * nc;
                 for c in 0..nc {
-                    let mut v = s.dtt[c][i];
-                    for j in 0..dim {
-                        v += tr.dt_dg[3 * i + j] * s.dg[c][j] + tr.dt_dn[3 * i + j] * s.dn[c][j];
-                    }
                     let dNb: f64 = (0..m).map(|al| ge.dN[b * m + al] * s.dxi[c][al]).sum();
-                    K[row + c] +=
-                        own.w * (ge.N[b] * (v * J + t_tot[i] * s.dJ[c]) + dNb * t_tot[i] * J);
+                    K[row + c] += own.w * (ge.N[b] * s.dtJ[i * nc + c] + dNb * t_tot[i] * J);
                 }
             }
         }
@@ -514,7 +523,12 @@ fn gap_variations(
             }
         }
         (PartnerPoint::Projected { free, .. }, Some(ge)) => {
-            let fr: Vec<usize> = (0..m).filter(|&i| free[i]).collect();
+            let (mut fr_buf, mut n_fr) = ([0usize; 2], 0);
+            for i in (0..m).filter(|&i| free[i]) {
+                fr_buf[n_fr] = i;
+                n_fr += 1;
+            }
+            let fr = &fr_buf[..n_fr];
             // A_ff = m_ff - g . a_ff on the free coordinates
             let mut A = [[0.0; 2]; 2];
             for (p, &i) in fr.iter().enumerate() {
@@ -574,7 +588,7 @@ fn gap_variations(
                 }
                 s.dxi[c] = dxi;
                 let mut dg = dd;
-                for &be in &fr {
+                for &be in fr {
                     for k in 0..3 {
                         dg[k] -= ge.a[be][k] * dxi[be];
                     }
@@ -584,7 +598,7 @@ fn gap_variations(
                     let mut dn = [0.0; 3];
                     for al in 0..m {
                         let mut dal = da[al];
-                        for &be in &fr {
+                        for &be in fr {
                             for k in 0..3 {
                                 dal[k] += ge.aa[al][be][k] * dxi[be];
                             }

@@ -4,6 +4,7 @@
 
 use super::{fatal, Assembler, MatrixAssembly};
 use crate::assembly::coupling_set::{Augment, Block, CouplingSet, Settle};
+use crate::assembly::BlockScatter;
 use crate::petsc::{Matrix, PetscError, PetscInt, ProblemError, Scatter, Vector};
 use mpi::collective::SystemOperation;
 use mpi::traits::*;
@@ -15,9 +16,11 @@ pub(super) struct CouplingHook<'p> {
     /// Gathers the displacement of the set's nodes to this rank.
     pub(super) scatter: Scatter<'p>,
     pub(super) u_table: Vector<'p>,
-    /// Blocks of the current pattern, sorted; block `i` has COO slot `first_slot + i`.
+    /// Blocks of the current pattern, sorted; block `i` has COO slot `first_slot + i`, its
+    /// entries go where `block_scatter[i]` says.
     pub(super) blocks: Vec<Block>,
     pub(super) first_slot: usize,
+    pub(super) block_scatter: Vec<BlockScatter>,
     /// Neighbour rings reserved around the needed blocks (see [`CouplingSet::band_blocks`]).
     pub(super) ring: usize,
     /// A Jacobian since the last pattern needed a coupling outside it.
@@ -73,6 +76,7 @@ impl<'p> Assembler<'p> {
             u_table,
             blocks: Vec::new(),
             first_slot: 0,
+            block_scatter: Vec::new(),
             ring,
             stale: false,
             missing_blocks: 0,

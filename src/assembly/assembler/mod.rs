@@ -87,7 +87,8 @@ pub struct Assembler<'p> {
     mode: MatrixAssembly,
     /// Connectivity of every cell of the model (only for [`MatrixAssembly::Preallocated`]).
     all_cells: (Vec<usize>, Vec<u32>),
-    /// [n_elements_total + 1] start of each element block in `coo_values`.
+    /// Start of each element block in `coo_values`, then of each coupling region (see
+    /// [`BlockScatter`](super::sink::BlockScatter)) and of the diagonal block, and the end.
     coo_offsets: Vec<usize>,
     coo_values: Vec<f64>,
     pattern_ready: bool,
@@ -507,18 +508,28 @@ impl NonlinearProblem for Assembler<'_> {
             MatrixAssembly::Coo => {
                 let mut values = std::mem::take(&mut self.coo_values);
                 let offsets = std::mem::take(&mut self.coo_offsets);
-                // reserved coupling blocks that are not needed now must not keep old values
-                if let Some(c) = &self.coupled {
+                // coupling blocks add into their shared regions, and reserved blocks that are not
+                // needed now must not keep old values
+                let mut scattered = Vec::new();
+                let mut first_scattered = usize::MAX;
+                if let Some(c) = &mut self.coupled {
                     let (a, b) = (offsets[c.first_slot], offsets[offsets.len() - 2]);
                     values[a..b].fill(0.0);
+                    scattered = std::mem::take(&mut c.block_scatter);
+                    first_scattered = c.first_slot;
                 }
                 let res = {
                     let mut sink = CooSink {
                         offsets: &offsets,
                         values: &mut values,
+                        scattered: &scattered,
+                        first_scattered,
                     };
                     self.guarded_loop(x, Some(&mut sink))
                 };
+                if let Some(c) = &mut self.coupled {
+                    c.block_scatter = scattered;
+                }
                 // Skew rows' element entries onto the other rows of their node.
                 for &(src, dst, a) in &self.skew_copy {
                     values[dst] = a * values[src];

@@ -3,7 +3,7 @@
 
 use super::{Assembler, MatrixAssembly};
 use crate::assembly::skew::{SkewRow, SkewRows};
-use crate::assembly::MatrixSink;
+use crate::assembly::{BlockScatter, MatrixSink};
 use crate::petsc::{Matrix, PetscError, PetscInt};
 use std::time::Instant;
 
@@ -36,6 +36,14 @@ fn note_skew(
     for &(o, a) in &r.others[1..] {
         extra.push((o, gj, idx, a));
     }
+}
+
+/// The non-negative entries of `lists`, sorted and unique.
+fn sorted_union<'a>(lists: impl Iterator<Item = &'a [PetscInt]>) -> Vec<PetscInt> {
+    let mut u: Vec<PetscInt> = lists.flatten().copied().filter(|&g| g >= 0).collect();
+    u.sort_unstable();
+    u.dedup();
+    u
 }
 
 impl Assembler<'_> {
@@ -71,18 +79,41 @@ impl Assembler<'_> {
                     }
                 }
                 // The coupling set's blocks (contact: rows of a surface element, columns of it
-                // and of its partner).
+                // and of its partner). Blocks whose keys share the first two components (contact:
+                // the half-pass and the surface element) share one region, the union of their rows
+                // times the union of their columns: the band's blocks of one element overlap in
+                // its own columns and in the control points their partners share, and PETSc would
+                // otherwise sort and sum each of those entries once per block.
                 if let Some(c) = &mut self.coupled {
                     c.blocks = match c.preset.take() {
                         Some(p) => p,
                         None => c.set.band_blocks(c.ring),
                     };
                     c.first_slot = self.coo_offsets.len() - 1;
-                    for cp in &c.blocks {
-                        let (rws, cls) = c.set.block_dofs(cp);
-                        for &gi in &rws {
+                    c.block_scatter.clear();
+                    let mut start = 0;
+                    while start < c.blocks.len() {
+                        let key = (c.blocks[start].0, c.blocks[start].1);
+                        let end = start
+                            + c.blocks[start..]
+                                .iter()
+                                .take_while(|b| (b.0, b.1) == key)
+                                .count();
+                        let dofs: Vec<_> = c.blocks[start..end]
+                            .iter()
+                            .map(|b| c.set.block_dofs(b))
+                            .collect();
+                        let all_rows = sorted_union(dofs.iter().map(|d| &d.0[..]));
+                        let all_cols = sorted_union(dofs.iter().map(|d| &d.1[..]));
+                        // rows that reach the matrix (not constrained, or skew rows moved)
+                        let kept: Vec<PetscInt> = all_rows
+                            .into_iter()
+                            .filter(|&gi| row_target(&self.constrained, &self.skew, gi).0 >= 0)
+                            .collect();
+                        let base = rows.len();
+                        for &gi in &kept {
                             let (row, sk) = row_target(&self.constrained, &self.skew, gi);
-                            for &gj in &cls {
+                            for &gj in &all_cols {
                                 if let Some(sr) = sk {
                                     note_skew(sr, rows.len(), gj, &mut scale, &mut extra);
                                 }
@@ -90,7 +121,19 @@ impl Assembler<'_> {
                                 cols.push(gj);
                             }
                         }
+                        let pos = |set: &[PetscInt], g: &i32| {
+                            set.binary_search(g).map_or(u32::MAX, |p| p as u32)
+                        };
+                        for (r, cl) in &dofs {
+                            c.block_scatter.push(BlockScatter {
+                                base,
+                                stride: all_cols.len(),
+                                rows: r.iter().map(|g| pos(&kept, g)).collect(),
+                                cols: cl.iter().map(|g| pos(&all_cols, g)).collect(),
+                            });
+                        }
                         self.coo_offsets.push(rows.len());
+                        start = end;
                     }
                 }
                 // A final block with the diagonal of every owned row: identity rows of the
