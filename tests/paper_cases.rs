@@ -8,16 +8,6 @@ mod common;
 use common::*;
 use std::path::Path;
 
-/// Every history column except the wall time and the active-point counts, flattened, for rank
-/// comparisons.
-fn history_values(dir: &Path) -> Vec<f64> {
-    history(dir)
-        .into_iter()
-        .filter(|(h, _)| h != "wall_time" && !h.starts_with("active_"))
-        .flat_map(|(_, v)| v)
-        .collect()
-}
-
 /// Histories and last displacements equal on 1 and 2 ranks. The active-point counts are left out
 /// where a law's activity switches at a gap of zero, which a bonded cohesive interface sits on:
 /// round-off decides those points, and they carry no force.

@@ -5,7 +5,6 @@
 
 mod common;
 use common::*;
-use std::path::Path;
 
 const CASE: &str = "hemisphere_twist_scale_3d.toml";
 
@@ -69,15 +68,6 @@ fn the_documented_sizes_give_about_1e4_1e5_1e6_unknowns() {
             "the direct route at 1e6 failed for another reason: {text}"
         );
     }
-}
-
-/// Every history column except the wall time and the active-point counts, flattened.
-fn history_values(dir: &Path) -> Vec<f64> {
-    history(dir)
-        .into_iter()
-        .filter(|(h, _)| h != "wall_time" && !h.starts_with("active_"))
-        .flat_map(|(_, v)| v)
-        .collect()
 }
 
 #[test]

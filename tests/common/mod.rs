@@ -176,6 +176,16 @@ pub fn history(dir: &Path) -> Vec<(String, Vec<f64>)> {
     header.into_iter().zip(cols).collect()
 }
 
+/// Every history column except the wall time and the active-point counts, flattened, for rank
+/// comparisons.
+pub fn history_values(dir: &Path) -> Vec<f64> {
+    history(dir)
+        .into_iter()
+        .filter(|(h, _)| h != "wall_time" && !h.starts_with("active_"))
+        .flat_map(|(_, v)| v)
+        .collect()
+}
+
 /// One column of history.csv.
 pub fn history_col(dir: &Path, name: &str) -> Vec<f64> {
     history(dir)
