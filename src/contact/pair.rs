@@ -151,3 +151,23 @@ pub(crate) fn law_traction(law: &Law, touch: f64, g: &[f64; 3], n: &[f64; 3]) ->
 
 /// Relative round-off tolerance of "touching", in units of the surface's element length.
 pub(crate) const TOUCH: f64 = 1e-12;
+
+/// The contact quadrature points each cell's rank integrates [n_cells]: the points of every
+/// half-pass's surface elements, counted on the element's bulk cell (the partitioner's second
+/// balance constraint). A pair's `region` is not applied: a weight, not a count of active points.
+pub fn points_per_cell(
+    surfaces: &[crate::contact::surface::ContactSurface],
+    pairs: &[PairDef],
+    n_cells: usize,
+) -> Vec<u32> {
+    let mut count = vec![0u32; n_cells];
+    for def in pairs {
+        for (k, _) in &def.passes {
+            for el in &surfaces[*k].elements {
+                let n: usize = el.basis.quadrature_counts().iter().product();
+                count[el.cell] += n as u32;
+            }
+        }
+    }
+    count
+}

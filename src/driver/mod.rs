@@ -16,7 +16,7 @@ use restore::{read_checkpoint, restore};
 use crate::assembly::{constrained_flags, prescribed_values, DofMap, DofMapError, SkewRows};
 use crate::io::{self, Summary};
 use crate::model::{Model, ModelError};
-use crate::parallel::partition_cells;
+use crate::parallel::{edge_cut, partition_cells};
 use crate::petsc::{Petsc, PetscError};
 use crate::scene::{load_case, validate, Case, SceneError};
 use crate::solver::{SolverError, StepRecord};
@@ -365,7 +365,8 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
     let t_start = Instant::now();
     let (case, model, out_dir) = build_model(petsc, opts)?;
     let restart = read_checkpoint(petsc, opts, &case)?;
-    let numbered = number_and_partition(petsc, &case, &model)?;
+    let mut numbered = number_and_partition(petsc, &case, &model)?;
+    let partition_stats = numbered.partition_stats.take();
     let mut solver = set_up_solver(petsc, opts, &case, &model, numbered)?;
     if let Some((_, state)) = &restart {
         restore(petsc, &model, &mut solver, state)?;
@@ -395,7 +396,16 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
     let result = solver.load_loop(&model, &mut observer, start);
     let solve_wall = t_solve.elapsed().as_secs_f64();
     let observer_signal = observer.interrupted;
-    finish_and_report(petsc, &case, &model, &solver, observer, &result, solve_wall)?;
+    finish_and_report(
+        petsc,
+        &case,
+        &model,
+        &solver,
+        observer,
+        &result,
+        solve_wall,
+        partition_stats,
+    )?;
     // Pictures of what happened (rank 0, from the files just finished): a failed run's too, for
     // the steps it converged; an interrupted run stops at once.
     let pictures = if case.output.plots
@@ -517,6 +527,8 @@ fn build_model(petsc: &Petsc, opts: &RunOptions) -> Result<(Case, Model, PathBuf
 /// sets.
 struct Numbered {
     part: Vec<u32>,
+    /// The partition's balance and cut (rank 0 on several ranks; `None` elsewhere).
+    partition_stats: Option<io::PartitionStats>,
     dofs: DofMap,
     sets: Vec<Box<dyn crate::assembly::ElementSet>>,
     /// Bodies that the conditions may leave free (named if the tangent turns out singular).
@@ -533,9 +545,37 @@ fn number_and_partition(petsc: &Petsc, case: &Case, model: &Model) -> Result<Num
     let comm = petsc.comm();
     let (rank, size) = (comm.rank(), comm.size() as usize);
     let mut part = vec![0u32; model.n_cells()];
+    let mut partition_stats = None;
     if size > 1 {
         let r0 = if rank == 0 {
-            partition_cells(&model.combined_mesh(), size).map_err(Error::from)
+            let points = crate::contact::pair::points_per_cell(
+                &model.contact_surfaces,
+                &model.contact_pairs,
+                model.n_cells(),
+            );
+            // The bulk-only partition of earlier versions, for the measurement of BENCHMARKS.md
+            // ("Scale: contact data per rank").
+            let weights: &[u32] =
+                if std::env::var_os("NURBS_CONTACT_PARTITION_CELLS_ONLY").is_some() {
+                    &[]
+                } else {
+                    &points
+                };
+            let mesh = model.combined_mesh();
+            partition_cells(&mesh, size, weights)
+                .inspect(|p| {
+                    let mut stats = io::PartitionStats {
+                        cells: vec![0; size],
+                        contact_points: vec![0; size],
+                        cut_faces: edge_cut(&mesh, p) as u64,
+                    };
+                    for (c, &r) in p.iter().enumerate() {
+                        stats.cells[r as usize] += 1;
+                        stats.contact_points[r as usize] += points[c] as u64;
+                    }
+                    partition_stats = Some(stats);
+                })
+                .map_err(Error::from)
         } else {
             Ok(Vec::new())
         };
@@ -563,6 +603,7 @@ fn number_and_partition(petsc: &Petsc, case: &Case, model: &Model) -> Result<Num
     )?;
     Ok(Numbered {
         part,
+        partition_stats,
         dofs,
         sets,
         suspects: holds.suspects,
@@ -609,6 +650,7 @@ fn finish_and_report(
     observer: StepObserver,
     result: &Result<Vec<StepRecord>, SolverError>,
     solve_wall: f64,
+    partition: Option<io::PartitionStats>,
 ) -> Result<(), Error> {
     let comm = petsc.comm();
     let asm = &solver.asm;
@@ -676,6 +718,7 @@ fn finish_and_report(
             }
         }),
         contact_data: contact_data(comm, asm),
+        partition,
         steps: observer.step_log,
         status,
     };

@@ -45,6 +45,7 @@ pub(super) fn set_up_solver<'p>(
         sets,
         suspects,
         probes,
+        ..
     } = numbered;
     let (n_global, n_owned) = (dofs.n_global(), dofs.n_owned());
     log(rank, opts.verbosity, Verbosity::Normal, || {

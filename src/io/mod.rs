@@ -24,6 +24,6 @@ pub use hdf5_xdmf::{CellKind, Center, FieldData, GridDef, ResultsWriter};
 pub use history::{HistoryRow, HistoryWriter};
 pub use outdir::{claim_output_dir, RUN_MARKER};
 pub use summary::{
-    write_summary, ContactDataStats, ContactPatternStats, NewtonStats, PhaseTimes, RunStatus,
-    StepLog, Summary,
+    write_summary, ContactDataStats, ContactPatternStats, NewtonStats, PartitionStats, PhaseTimes,
+    RunStatus, StepLog, Summary,
 };

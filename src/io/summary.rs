@@ -151,6 +151,9 @@ pub struct Summary {
     /// What each rank holds for contact and receives per evaluation. Absent without contact.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub contact_data: Option<ContactDataStats>,
+    /// How the cells were split between the ranks. Absent on one rank.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub partition: Option<PartitionStats>,
     /// One entry per converged load step, with its Newton residual history.
     pub steps: Vec<StepLog>,
     #[serde(flatten)]
@@ -184,6 +187,18 @@ pub struct ContactDataStats {
     /// Gathers over the run (one per residual, Jacobian and pattern refresh), rank 0's count
     /// (the gather is collective, so every rank's is the same).
     pub evaluations: u64,
+}
+
+/// The cell partition of a run on several ranks (METIS, two constraints with contact).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PartitionStats {
+    /// Cells per rank, in rank order.
+    pub cells: Vec<u64>,
+    /// Contact quadrature points per rank (the points of the half-passes' surface elements of
+    /// its cells), in rank order.
+    pub contact_points: Vec<u64>,
+    /// Faces shared by cells of different ranks.
+    pub cut_faces: u64,
 }
 
 /// Write `dir/summary.json` atomically; returns its path.
@@ -230,6 +245,7 @@ mod tests {
             peak_memory_mb: 54.0,
             contact_pattern: None,
             contact_data: None,
+            partition: None,
             steps: vec![StepLog {
                 step: 1,
                 load: 0.5,

@@ -1,4 +1,5 @@
-//! Cell partitioning with METIS k-way on the face dual graph of the mesh.
+//! Cell partitioning with METIS k-way on the face dual graph of the mesh; with contact, a second
+//! balance constraint for the contact quadrature points each cell integrates.
 use crate::mesh::Mesh;
 
 /// Fixed METIS seed, so that the same mesh always gives the same partition.
@@ -20,7 +21,16 @@ pub enum PartitionError {
 /// Part (0..n_parts) of every cell, [n_cells], from METIS k-way partitioning of the dual graph
 /// whose edges join cells sharing a face (2 nodes in 2D, 4 in 3D), with a fixed seed.
 /// `n_parts = 1` returns zeros without calling METIS.
-pub fn partition_cells(mesh: &Mesh, n_parts: usize) -> Result<Vec<u32>, PartitionError> {
+///
+/// `contact_points` (empty, or one count per cell) is the number of contact quadrature points a
+/// cell's rank integrates. When some are non-zero METIS balances two constraints at once: the
+/// cells (bulk work) and the contact points (contact work), so that the ranks owning a contact
+/// surface do not carry all of its points (BENCHMARKS.md, "Scale: contact data per rank").
+pub fn partition_cells(
+    mesh: &Mesh,
+    n_parts: usize,
+    contact_points: &[u32],
+) -> Result<Vec<u32>, PartitionError> {
     let n_cells = mesh.n_cells();
     if n_parts == 0 || n_parts > n_cells {
         return Err(PartitionError::BadPartCount { n_cells, n_parts });
@@ -50,9 +60,33 @@ pub fn partition_cells(mesh: &Mesh, n_parts: usize) -> Result<Vec<u32>, Partitio
         n_parts,
         msg: e.to_string(),
     };
+    if !contact_points.is_empty() && contact_points.len() != n_cells {
+        return Err(PartitionError::Metis {
+            n_parts,
+            msg: format!(
+                "{} contact point counts for {n_cells} cells",
+                contact_points.len()
+            ),
+        });
+    }
+    let weighted = contact_points.iter().any(|&c| c > 0);
+    let vwgt: Vec<metis::Idx> = if weighted {
+        contact_points
+            .iter()
+            .flat_map(|&c| [1, c as metis::Idx])
+            .collect()
+    } else {
+        Vec::new()
+    };
     let mut part: Vec<metis::Idx> = vec![0; n_cells];
-    metis::Graph::new(1, nparts, &xadj, &adjncy)
-        .map_err(|e| metis_err(&e))?
+    let graph = metis::Graph::new(if weighted { 2 } else { 1 }, nparts, &xadj, &adjncy)
+        .map_err(|e| metis_err(&e))?;
+    let graph = if weighted {
+        graph.set_vwgt(&vwgt)
+    } else {
+        graph
+    };
+    graph
         .set_option(metis::option::Seed(METIS_SEED))
         .part_kway(&mut part)
         .map_err(|e| metis_err(&e))?;
@@ -101,7 +135,7 @@ mod tests {
     }
 
     fn check(mesh: &Mesh, n_parts: usize) {
-        let part = partition_cells(mesh, n_parts).unwrap();
+        let part = partition_cells(mesh, n_parts, &[]).unwrap();
         let mut sizes = vec![0usize; n_parts];
         for &p in &part {
             sizes[p as usize] += 1;
@@ -116,7 +150,7 @@ mod tests {
         let random_cut = edge_cut(mesh, &random_partition(mesh.n_cells(), n_parts));
         assert!(4 * cut < random_cut, "cut {cut} vs random {random_cut}");
         // deterministic
-        assert_eq!(part, partition_cells(mesh, n_parts).unwrap());
+        assert_eq!(part, partition_cells(mesh, n_parts, &[]).unwrap());
     }
 
     #[test]
@@ -126,16 +160,61 @@ mod tests {
         check(&box3d([0.0; 3], [2.0; 3], [8, 8, 8]).unwrap(), 4);
     }
 
+    /// Contact points on the cells of the last four columns of a 40 x 8 strip: the bulk-only
+    /// partition cuts the strip in the middle and gives one part every point; the two-constraint
+    /// partition splits the points too, and still cuts little.
+    #[test]
+    fn contact_points_are_balanced_as_a_second_constraint() {
+        let mesh = rectangle([0.0, 0.0], [10.0, 2.0], [40, 8]).unwrap();
+        let points: Vec<u32> = (0..mesh.n_cells())
+            .map(|c| {
+                let x = mesh.cell(c).iter().map(|&a| mesh.node(a)[0]).sum::<f64>() / 4.0;
+                if x > 9.0 {
+                    4
+                } else {
+                    0
+                }
+            })
+            .collect();
+        let per_part = |part: &[u32], w: &dyn Fn(usize) -> u32| {
+            let mut t = [0u32; 2];
+            for (c, &p) in part.iter().enumerate() {
+                t[p as usize] += w(c);
+            }
+            t
+        };
+        let total: u32 = points.iter().sum();
+        assert_eq!(total, 4 * 32);
+        let bulk_only = partition_cells(&mesh, 2, &[]).unwrap();
+        let t = per_part(&bulk_only, &|c| points[c]);
+        assert!(t.contains(&0), "bulk-only split the points: {t:?}");
+        let both = partition_cells(&mesh, 2, &points).unwrap();
+        let t = per_part(&both, &|c| points[c]);
+        assert!(
+            t.iter().all(|&n| (n as f64) <= 0.55 * total as f64),
+            "points unbalanced: {t:?}"
+        );
+        let cells = per_part(&both, &|_| 1);
+        assert!(
+            cells.iter().all(|&n| (n as f64) <= 0.55 * 320.0),
+            "cells unbalanced: {cells:?}"
+        );
+        let random_cut = edge_cut(&mesh, &random_partition(mesh.n_cells(), 2));
+        assert!(4 * edge_cut(&mesh, &both) < random_cut);
+        assert_eq!(both, partition_cells(&mesh, 2, &points).unwrap());
+        assert!(partition_cells(&mesh, 2, &points[1..]).is_err());
+    }
+
     #[test]
     fn one_part_is_all_zeros_and_bad_counts_are_errors() {
         let m = rectangle([0.0, 0.0], [1.0, 1.0], [2, 2]).unwrap();
-        assert_eq!(partition_cells(&m, 1).unwrap(), vec![0; 4]);
+        assert_eq!(partition_cells(&m, 1, &[]).unwrap(), vec![0; 4]);
         assert!(matches!(
-            partition_cells(&m, 0),
+            partition_cells(&m, 0, &[]),
             Err(PartitionError::BadPartCount { .. })
         ));
         assert!(matches!(
-            partition_cells(&m, 5),
+            partition_cells(&m, 5, &[]),
             Err(PartitionError::BadPartCount { n_parts: 5, .. })
         ));
     }
