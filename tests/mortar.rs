@@ -1,7 +1,7 @@
 //! The mortar gap (`gap = "mortar"`) end to end: the contact patch test on non-matching meshes in
 //! 2D and 3D, Hertz at one refinement, the same answer on 1 and 2 ranks (halo elements across the
 //! METIS split), the augmented Lagrangian on the control points, `mortar_linear` on a Q1C2
-//! surface, and the scope refused by key.
+//! surface, Coulomb friction with `mortar_mean`, and the scope refused by key.
 
 mod common;
 use common::*;
@@ -217,11 +217,6 @@ fn mortar_gap_outside_its_scope_is_refused_with_the_key() {
             "two-half-pass",
         ),
         (
-            "cattaneo_mindlin_2d.toml",
-            vec!["contact.0.gap=mortar"],
-            "friction",
-        ),
-        (
             "hertz_2d.toml",
             vec!["contact.0.gap=mortar", "bodies.disk.element=Q1C2"],
             "non-negative",
@@ -230,11 +225,6 @@ fn mortar_gap_outside_its_scope_is_refused_with_the_key() {
             "hertz_2d.toml",
             vec!["contact.0.gap=mortar", "bodies.disk.element=Q1CH"],
             "non-negative",
-        ),
-        (
-            "cattaneo_mindlin_2d.toml",
-            vec!["contact.0.gap=mortar_linear"],
-            "friction",
         ),
         (
             "hertz_2d.toml",
@@ -255,5 +245,49 @@ fn mortar_gap_outside_its_scope_is_refused_with_the_key() {
             err.contains("contact.0.gap") && err.contains(want) && err.contains(file),
             "{sets:?}: message does not name the key, the reason and the file:\n{err}"
         );
+    }
+}
+
+#[test]
+fn mortar_mean_carries_coulomb_friction_alike_on_one_and_two_ranks() {
+    // Cattaneo-Mindlin at the coarse mesh: pressed, then shifted with mu = 0.3; the tangential
+    // traction of every point is the return mapping with the interpolated pressure (measured
+    // Q/(mu P) 0.5076 against the pointwise gap's 0.5093, 8 sticking and 16 slipping points)
+    let sets = [
+        "meshes.disk.n_arc=64",
+        "meshes.disk.n_radial=16",
+        "output.plots=false",
+    ];
+    let mean: Vec<&str> = sets
+        .iter()
+        .copied()
+        .chain(["contact.0.gap=mortar_mean"])
+        .collect();
+    let d1 = run_case("mortar/cm-mean-np1", "cattaneo_mindlin_2d.toml", 1, &mean);
+    let d2 = run_case("mortar/cm-mean-np2", "cattaneo_mindlin_2d.toml", 2, &mean);
+    let dp = run_case("mortar/cm-pointwise", "cattaneo_mindlin_2d.toml", 1, &sets);
+    for d in [&d1, &d2, &dp] {
+        assert_eq!(summary(d)["status"], "converged", "{}", d.display());
+    }
+    let ratio =
+        |d: &std::path::Path| -last(d, "P_cm_disk_arc_x") / (0.3 * last(d, "P_cm_disk_arc_y"));
+    let (r, rp) = (ratio(&d1), ratio(&dp));
+    assert!(
+        (r / rp - 1.0).abs() < 0.02,
+        "Q/(mu P) {r} against pointwise {rp}"
+    );
+    let (stick, slip) = (
+        last(&d1, "stick_cm_disk_arc"),
+        last(&d1, "slip_cm_disk_arc"),
+    );
+    assert!(
+        stick > 0.0 && slip > 0.0,
+        "{stick} sticking, {slip} slipping"
+    );
+    let (h1, h2) = (history_values(&d1), history_values(&d2));
+    let dh = rel_diff(&h1, &h2);
+    assert!(dh < 1e-10, "1 and 2 ranks differ: history {dh:e}");
+    for col in ["stick_cm_disk_arc", "slip_cm_disk_arc"] {
+        assert_eq!(history_col(&d1, col), history_col(&d2, col), "{col}");
     }
 }

@@ -318,11 +318,6 @@ fn gap_kind(
         Some("goes with the `penalty` law only".to_string())
     } else if spec.algorithm == Algorithm::OnePass && spec.rigid.is_none() {
         Some("is implemented for the two-half-pass algorithm (or a rigid partner) only".to_string())
-    } else if spec.mu.is_some() {
-        Some(
-            "is implemented without friction only (drop `mu`, or use the pointwise gap)"
-                .to_string(),
-        )
     } else if case.solver.contact_freeze_after > 0 {
         Some("has one status per weight node; `solver.contact_freeze_after` holds pointwise statuses (drop one of them)".to_string())
     } else if let (Some(&s), GapKind::Mortar | GapKind::MortarMean) = (negative, kind) {

@@ -33,6 +33,12 @@
 //! above applies unchanged: `sum_q R_A w_q [H_q J_q n_q . (N_b du_b - N^l_b dy_b) + (p_A - p_q) /
 //! eps_n dJ_q]`, `H_q` the point's active flag.
 //!
+//! Coulomb friction (`mu`): each point's tangential traction is the pointwise return mapping of
+//! the kernel with the interpolated pressure `p_q` as its normal pressure (stick: `-eps_t g_T`;
+//! slip: `mu p_q s_q`), so a slipping point's traction is `p_q (n_q + mu s_q)` and its rows in
+//! `G_A` carry `n_q + mu s_q` instead of `n_q`; the kernel's tangent holds `p_q` fixed (as for
+//! the normal part). Stick and slip, anchors and their updates are the pointwise ones.
+//!
 //! Augmented Lagrangian (`augmented = { tol, max }`): each control point carries a multiplier
 //! `lambda_A` (a pressure), `p_A = lambda_A - eps_n g_A` where `g_A <= lambda_A / eps_n + touch`;
 //! after a converged solve `lambda_A <- <p_A>` until every `|g_A|` of a pressed control point (and
@@ -45,7 +51,7 @@
 #![allow(non_snake_case)]
 
 use super::{block_slot, HalfPass, OwnElem, QPoint, Work};
-use crate::contact::kernel::gap_and_normal;
+use crate::contact::kernel::{gap_and_normal, SlipState};
 use crate::contact::law::Traction;
 use crate::contact::surface::{raw_normal, MAX_FACE_NODES};
 use std::collections::HashMap;
@@ -307,9 +313,9 @@ impl MortarNet {
             .sum()
     }
 
-    /// In a Jacobian evaluation, after the points of own element `i` (`oe`): the variation of
-    /// its control points' pressures, `eps_n / W_A G_A (x) D_A` for each active `A`, into the
-    /// element's blocks.
+    /// In a Jacobian evaluation, after the points of own element `i` (`oe`; their friction
+    /// states of this evaluation in `points`): the variation of its control points' pressures,
+    /// `eps_n / W_A G_A (x) D_A` for each active `A`, into the element's blocks.
     pub(super) fn end_element(
         &mut self,
         hp: &HalfPass,
@@ -335,9 +341,17 @@ impl MortarNet {
                 let Some(mp) = &self.pts[q] else { continue };
                 let N = oe.basis(q).0;
                 let c = self.weights(i, q - oe.first)[b] * points[q].w * self.area[q].0;
+                // d t / d p: the normal, plus the slip direction where the point slips (its
+                // tangential traction `mu p s` scales with the interpolated pressure)
+                let qp = &points[q];
+                let t = if qp.slip == SlipState::Slip && qp.p_n > 0.0 {
+                    [0, 1, 2].map(|k| mp.n[k] + qp.t_t[k] / qp.p_n)
+                } else {
+                    mp.n
+                };
                 for a2 in 0..nk {
                     for k in 0..dim {
-                        G[a2 * dim + k] += c * N[a2] * mp.n[k];
+                        G[a2 * dim + k] += c * N[a2] * t[k];
                     }
                 }
                 any = true;

@@ -2,6 +2,7 @@
 //! faceted, rigid partners, 2D and 3D), the halo that makes each rank's control-point gaps whole,
 //! and the pressure it interpolates.
 
+use super::friction::{friction_fd_2d, friction_fd_hemisphere};
 use super::*;
 
 const MORTAR: &str = "law = \"penalty\"\neps_n = 100.0\ngap = \"mortar\"";
@@ -28,6 +29,22 @@ fn mortar_linear_gap_tangent_matches_central_differences() {
     // hemisphere pressed deeper: a corner's weight spans four coarse elements, whose mean gap is
     // still open at the depth of the control-point test)
     mortar_tangents(MORTAR_LINEAR, &[("Q1C2", "Q1CH"), ("Q1CH", "Q1N2.1")], 0.2);
+}
+
+#[test]
+fn mortar_gaps_friction_tangent_matches_central_differences_in_stick_and_slip() {
+    // a slipping point's traction is `p_q (n_q + mu s_q)` with `p_q` interpolated from the
+    // control points: the pressure's variation acts along the slip direction too
+    for gap in ["mortar", "mortar_mean"] {
+        let law =
+            format!("law = \"penalty\"\neps_n = 100.0\nmu = 0.3\neps_t = 80.0\ngap = \"{gap}\"");
+        for (block, disk) in [("Q1N2", "Q1N2"), ("Q1C1", "Q1N2")] {
+            friction_fd_2d(block, disk, &law);
+        }
+        friction_fd_hemisphere("Q1N2", "Q1N2", &law);
+    }
+    let law = "law = \"penalty\"\neps_n = 100.0\nmu = 0.3\neps_t = 80.0\ngap = \"mortar_linear\"";
+    friction_fd_2d("Q1CH", "Q1N2.1", law);
 }
 
 /// FD checks of `law` on 2D pairs (three, then `extra_2d`), 3D blocks, the hemisphere (pressed
