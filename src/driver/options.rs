@@ -429,13 +429,15 @@ pub(super) const ITERATIVE_DEFAULT_OPTIONS: &str = "-ksp_type gmres -ksp_gmres_r
 /// [`ITERATIVE_DEFAULT_OPTIONS`] (the case's and the command line's options still override them):
 /// GMRES without restart up to `-ksp_max_it` (PETSc allocates its Krylov vectors ten at a time as
 /// the iterations need them, so an easy solve costs no more memory). At a deeply penetrated
-/// iterate (the first Newton iterate of a press step: the rim's increment moves the shell into the
-/// undeformed cube) the penalty's geometric terms make the contact-coupled tangent indefinite, and
-/// the GAMG-preconditioned operator has a few negative eigenvalues (Ritz values -30 to -10 on the
-/// scale scene at 54,252 unknowns, BENCHMARKS.md "Scale: a 3D contact scene", 2026-11-26). Restarted
-/// GMRES(100) then stagnates (true residual 1.4e-2 relative after 100 iterations, still 4e-3 at
-/// 400: `DIVERGED_ITS`, fallback to MUMPS) where GMRES(200) or unrestarted GMRES converges in 162;
-/// smoothed aggregation and an FGMRES/GMRES(3) smoother stagnate as well.
+/// iterate (the first Newton iterate of a press step: the rim's increment moves the shell 0.1 into
+/// the undeformed cube, pressure eps_n g = 10 E of the cube) the GAMG-preconditioned contact
+/// tangent is indefinite: on the scale scene at 54,252 unknowns 61 of its 162 Ritz values have a
+/// negative real part (down to -30), none of the 33 of the contact-free solve before it
+/// (BENCHMARKS.md "Scale: a 3D contact scene", 2026-11-26). Restarted GMRES(100) stagnates there
+/// (relative true residual 2.8e-2 after 100 iterations, 4.1e-3 after 400: `DIVERGED_ITS`, fallback
+/// to MUMPS), GMRES(200) and unrestarted GMRES converge in 162; smoothed aggregation and an
+/// FGMRES/GMRES(3) smoother stagnate as GMRES(100) does. At 103,449 unknowns the first two contact
+/// solves take 283 and 233 iterations unrestarted.
 pub(super) const CONTACT_ITERATIVE_OPTIONS: &str = "-ksp_gmres_restart 400";
 
 /// Rows of constrained unknowns (identity rows of the Jacobian) are zeroed in the rigid-body
