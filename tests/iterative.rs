@@ -1,7 +1,9 @@
 //! The iterative linear route (`[solver] linear = "iterative"`: GMRES + GAMG with each body's
 //! rigid-body modes): the same answer as MUMPS to the solver tolerance on 2D and 3D contact cases
 //! on 1 and 2 ranks; a Krylov solve that fails retries the step with MUMPS and is counted in
-//! history.csv and summary.json; contradictory or unknown settings are named errors.
+//! history.csv and summary.json; with contact, GMRES is not restarted before `-ksp_max_it`, which
+//! solves an indefinite press tangent where GMRES(100) fell back; contradictory or unknown settings
+//! are named errors.
 
 mod common;
 use common::*;
@@ -99,6 +101,65 @@ fn iterative_equals_direct_on_the_3d_hemisphere_on_a_block_on_1_and_2_ranks() {
         "bulk",
         "R_shell_rim_z",
     );
+}
+
+/// The scale scene (`hemisphere_twist_scale_3d.toml`) pressed 0.3 in one step, press only, on a
+/// thin mesh (9,402 unknowns): at the first Newton iterate the shell stands 0.3 deep in the
+/// undeformed cube, the GAMG-preconditioned contact tangent is indefinite, and GMRES(100)
+/// stagnates (400 iterations, `DIVERGED_ITS`; BENCHMARKS.md, "Scale: a 3D contact scene",
+/// 2026-11-26).
+const PRESS_IN_ONE_STEP: &[&str] = &[
+    "meshes.cube.divisions=[20,20,4]",
+    "meshes.shell.n_surface=20",
+    "meshes.shell.n_thickness=1",
+    "stages=[{ name = \"press\", steps = 1 }]",
+    "bcs.3.angle_deg=[0.0]",
+    "bcs.3.translation=[[0.0, 0.0, -0.3]]",
+    "solver.linear=\"iterative\"",
+    "output.plots=false",
+];
+
+/// With contact the iterative route does not restart GMRES before `-ksp_max_it`: the press that
+/// fell back to MUMPS with the contact-free restart (`-ksp_gmres_restart 100`, given on the
+/// command line here) converges on the Krylov route with no fallback, to the MUMPS answer.
+#[test]
+fn the_contact_default_solves_the_indefinite_press_tangent_without_falling_back() {
+    let case_file = "hemisphere_twist_scale_3d.toml";
+    let before = run_case_with(
+        "press-restart100",
+        case_file,
+        1,
+        PRESS_IN_ONE_STEP,
+        &["-ksp_gmres_restart", "100"],
+    );
+    let s = summary(&before);
+    assert_eq!(s["status"], "converged");
+    assert!(
+        s["newton"]["linear_fallbacks"].as_u64().unwrap() >= 1,
+        "GMRES(100) no longer falls back on this press: the test does not show the contact default"
+    );
+    let after = run_case_with("press-default", case_file, 1, PRESS_IN_ONE_STEP, &[]);
+    let s = summary(&after);
+    assert_eq!(s["status"], "converged");
+    let newton = &s["newton"];
+    assert_eq!(newton["linear_fallbacks"].as_u64(), Some(0), "a fallback");
+    let its = newton["total_iterations"].as_u64().unwrap()
+        + newton["failed_iterations"].as_u64().unwrap();
+    let krylov = newton["linear_iterations"].as_u64().unwrap();
+    assert!(
+        krylov > 2 * its,
+        "{krylov} Krylov iterations for {its} Newton iterations: no Krylov solve ran"
+    );
+    let e = rel_diff(
+        &h5_last(&before, "bulk", "displacement"),
+        &h5_last(&after, "bulk", "displacement"),
+    );
+    assert!(e < 1e-7, "Krylov and MUMPS displacements differ by {e:e}");
+    let er = rel_diff(
+        &history_col(&before, "R_shell_rim_z"),
+        &history_col(&after, "R_shell_rim_z"),
+    );
+    assert!(er < 1e-7, "rim reactions differ by {er:e}");
 }
 
 /// `-ksp_max_it 1`: no Krylov solve converges, every step is retried with MUMPS, counted once per

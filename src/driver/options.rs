@@ -421,10 +421,25 @@ pub(super) const CODE_DEFAULT_OPTIONS: [&str; 2] = ["-mat_mumps_icntl_24", "-sne
 ///   block, the same total on the contact cases); Eisenstat-Walker (`-snes_ksp_ew`) did not pay
 ///   (30^3: 18 Newton iterations and 5 failed against 4, the run 2.2x longer);
 /// - GMRES(100) and at most 400 iterations: a solve that needs more is a failure, retried with
-///   MUMPS.
+///   MUMPS (with contact, no restart before 400: [`CONTACT_ITERATIVE_OPTIONS`]).
 pub(super) const ITERATIVE_DEFAULT_OPTIONS: &str = "-ksp_type gmres -ksp_gmres_restart 100 \
      -ksp_rtol 1e-8 -ksp_max_it 400 -pc_type gamg -pc_gamg_agg_nsmooths 0 \
      -pc_gamg_threshold 0.01 -mg_levels_ksp_type chebyshev -mg_levels_pc_type jacobi";
+
+/// The iterative route's defaults added when the case has contact pairs, after
+/// [`ITERATIVE_DEFAULT_OPTIONS`] (the case's and the command line's options still override them):
+/// GMRES without restart up to `-ksp_max_it` (PETSc allocates its Krylov vectors ten at a time as
+/// the iterations need them, so an easy solve costs no more memory). At a deeply penetrated
+/// iterate (the first Newton iterate of a press step: the rim's increment moves the shell 0.1 into
+/// the undeformed cube, pressure eps_n g = 10 E of the cube) the GAMG-preconditioned contact
+/// tangent is indefinite: on the scale scene at 54,252 unknowns 61 of its 162 Ritz values have a
+/// negative real part (down to -30), none of the 33 of the contact-free solve before it
+/// (BENCHMARKS.md "Scale: a 3D contact scene", 2026-11-26). Restarted GMRES(100) stagnates there
+/// (relative true residual 2.8e-2 after 100 iterations, 4.1e-3 after 400: `DIVERGED_ITS`, fallback
+/// to MUMPS), GMRES(200) and unrestarted GMRES converge in 162; smoothed aggregation and an
+/// FGMRES/GMRES(3) smoother stagnate as GMRES(100) does. At 103,449 unknowns the first two contact
+/// solves take 283 and 233 iterations unrestarted.
+pub(super) const CONTACT_ITERATIVE_OPTIONS: &str = "-ksp_gmres_restart 400";
 
 /// Rows of constrained unknowns (identity rows of the Jacobian) are zeroed in the rigid-body
 /// modes given to GAMG: 35.5 Krylov iterations per Newton iteration against 45.8 with them kept,
@@ -439,7 +454,15 @@ pub(super) fn case_petsc_options(case: &Case, model: &Model, route: LinearSolver
     // DofMap numbers a node's `dim` unknowns consecutively; MatSetFromOptions reads it at the
     // creation of every Jacobian): without it, 12^3 block at 4 s per solve instead of 0.35 s.
     let route_defaults = if route == LinearSolver::Iterative {
-        format!("{ITERATIVE_DEFAULT_OPTIONS} -mat_block_size {}", model.dim)
+        let contact = if model.contact_pairs.is_empty() {
+            ""
+        } else {
+            CONTACT_ITERATIVE_OPTIONS
+        };
+        format!(
+            "{ITERATIVE_DEFAULT_OPTIONS} {contact} -mat_block_size {}",
+            model.dim
+        )
     } else {
         String::new()
     };
