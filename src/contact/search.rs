@@ -37,9 +37,10 @@ impl Aabb {
         b
     }
 
-    /// True for a box that holds no point (an element without positions on this rank).
+    /// True for a box that holds no point (an element without positions on this rank). A box
+    /// grown by points of any dimension has its first axis set.
     pub fn is_empty(&self) -> bool {
-        (0..3).any(|k| self.lo[k] > self.hi[k])
+        self.lo[0] > self.hi[0]
     }
 
     /// True when the two boxes overlap on the first `dim` axes.
@@ -250,6 +251,44 @@ mod tests {
                     .collect();
                 assert_eq!(out, brute, "dim {dim} x {x:?}");
             }
+        }
+    }
+
+    #[test]
+    fn elements_without_positions_are_no_candidates_and_leave_the_others_theirs() {
+        // the ghost layer: a rank bins empty boxes for the elements it does not hold
+        let mut s = 11u64;
+        for dim in [2, 3] {
+            let boxes: Vec<Aabb> = (0..200)
+                .map(|i| {
+                    let mut b = Aabb::EMPTY;
+                    if i % 3 == 0 {
+                        return b.inflated(dim, 0.05);
+                    }
+                    let c: Vec<f64> = (0..dim).map(|_| 10.0 * lcg(&mut s)).collect();
+                    b.grow(&c);
+                    let c2: Vec<f64> = c.iter().map(|v| v + 0.8 * lcg(&mut s)).collect();
+                    b.grow(&c2);
+                    b.inflated(dim, 0.05)
+                })
+                .collect();
+            assert!(boxes
+                .iter()
+                .enumerate()
+                .all(|(i, b)| b.is_empty() == (i % 3 == 0)));
+            let grid = BinGrid::new(dim, boxes.clone());
+            let mut out = Vec::new();
+            let mut found = 0;
+            for _ in 0..2000 {
+                let x: Vec<f64> = (0..dim).map(|_| 11.0 * lcg(&mut s) - 0.5).collect();
+                grid.candidates(&x, &mut out);
+                let brute: Vec<u32> = (0..boxes.len() as u32)
+                    .filter(|&e| e % 3 != 0 && boxes[e as usize].contains(&x))
+                    .collect();
+                assert_eq!(out, brute, "dim {dim} x {x:?}");
+                found += out.len();
+            }
+            assert!(found > 0, "dim {dim}: some point has candidates");
         }
     }
 

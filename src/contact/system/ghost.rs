@@ -37,9 +37,45 @@ use crate::contact::search::Aabb;
 /// Values per reach box in [`ContactSystem::ghost_reach`]: partner surface, lower and upper corner.
 const REACH: usize = 7;
 
-/// Most reach boxes per half-pass (its point-holding elements, in element order, are merged into
-/// this many boxes: fewer boxes to send, a thicker layer).
-const MAX_REACH_BOXES: usize = 32;
+/// Most reach boxes per half-pass (its point-holding elements, in Morton order of their boxes'
+/// centres, are merged into this many boxes: fewer boxes to send, a thicker layer).
+const MAX_REACH_BOXES: usize = 64;
+
+/// The Morton (Z-order) key of each box's centre on a 1024-cell grid per axis over all of them.
+fn morton_keys(dim: usize, boxes: &[Aabb]) -> Vec<u64> {
+    let mut all = Aabb::EMPTY;
+    let centre = |b: &Aabb| {
+        [0, 1, 2].map(|k| {
+            if k < dim {
+                0.5 * (b.lo[k] + b.hi[k])
+            } else {
+                0.0
+            }
+        })
+    };
+    for b in boxes {
+        all.grow(&centre(b)[..dim]);
+    }
+    boxes
+        .iter()
+        .map(|b| {
+            let c = centre(b);
+            let mut key = 0u64;
+            for k in 0..dim {
+                let w = all.hi[k] - all.lo[k];
+                let q = if w > 0.0 {
+                    ((c[k] - all.lo[k]) / w * 1023.0).round() as u64
+                } else {
+                    0
+                };
+                for bit in 0..10 {
+                    key |= ((q >> bit) & 1) << (bit * dim + k);
+                }
+            }
+            key
+        })
+        .collect()
+}
 
 /// The ghost layer's state on this rank.
 #[derive(Debug, Default)]
@@ -202,7 +238,8 @@ impl ContactSystem {
     /// The reach of this rank's points at the current positions: per half-pass against a surface,
     /// the boxes of its point-holding elements grown by the largest search distance plus twice the
     /// margin,
-    /// merged into at most [`MAX_REACH_BOXES`]; [`REACH`] values per box.
+    /// merged into at most [`MAX_REACH_BOXES`] (chunks of elements close in space); [`REACH`]
+    /// values per box.
     pub fn ghost_reach(&self) -> Vec<f64> {
         let dim = self.dim;
         let grow = self.ghost.reach;
@@ -224,13 +261,24 @@ impl ContactSystem {
                 if elems.is_empty() {
                     continue;
                 }
+                let boxes: Vec<Aabb> = elems
+                    .iter()
+                    .map(|&e| element_box(&self.surfaces[pass.k], &self.pos[pass.k], e as usize))
+                    .collect();
+                // chunks of elements close in space (Morton order of the boxes' centres), so that
+                // merging a chunk's boxes adds little
+                let mut order: Vec<(u64, usize)> = morton_keys(dim, &boxes)
+                    .into_iter()
+                    .enumerate()
+                    .map(|(i, k)| (k, i))
+                    .collect();
+                order.sort_unstable();
                 let per = elems.len().div_ceil(MAX_REACH_BOXES);
-                for chunk in elems.chunks(per) {
+                for chunk in order.chunks(per) {
                     let mut b = Aabb::EMPTY;
-                    for &e in chunk {
-                        let eb = element_box(&self.surfaces[pass.k], &self.pos[pass.k], e as usize);
-                        b.grow(&eb.lo[..dim]);
-                        b.grow(&eb.hi[..dim]);
+                    for &(_, i) in chunk {
+                        b.grow(&boxes[i].lo[..dim]);
+                        b.grow(&boxes[i].hi[..dim]);
                     }
                     let b = b.inflated(dim, grow);
                     out.push(l as f64);
