@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # summary.json `contact_data` on 1, 2 and 4 ranks for the hemisphere pressed onto the block at
 # several sizes (BENCHMARKS.md "Scale: contact data per rank"). Usage: ci/contact_data.sh [n ...]
-# (default 4 8 16 24); one Markdown row per run. Output folders under ${OUT:-/tmp/contact-data}.
+# (default 4 8 16 24); one Markdown row per run (table nodes and ghost elements per rank, refreshes
+# of the ghost layer, surface / point / received kB per rank, evaluations). Output folders under
+# ${OUT:-/tmp/contact-data}.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source ci/env.sh
@@ -23,8 +25,10 @@ d, n, np = sys.argv[1:]
 s = json.load(open(d + "/summary.json"))
 c = s["contact_data"]
 kb = lambda v: ", ".join(f"{x / 1000:,.1f}" for x in v)
-print(f"| {n} | {s['unknowns']:,} | {np} | {c['table_nodes'][0]:,} | {kb(c['surface_bytes'])} | "
-      f"{kb(c['point_bytes'])} | {kb(c['received_bytes_per_evaluation'])} | {c['evaluations']} |")
+each = lambda v: ", ".join(f"{x:,}" for x in v)
+print(f"| {n} | {s['unknowns']:,} | {np} | {each(c['table_nodes'])} | {each(c['ghost_elements'])} | "
+      f"{c['refreshes'][0]} | {kb(c['surface_bytes'])} | {kb(c['point_bytes'])} | "
+      f"{kb(c['received_bytes_per_evaluation'])} | {c['evaluations']} |")
 PY
     done
   done

@@ -1,8 +1,27 @@
 //! summary.json `contact_data`: what each rank holds for contact and receives per evaluation (the
-//! measure of issue 21's distributed contact surfaces), consistent between 1 and 2 ranks.
+//! measure of issue 21's distributed contact surfaces), consistent between 1, 2 and 4 ranks; the
+//! ghost layer (each rank gathers only its own surface elements and the partner elements within
+//! reach) changes no result and is refreshed as surfaces slide.
 
 mod common;
 use common::*;
+use std::path::Path;
+
+/// The largest relative difference between two runs of the last displacement and contact
+/// pressure, and of the history columns `cols` over every step.
+fn largest_difference(a: &Path, b: &Path, cols: &[&str]) -> f64 {
+    let mut e: f64 = 0.0;
+    for field in ["displacement", "contact_pressure"] {
+        e = e.max(rel_diff(
+            &h5_last(a, "bulk", field),
+            &h5_last(b, "bulk", field),
+        ));
+    }
+    for col in cols {
+        e = e.max(rel_diff(&history_col(a, col), &history_col(b, col)));
+    }
+    e
+}
 
 fn column(s: &serde_json::Value, key: &str) -> Vec<u64> {
     s["contact_data"][key]
@@ -23,13 +42,23 @@ fn contact_data_counts_what_each_rank_holds_and_receives() {
     ];
     let d1 = run_case("contact-data-np1", "hemisphere_block_3d.toml", 1, &sets);
     let d2 = run_case("contact-data-np2", "hemisphere_block_3d.toml", 2, &sets);
-    let (s1, s2) = (summary(&d1), summary(&d2));
-    for (s, np) in [(&s1, 1), (&s2, 2)] {
+    let d4 = run_case("contact-data-np4", "hemisphere_block_3d.toml", 4, &sets);
+    let (s1, s2, s4) = (summary(&d1), summary(&d2), summary(&d4));
+    // the ghost layer changes no result
+    let cols = ["P_press_shell_outer_z", "P_press_block_zmax_z"];
+    assert!(last(&d1, cols[1]) < -0.1, "the shell presses the block");
+    for (d, np) in [(&d2, 2), (&d4, 4)] {
+        let e = largest_difference(&d1, d, &cols);
+        assert!(e < 1e-10, "1 vs {np} ranks differ by {e:e}");
+    }
+    for (s, np) in [(&s1, 1), (&s2, 2), (&s4, 4)] {
         for key in [
             "table_nodes",
             "surface_bytes",
             "point_bytes",
             "received_bytes_per_evaluation",
+            "ghost_elements",
+            "refreshes",
         ] {
             assert_eq!(
                 column(s, key).len(),
@@ -50,8 +79,21 @@ fn contact_data_counts_what_each_rank_holds_and_receives() {
             );
         }
     }
-    // one rank owns everything it gathers; two ranks receive part of the surfaces
+    // one rank owns everything it gathers and holds every element: no ghosts, no refreshes
     assert_eq!(column(&s1, "received_bytes_per_evaluation"), vec![0]);
+    assert_eq!(column(&s1, "ghost_elements"), vec![0]);
+    assert_eq!(column(&s1, "refreshes"), vec![0]);
+    // on several ranks some gather only part of the surfaces' nodes (on this small case the rank
+    // that owns the shell has the whole block top within reach), some of them other ranks'
+    let all = column(&s1, "table_nodes")[0];
+    for s in [&s2, &s4] {
+        let t = column(s, "table_nodes");
+        assert!(
+            t.iter().all(|&n| n <= all) && t.iter().any(|&n| n < all),
+            "table nodes {t:?} vs every surface node {all}"
+        );
+        assert!(column(s, "ghost_elements").iter().any(|&g| g > 0));
+    }
     assert!(column(&s2, "received_bytes_per_evaluation")
         .iter()
         .all(|&b| b > 0));
@@ -65,4 +107,99 @@ fn contact_data_counts_what_each_rank_holds_and_receives() {
     let ev = |s: &serde_json::Value| s["contact_data"]["evaluations"].as_u64().unwrap();
     assert!(ev(&s1) > 0);
     assert_eq!(ev(&s1), ev(&s2));
+}
+
+#[test]
+fn the_ghost_layer_follows_a_sliding_block_and_changes_no_result() {
+    // an upper block slid by 3 of its widths' quarters over a lower one with friction: the ghost
+    // layer (a quarter of the search distance, 2 h, thick beyond it) must be refreshed
+    let sets = [
+        "bodies.lower.element=Q1N2",
+        "bodies.upper.element=Q1N2",
+        "contact.0.mu=0.3",
+        "output.plots=false",
+    ];
+    let d1 = run_case("ghost-slide-np1", "sliding_flat_2d.toml", 1, &sets);
+    let d2 = run_case("ghost-slide-np2", "sliding_flat_2d.toml", 2, &sets);
+    let cols = [
+        "P_slide_upper_bottom_y",
+        "P_slide_lower_top_y",
+        "Pt_slide_upper_bottom_x",
+        "Pt_slide_lower_top_x",
+    ];
+    assert!(
+        last(&d1, cols[0]).abs() > 1e-3,
+        "the blocks are pressed together"
+    );
+    assert!(last(&d1, cols[2]).abs() > 1e-4, "friction acts");
+    let e = largest_difference(&d1, &d2, &cols);
+    assert!(e < 1e-10, "1 vs 2 ranks differ by {e:e}");
+    for col in ["stick_slide_upper_bottom", "slip_slide_upper_bottom"] {
+        assert_eq!(history_col(&d1, col), history_col(&d2, col), "{col}");
+    }
+    let (s1, s2) = (summary(&d1), summary(&d2));
+    assert_eq!(column(&s1, "refreshes"), vec![0]);
+    let r = column(&s2, "refreshes");
+    assert!(r[0] > 0 && r[0] == r[1], "refreshes {r:?}");
+    assert!(column(&s2, "ghost_elements").iter().any(|&g| g > 0));
+}
+
+#[test]
+fn received_bytes_per_rank_fall_with_the_rank_count_on_a_long_contact_interface() {
+    // two flat blocks 16 long pressed together over their whole length: with the ghost layer a
+    // rank gathers its own surface piece and the partner elements across from it, so the mean
+    // over the ranks of what each receives falls as the pieces shrink (with replicated surfaces it
+    // grew: each rank received nearly every surface value it did not own)
+    let sets = [
+        "bodies.lower.element=Q1N2",
+        "bodies.upper.element=Q1N2",
+        "meshes.lower.origin=[-8.0,-1.0]",
+        "meshes.lower.size=[16.0,1.0]",
+        "meshes.lower.divisions=[96,4]",
+        "meshes.upper.origin=[-8.0,0.0]",
+        "meshes.upper.size=[16.0,0.5]",
+        "meshes.upper.divisions=[72,3]",
+        "bcs.3.value=[[0.0],[0.0]]",
+        "stages.1.steps=1",
+        "output.plots=false",
+    ];
+    let runs: Vec<_> = [1, 2, 4]
+        .iter()
+        .map(|&np| {
+            run_case(
+                &format!("ghost-long-np{np}"),
+                "sliding_flat_2d.toml",
+                np,
+                &sets,
+            )
+        })
+        .collect();
+    let cols = ["P_slide_upper_bottom_y", "P_slide_lower_top_y"];
+    assert!(
+        last(&runs[0], cols[0]).abs() > 1e-3,
+        "the blocks are pressed together"
+    );
+    for (d, np) in runs[1..].iter().zip([2, 4]) {
+        let e = largest_difference(&runs[0], d, &cols);
+        assert!(e < 1e-10, "1 vs {np} ranks differ by {e:e}");
+    }
+    let s: Vec<_> = runs.iter().map(|d| summary(d)).collect();
+    let mean = |v: Vec<u64>| v.iter().sum::<u64>() as f64 / v.len() as f64;
+    let recv: Vec<f64> = s
+        .iter()
+        .map(|s| mean(column(s, "received_bytes_per_evaluation")))
+        .collect();
+    let table: Vec<f64> = s.iter().map(|s| mean(column(s, "table_nodes"))).collect();
+    assert_eq!(recv[0], 0.0);
+    assert!(
+        recv[1] > 0.0 && recv[2] < recv[1],
+        "mean received bytes per rank on 1, 2, 4 ranks: {recv:?}"
+    );
+    assert!(
+        table[2] < table[1] && table[1] < table[0],
+        "mean table nodes per rank on 1, 2, 4 ranks: {table:?}"
+    );
+    // every surface node a rank does not hold is a value it no longer receives
+    let all = column(&s[0], "table_nodes")[0];
+    assert!(column(&s[2], "table_nodes").iter().all(|&t| t < all));
 }

@@ -4,9 +4,10 @@
 //! constraint or a Lagrange-multiplier set would be others. It is the seam beside
 //! [`super::ElementSet`]:
 //!
-//! - a coupling set reads the displacement of a fixed list of global nodes
-//!   ([`CouplingSet::nodes`]), which the assembler gathers to this rank before every evaluation
-//!   ([`CouplingSet::update`]);
+//! - a coupling set reads the displacement of a list of global nodes ([`CouplingSet::nodes`]),
+//!   which the assembler gathers to this rank before every evaluation ([`CouplingSet::update`]);
+//!   the list changes only in a refresh the assembler runs on every rank together when the set
+//!   asks for one after an update ([`CouplingSet::ghost_status`]);
 //! - its matrix entries come in *blocks*, each named by a [`Block`] key the set chooses; the
 //!   assembler reserves COO slots for the blocks of a band around those needed now
 //!   ([`CouplingSet::band_blocks`]) and rebuilds the pattern, between Newton solves, when a
@@ -141,6 +142,33 @@ pub trait CouplingSet: Any + Send {
     fn augment(&mut self, _violations: &[f64], _rounds: usize) -> Augment {
         Augment::Satisfied
     }
+
+    /// After an [`update`](Self::update): `[moved, missed]`, whether the data this rank holds no
+    /// longer covers what its part of the set may need (`moved`: something moved past the margin
+    /// of the last refresh; `missed`: the update needed data it does not hold and must be
+    /// repeated after a refresh). The assembler max-reduces it over the ranks and, if either is
+    /// set anywhere, refreshes ([`reach`](Self::reach), [`answer`](Self::answer),
+    /// [`adopt`](Self::adopt)), rebuilds the gather on the new [`nodes`](Self::nodes) and updates
+    /// again. `[0, 0]`: a set whose nodes never change.
+    fn ghost_status(&self) -> [u8; 2] {
+        [0, 0]
+    }
+
+    /// What this rank's part needs, as values the other ranks' [`answer`](Self::answer) reads
+    /// (contact: boxes); all-gathered.
+    fn reach(&self) -> Vec<f64> {
+        Vec::new()
+    }
+
+    /// What this rank sends a rank whose [`reach`](Self::reach) is `reach` (contact: the ids of
+    /// its own surface elements inside it); sent point to point.
+    fn answer(&self, _reach: &[f64]) -> Vec<u32> {
+        Vec::new()
+    }
+
+    /// Takes the other ranks' answers (concatenated); `moved` as reduced from
+    /// [`ghost_status`](Self::ghost_status). [`nodes`](Self::nodes) may change.
+    fn adopt(&mut self, _answers: &[u32], _moved: bool) {}
 
     /// The set as [`Any`], for the driver to reach its concrete type (results, checkpoints).
     fn as_any(&self) -> &dyn Any;

@@ -206,6 +206,9 @@ pub(crate) struct Work {
     /// One-pass residual of the master surfaces' nodes, per table node [n_table][dim] (their rows
     /// may belong to elements of other ranks, so they go back through the table's scatter).
     pub r_table: Vec<f64>,
+    /// (surface, element) the last evaluation needed outside the ghost layer (a sliding anchor's
+    /// walk): the next update asks for a refresh.
+    pub absent: Vec<(u32, u32)>,
     scratch: Scratch,
     /// Residual of the own element being assembled [n_k * dim].
     r: Vec<f64>,
@@ -253,6 +256,8 @@ struct PointOut {
     t_t: [f64; 3],
     g_t: [f64; 3],
     p_n: f64,
+    /// An element of the partner surface the point needed and this rank does not hold.
+    absent: Option<u32>,
 }
 
 /// One contribution of a point: partner element (`u32::MAX`: rigid), partner point, the area its
@@ -349,6 +354,9 @@ impl HalfPass<'_> {
                 let forced = forced(q);
                 let gm = (&*gap, g_mean, p_mortar);
                 self.contribution(&own, &qp, q, c, gm, forced, work, res, &mut po);
+            }
+            if let (Some(f), Some(l)) = (po.absent, self.l) {
+                work.absent.push((l as u32, f));
             }
             let p = &mut points[q];
             p.force = po.force;

@@ -27,6 +27,12 @@ pub struct Positions {
 }
 
 impl Positions {
+    /// True when this rank holds the positions of element `e` (its own elements and the ghost
+    /// layer; see `crate::contact::system::ghost`).
+    pub fn has(&self, e: usize) -> bool {
+        self.offsets[e + 1] > self.offsets[e]
+    }
+
     /// Positions of element `e`.
     pub fn of(&self, e: usize) -> &[f64] {
         &self.x[self.offsets[e]..self.offsets[e + 1]]
@@ -235,19 +241,30 @@ fn off_the_edge(s: &ContactSurface, p: &Projection) -> bool {
     exit_sides(s.dim, p).any(|side| s.elements[p.elem as usize].neighbours[side].is_none())
 }
 
-/// Walks from a warm start across neighbours to the closest point. `None` if it does not settle.
+/// An element a walk had to enter whose positions this rank does not hold (outside its ghost
+/// layer): the walk cannot go on here, and the ghost layer must grow by that element.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Absent(pub u32);
+
+/// Walks from a warm start across neighbours to the closest point. `Ok(None)` if it does not
+/// settle; `Err` when it reaches an element whose positions this rank does not hold.
 pub fn walk(
     s: &ContactSurface,
     pos: &Positions,
     x: &[f64; 3],
     start: (u32, [f64; 2]),
-) -> Option<Projection> {
+) -> Result<Option<Projection>, Absent> {
     let dim = s.dim;
     let (mut e, mut xi) = (start.0 as usize, start.1);
     let mut visited: Vec<usize> = Vec::with_capacity(4);
     let mut best: Option<Projection> = None;
     for _ in 0..MAX_WALK {
-        let p = project_on_element(s, pos, e, x, xi)?;
+        if !pos.has(e) {
+            return Err(Absent(e as u32));
+        }
+        let Some(p) = project_on_element(s, pos, e, x, xi) else {
+            return Ok(None);
+        };
         if best.is_none_or(|b| {
             p.dist < b.dist * (1.0 - 1e-12)
                 || p.free_count() > b.free_count() && p.dist <= b.dist * (1.0 + 1e-12)
@@ -256,10 +273,10 @@ pub fn walk(
         }
         visited.push(e);
         let Some(side) = exit_sides(dim, &p).next() else {
-            return Some(p); // orthogonal projection inside the element
+            return Ok(Some(p)); // orthogonal projection inside the element
         };
         if off_the_edge(s, &p) {
-            return None; // beyond the end of the surface: no partner
+            return Ok(None); // beyond the end of the surface: no partner
         }
         match s.elements[e].neighbours[side] {
             Some((f, s2, rev)) if !visited.contains(&(f as usize)) => {
@@ -269,10 +286,10 @@ pub fn walk(
                 e = f as usize;
             }
             // both elements hold the point on their shared edge: an edge or corner projection
-            _ => return best.filter(|b| !off_the_edge(s, b)),
+            _ => return Ok(best.filter(|b| !off_the_edge(s, b))),
         }
     }
-    best.filter(|b| !off_the_edge(s, b))
+    Ok(best.filter(|b| !off_the_edge(s, b)))
 }
 
 impl Projection {
@@ -285,42 +302,51 @@ impl Projection {
 /// The global-search grid of a surface at the positions `pos`: each element's own box (NURBS with
 /// positive weights and linear faces lie in the convex hull of their nodes; Lagrange and Hermite
 /// faces are sampled, with a margin for the surface between the samples, as Hermite tangents are
-/// not positions), inflated by the search distance `dist` for binning.
+/// not positions), inflated by the search distance `dist` for binning. Elements whose positions
+/// this rank does not hold get empty boxes (no point's candidates).
 pub fn surface_grid(s: &ContactSurface, pos: &Positions, dist: f64) -> BinGrid {
     let dim = s.dim;
-    let m = dim - 1;
     let raw: Vec<Aabb> = (0..s.elements.len())
-        .map(|e| {
-            let mut b = Aabb::EMPTY;
-            if matches!(
-                s.elements[e].basis,
-                FaceBasis::Nurbs(_) | FaceBasis::Line2 | FaceBasis::Quad4
-            ) {
-                for x in pos.of(e).chunks_exact(dim) {
-                    b.grow(x);
-                }
-                return b;
-            }
-            let k = 4usize;
-            let n2 = if m == 2 { k + 1 } else { 1 };
-            for j in 0..n2 {
-                for i in 0..=k {
-                    let eta = if m == 2 {
-                        -1.0 + 2.0 * j as f64 / k as f64
-                    } else {
-                        0.0
-                    };
-                    let xi = [-1.0 + 2.0 * i as f64 / k as f64, eta];
-                    let x = crate::contact::surface::frame(&s.elements[e], dim, pos.of(e), &xi).0;
-                    b.grow(&x[..dim]);
-                }
-            }
-            let size = (0..dim).map(|c| b.hi[c] - b.lo[c]).fold(0.0, f64::max);
-            b.inflated(dim, 0.25 * size)
-        })
+        .map(|e| element_box(s, pos, e))
         .collect();
     let boxes = raw.iter().map(|b| b.inflated(dim, dist)).collect();
     BinGrid::with_raw(dim, boxes, raw)
+}
+
+/// The box of element `e` of `s` at the positions `pos` that [`surface_grid`] bins (empty when
+/// this rank does not hold the element's positions).
+pub fn element_box(s: &ContactSurface, pos: &Positions, e: usize) -> Aabb {
+    let dim = s.dim;
+    let m = dim - 1;
+    let mut b = Aabb::EMPTY;
+    if !pos.has(e) {
+        return b;
+    }
+    if matches!(
+        s.elements[e].basis,
+        FaceBasis::Nurbs(_) | FaceBasis::Line2 | FaceBasis::Quad4
+    ) {
+        for x in pos.of(e).chunks_exact(dim) {
+            b.grow(x);
+        }
+        return b;
+    }
+    let k = 4usize;
+    let n2 = if m == 2 { k + 1 } else { 1 };
+    for j in 0..n2 {
+        for i in 0..=k {
+            let eta = if m == 2 {
+                -1.0 + 2.0 * j as f64 / k as f64
+            } else {
+                0.0
+            };
+            let xi = [-1.0 + 2.0 * i as f64 / k as f64, eta];
+            let x = crate::contact::surface::frame(&s.elements[e], dim, pos.of(e), &xi).0;
+            b.grow(&x[..dim]);
+        }
+    }
+    let size = (0..dim).map(|c| b.hi[c] - b.lo[c]).fold(0.0, f64::max);
+    b.inflated(dim, 0.25 * size)
 }
 
 /// Newton did not settle on any candidate element of a global search.

@@ -37,6 +37,17 @@ impl Aabb {
         b
     }
 
+    /// True for a box that holds no point (an element without positions on this rank). A box
+    /// grown by points of any dimension has its first axis set.
+    pub fn is_empty(&self) -> bool {
+        self.lo[0] > self.hi[0]
+    }
+
+    /// True when the two boxes overlap on the first `dim` axes.
+    pub fn meets(&self, other: &Aabb, dim: usize) -> bool {
+        (0..dim).all(|k| self.lo[k] <= other.hi[k] && other.lo[k] <= self.hi[k])
+    }
+
     /// True when `x` [dim] lies in the box.
     pub fn contains(&self, x: &[f64]) -> bool {
         x.iter()
@@ -73,23 +84,26 @@ impl BinGrid {
             + (self.boxes.len() + self.raw.len()) * size_of::<Aabb>()
     }
 
-    /// Bins `boxes` (one per element, already inflated by the search distance).
+    /// Bins `boxes` (one per element, already inflated by the search distance). Empty boxes
+    /// (elements this rank holds no positions of) are left out: they are no one's candidates.
     pub fn new(dim: usize, boxes: Vec<Aabb>) -> BinGrid {
         let mut all = Aabb::EMPTY;
         let mut mean = 0.0;
-        for b in &boxes {
+        let mut n_boxes = 0usize;
+        for b in boxes.iter().filter(|b| !b.is_empty()) {
+            n_boxes += 1;
             all.grow(&b.lo[..dim]);
             all.grow(&b.hi[..dim]);
             mean += (0..dim).map(|k| b.hi[k] - b.lo[k]).fold(0.0, f64::max);
         }
-        if boxes.is_empty() {
+        if n_boxes == 0 {
             return BinGrid {
                 dim,
                 start: vec![0],
                 ..Default::default()
             };
         }
-        mean /= boxes.len() as f64;
+        mean /= n_boxes as f64;
         let extent = (0..dim).map(|k| all.hi[k] - all.lo[k]).fold(0.0, f64::max);
         let cell = mean
             .max(extent / MAX_BINS_PER_AXIS as f64)
@@ -113,6 +127,9 @@ impl BinGrid {
         let mut count = vec![0usize; n_bins + 1];
         let mut pairs = Vec::new();
         for (e, b) in g.boxes.iter().enumerate() {
+            if b.is_empty() {
+                continue;
+            }
             let (lo, hi) = (g.bin_of(&b.lo), g.bin_of(&b.hi));
             for k2 in lo[2]..=hi[2] {
                 for k1 in lo[1]..=hi[1] {
@@ -234,6 +251,44 @@ mod tests {
                     .collect();
                 assert_eq!(out, brute, "dim {dim} x {x:?}");
             }
+        }
+    }
+
+    #[test]
+    fn elements_without_positions_are_no_candidates_and_leave_the_others_theirs() {
+        // the ghost layer: a rank bins empty boxes for the elements it does not hold
+        let mut s = 11u64;
+        for dim in [2, 3] {
+            let boxes: Vec<Aabb> = (0..200)
+                .map(|i| {
+                    let mut b = Aabb::EMPTY;
+                    if i % 3 == 0 {
+                        return b.inflated(dim, 0.05);
+                    }
+                    let c: Vec<f64> = (0..dim).map(|_| 10.0 * lcg(&mut s)).collect();
+                    b.grow(&c);
+                    let c2: Vec<f64> = c.iter().map(|v| v + 0.8 * lcg(&mut s)).collect();
+                    b.grow(&c2);
+                    b.inflated(dim, 0.05)
+                })
+                .collect();
+            assert!(boxes
+                .iter()
+                .enumerate()
+                .all(|(i, b)| b.is_empty() == (i % 3 == 0)));
+            let grid = BinGrid::new(dim, boxes.clone());
+            let mut out = Vec::new();
+            let mut found = 0;
+            for _ in 0..2000 {
+                let x: Vec<f64> = (0..dim).map(|_| 11.0 * lcg(&mut s) - 0.5).collect();
+                grid.candidates(&x, &mut out);
+                let brute: Vec<u32> = (0..boxes.len() as u32)
+                    .filter(|&e| e % 3 != 0 && boxes[e as usize].contains(&x))
+                    .collect();
+                assert_eq!(out, brute, "dim {dim} x {x:?}");
+                found += out.len();
+            }
+            assert!(found > 0, "dim {dim}: some point has candidates");
         }
     }
 

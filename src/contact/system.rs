@@ -1,12 +1,18 @@
-//! All contact pairs of a model on this rank: their surfaces (replicated on every rank), the
-//! quadrature points this rank integrates, their projection state, and the evaluation of residual,
-//! tangent blocks and resultant forces. Free of PETSc and MPI: the assembler hands in the current
-//! displacement of every contact-surface node and takes residual entries and matrix blocks out.
+//! All contact pairs of a model on this rank: their surfaces (topology replicated on every rank),
+//! the quadrature points this rank integrates, their projection state, and the evaluation of
+//! residual, tangent blocks and resultant forces. Free of PETSc and MPI: the assembler hands in the
+//! current displacement of the surface nodes this rank holds and takes residual entries and matrix
+//! blocks out.
 //!
-//! Parallel design (first version, measured in BENCHMARKS.md): every rank gets the current
-//! displacement of *all* contact-surface nodes by one gather per evaluation (`table_dofs` feeds a
-//! PETSc scatter). For surfaces of millions of nodes this allgather must become a bounding-box
-//! filtered ghosting of only the partner elements near a rank's own surface elements.
+//! Parallel design (issue 21, part 2, first stage; measured in BENCHMARKS.md "Scale: contact data
+//! per rank"): a rank holds the current positions of its own surface elements, of the elements that
+//! hold its points and of a *ghost layer* of partner elements within reach of its points
+//! (`ghost.rs`); the gather before every evaluation (`table_dofs` feeds a PETSc scatter) carries
+//! only their nodes, and `update_positions` touches only them. The layer is refreshed
+//! (collectively, by the assembler) when a surface node moves past its margin or a projection
+//! needs an element outside it. Still replicated on every rank: the surfaces' topology and basis
+//! data and the reference coordinates of every surface node (the next stage ships them with the
+//! ghosts, see `ghost.rs`).
 #![allow(clippy::needless_range_loop)]
 #![allow(non_snake_case)]
 
@@ -14,7 +20,7 @@ use crate::assembly::{DofMap, MatrixSink};
 use crate::contact::half_pass::{self, Pass, PassResult};
 use crate::contact::kernel::SlipState;
 use crate::contact::pair::{Anchor, PairDef, Partner, SlotOf};
-use crate::contact::projection::{surface_grid, walk, Positions};
+use crate::contact::projection::{surface_grid, walk, Absent, Positions};
 use crate::contact::search::BinGrid;
 use crate::contact::surface::ContactSurface;
 use partner_points::PartnerPoint;
@@ -24,6 +30,7 @@ mod augment;
 mod checkpoint;
 mod coupling;
 mod footprint;
+mod ghost;
 mod partner_points;
 mod pattern;
 mod pressure;
@@ -49,15 +56,23 @@ pub struct ContactSystem {
     /// at one iterate) keeps its projections instead of repeating them.
     last_update: Option<(f64, Vec<f64>)>,
     surfaces: Vec<ContactSurface>,
-    /// Global node ids whose displacement the system needs (all surface nodes), sorted.
+    /// Global ids of every surface node (replicated, as the topology), sorted, and their reference
+    /// coordinates [n][dim].
+    all_nodes: Vec<u32>,
+    all_X: Vec<f64>,
+    /// The elements this rank holds positions of (see `ghost.rs`).
+    ghost: ghost::Ghosts,
+    /// Global node ids whose displacement the system needs (the nodes of the held elements),
+    /// sorted.
     table: Vec<u32>,
     /// Reference coordinates of the table nodes [n_table][dim].
     X: Vec<f64>,
-    /// Per surface, per element: positions of its nodes in `table`. [surface][element][node]
+    /// Per surface, per element: positions of its nodes in `table` (empty for an element this
+    /// rank does not hold). [surface][element][node]
     slots: Vec<Vec<Vec<u32>>>,
     /// Per surface, per element: global unknowns of its nodes [n_nodes * dim] (-1: none).
     gdofs: Vec<Vec<Vec<i32>>>,
-    /// Current positions per surface.
+    /// Current positions per surface (of the held elements; the others have none).
     pos: Vec<Positions>,
     grids: Vec<Option<BinGrid>>,
     pairs: Vec<Pair>,
@@ -143,6 +158,9 @@ impl ContactSystem {
             ));
         }
         self.update_positions(u_table);
+        self.check_motion(u_table);
+        self.ghost.requests.clear();
+        self.request_anchors();
         for pair in &mut self.pairs {
             for pass in &mut pair.passes {
                 if let Partner::Rigid(shape, motion) = &pass.partner {
@@ -157,7 +175,15 @@ impl ContactSystem {
                 let PartnerPoint { pair, pass, q, k, e, l, x } = pt;
                 let dist = sys.pairs[pair].def.search_distance;
                 let warm = sys.pairs[pair].passes[pass].points[q].warm;
-                let mut p = warm.and_then(|w| walk(&sys.surfaces[l], &sys.pos[l], &x, w));
+                let mut p = match warm.map(|w| walk(&sys.surfaces[l], &sys.pos[l], &x, w)) {
+                    Some(Ok(p)) => p,
+                    // outside the ghost layer: the update is repeated after a refresh
+                    Some(Err(Absent(f))) => {
+                        sys.ghost.requests.push((l as u32, f));
+                        None
+                    }
+                    None => None,
+                };
                 if p.is_none_or(|p| p.dist > dist) {
                     let found = sys.search_partner(l, &x, dist).map_err(|_| {
                         format!(
@@ -197,6 +223,7 @@ impl ContactSystem {
     ) {
         let jacobian = jac.is_some();
         self.work.r_table.fill(0.0);
+        self.work.absent.clear();
         let geo = half_pass::Geometry {
             dim: self.dim,
             surfaces: &self.surfaces,
@@ -366,12 +393,26 @@ impl ContactSystem {
         self.pairs.iter().any(|p| p.def.one_pass)
     }
 
-    /// Table indices of the nodes of surface `s`, sorted.
+    /// Indices in [`ContactSystem::all_surface_nodes`] of the nodes of surface `s`, sorted.
     pub fn surface_nodes(&self, s: usize) -> Vec<u32> {
-        let mut v: Vec<u32> = self.slots[s].iter().flatten().copied().collect();
+        let mut v: Vec<u32> = self.surfaces[s]
+            .elements
+            .iter()
+            .flat_map(|el| el.nodes.iter().map(|a| self.node_index(*a) as u32))
+            .collect();
         v.sort_unstable();
         v.dedup();
         v
+    }
+
+    /// Global ids of every surface node, sorted (the index of the output's L2 projections).
+    pub fn all_surface_nodes(&self) -> &[u32] {
+        &self.all_nodes
+    }
+
+    /// Index of surface node `a` in [`ContactSystem::all_surface_nodes`].
+    fn node_index(&self, a: u32) -> usize {
+        self.all_nodes.binary_search(&a).expect("a surface node")
     }
 
     /// Global node ids of the table entries.

@@ -97,16 +97,20 @@ pub(super) fn contact_data(
 ) -> Option<crate::io::ContactDataStats> {
     let sys = asm.coupling_set::<crate::contact::ContactSystem>()?;
     let f = sys.footprint();
-    let (remote, gathers) = asm.coupling_traffic().unwrap_or((0, 0));
+    let (received, gathers, refreshes) = asm.coupling_traffic().unwrap_or((0, 0, 0));
+    // the mean over the run's gathers (the node list changes with each refresh)
     let mine = [
         f.table_nodes as u64,
         f.surface_bytes as u64,
         f.point_bytes as u64,
-        8 * remote as u64,
+        (8 * received / gathers.max(1)) as u64,
+        f.ghost_elements as u64,
+        refreshes as u64,
     ];
-    let mut all = vec![0u64; 4 * world.size() as usize];
+    const N: usize = 6;
+    let mut all = vec![0u64; N * world.size() as usize];
     world.all_gather_into(&mine[..], &mut all[..]);
-    let column = |k: usize| all.chunks_exact(4).map(|r| r[k]).collect::<Vec<u64>>();
+    let column = |k: usize| all.chunks_exact(N).map(|r| r[k]).collect::<Vec<u64>>();
     let mut evaluations = gathers as u64;
     world.process_at_rank(0).broadcast_into(&mut evaluations);
     Some(crate::io::ContactDataStats {
@@ -114,6 +118,8 @@ pub(super) fn contact_data(
         surface_bytes: column(1),
         point_bytes: column(2),
         received_bytes_per_evaluation: column(3),
+        ghost_elements: column(4),
+        refreshes: column(5),
         evaluations,
     })
 }

@@ -146,10 +146,12 @@ pub(super) fn contact_fields(
         s
     };
     let (sp, sg, sf) = (sum(&fp), sum(&fg), sum(&ff));
+    // the element mass matrices, each from the rank that owns the element
+    let (mc, mn) = (sum(&c.l2_mass(false)), sum(&c.l2_mass(true)));
     if !root {
         return None;
     }
-    let nt = c.n_table();
+    let nt = c.all_surface_nodes().len();
     let dim = asm.dofs.dim;
     let mut out = vec![
         ("contact_pressure", 1, vec![0.0; n_nodes]),
@@ -166,9 +168,9 @@ pub(super) fn contact_fields(
         // (field in `out`, component, projection)
         let (ps, gs) = (&sp[s * nt..(s + 1) * nt], &sg[s * nt..(s + 1) * nt]);
         let mut proj = vec![
-            (0, 0, c.l2_project(s, ps, false)),
-            (1, 0, c.l2_project(s, ps, true)),
-            (2, 0, c.l2_project(s, gs, false)),
+            (0, 0, c.l2_project(s, ps, &mc)),
+            (1, 0, c.l2_project(s, ps, &mn)),
+            (2, 0, c.l2_project(s, gs, &mc)),
         ];
         if frictional {
             // blocks of `sf` per surface: the traction's components, stick, slip
@@ -179,11 +181,11 @@ pub(super) fn contact_fields(
                     _ => (5, 0),
                 };
                 let f = &sf[(s * nb + b) * nt..(s * nb + b + 1) * nt];
-                proj.push((field, comp, c.l2_project(s, f, false)));
+                proj.push((field, comp, c.l2_project(s, f, &mc)));
             }
         }
         for t in c.surface_nodes(s) {
-            let node = c.table()[t as usize] as usize;
+            let node = c.all_surface_nodes()[t as usize] as usize;
             for (field, comp, v) in &proj {
                 let (_, w, vals) = &mut out[*field];
                 vals[node * *w + comp] = v[t as usize];

@@ -182,8 +182,15 @@ pub struct ContactDataStats {
     pub surface_bytes: Vec<u64>,
     /// Bytes of the rank's contact points and their elements (and mortar nets).
     pub point_bytes: Vec<u64>,
-    /// Bytes the rank receives from other ranks in each gather (8 per value).
+    /// Bytes the rank receives from other ranks per gather (8 per value), the mean over the
+    /// run's gathers (those repeated after a refresh of the ghost layer included).
     pub received_bytes_per_evaluation: Vec<u64>,
+    /// Surface elements of other ranks the rank holds positions of at the end (its ghost layer).
+    #[serde(default)]
+    pub ghost_elements: Vec<u64>,
+    /// Refreshes of the ghost layer over the run (collective: the same on every rank).
+    #[serde(default)]
+    pub refreshes: Vec<u64>,
     /// Gathers over the run (one per residual, Jacobian and pattern refresh), rank 0's count
     /// (the gather is collective, so every rank's is the same).
     pub evaluations: u64,

@@ -51,7 +51,7 @@ impl<'p> Scatter<'p> {
     /// Collective.
     pub fn new(
         petsc: &'p Petsc,
-        global: &Vector<'p>,
+        global: &Vector,
         local: &Vector<'p>,
         indices: &[PetscInt],
     ) -> Result<Self, PetscError> {

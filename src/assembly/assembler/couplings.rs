@@ -1,12 +1,23 @@
 //! The coupling set beside the element sets (contact pairs, see [`CouplingSet`]): the gather of
-//! its nodes' displacement, its blocks in the sparsity pattern, and the pattern's rebuild between
-//! Newton solves when the needed blocks leave the reserved band.
+//! its nodes' displacement (rebuilt when the set refreshes which nodes it holds), its blocks in the
+//! sparsity pattern, and the pattern's rebuild between Newton solves when the needed blocks leave
+//! the reserved band.
+//!
+//! The gather's node list may change in a *refresh* (contact: the ghost layer of partner surface
+//! elements, see `crate::contact::system::ghost`): after every update the ranks max-reduce the
+//! set's [`CouplingSet::ghost_status`]; if any rank asks, every rank all-gathers the sets' reach
+//! (boxes), answers every other rank point to point (element ids), adopts the answers, and builds a
+//! new scatter on the new node list, then gathers and updates again. Every update runs on every
+//! rank together (each starts with the collective gather), so the scatter, a collective PETSc
+//! object, is rebuilt at a moment all ranks share, inside or outside a Newton solve alike; the
+//! sparsity pattern does not depend on the node list.
 
 use super::{fatal, Assembler, MatrixAssembly};
 use crate::assembly::coupling_set::{Augment, Block, CouplingSet, Settle};
 use crate::assembly::BlockScatter;
 use crate::petsc::{Matrix, PetscError, PetscInt, ProblemError, Scatter, Vector};
 use mpi::collective::SystemOperation;
+use mpi::datatype::{Partition, PartitionMut};
 use mpi::traits::*;
 use std::time::Instant;
 
@@ -31,11 +42,21 @@ pub(super) struct CouplingHook<'p> {
     pub(super) preset: Option<Vec<Block>>,
     /// Augmentation rounds since the last commit or rollback (this load step's).
     pub(super) rounds: usize,
-    /// Values of each gather that other ranks own (what this rank receives per evaluation).
+    /// Values of each gather that other ranks own (what this rank receives per gather, on the
+    /// current node list).
     pub(super) remote_values: usize,
-    /// Gathers so far (one per coupling update: residual, Jacobian, pattern refresh).
+    /// Values received over all gathers so far (those repeated after a refresh included).
+    pub(super) received_values: usize,
+    /// Gathers so far (one per coupling update: residual, Jacobian, pattern refresh), not counting
+    /// those repeated after a refresh.
     pub(super) gathers: usize,
+    /// Refreshes of the set's node list so far (the same on every rank).
+    pub(super) refreshes: usize,
 }
+
+/// Refreshes in a row one update may ask for before the run fails (each adds the elements the
+/// last one lacked; a walk crosses at most `MAX_WALK` elements).
+const MAX_REFRESH_ROUNDS: usize = 100;
 
 impl<'p> Assembler<'p> {
     /// A rigidly coupled node on which this rank's coupling set may put a force, if any: the
@@ -58,18 +79,7 @@ impl<'p> Assembler<'p> {
         global_template: &Vector<'p>,
         ring: usize,
     ) -> Result<(), PetscError> {
-        let idx: Vec<PetscInt> = self.dofs.gather_indices(set.nodes());
-        let (lo, hi) = self.dofs.owned_range();
-        // constrained unknowns gather a dummy entry; count the free ones other ranks own
-        let dofs = &self.dofs;
-        let remote_values = set
-            .nodes()
-            .iter()
-            .flat_map(|&a| (0..dofs.dim).filter_map(move |c| dofs.global(a, c)))
-            .filter(|g| !(lo..hi).contains(&g.0))
-            .count();
-        let u_table = Vector::new_seq(self.petsc, idx.len())?;
-        let scatter = Scatter::new(self.petsc, global_template, &u_table, &idx)?;
+        let (scatter, u_table, remote_values) = self.gather_of(set.as_ref(), global_template)?;
         self.coupled = Some(CouplingHook {
             set,
             scatter,
@@ -83,10 +93,113 @@ impl<'p> Assembler<'p> {
             preset: None,
             rounds: 0,
             remote_values,
+            received_values: 0,
             gathers: 0,
+            refreshes: 0,
         });
         self.pattern_ready = false;
         Ok(())
+    }
+
+    /// The gather of `set`'s nodes from vectors laid out as `global`: its scatter, the sequential
+    /// vector it fills, and how many of its values other ranks own.
+    ///
+    /// Collective.
+    fn gather_of(
+        &self,
+        set: &dyn CouplingSet,
+        global: &Vector,
+    ) -> Result<(Scatter<'p>, Vector<'p>, usize), PetscError> {
+        let idx: Vec<PetscInt> = self.dofs.gather_indices(set.nodes());
+        let (lo, hi) = self.dofs.owned_range();
+        // constrained unknowns gather a dummy entry; count the free ones other ranks own
+        let dofs = &self.dofs;
+        let remote_values = set
+            .nodes()
+            .iter()
+            .flat_map(|&a| (0..dofs.dim).filter_map(move |c| dofs.global(a, c)))
+            .filter(|g| !(lo..hi).contains(&g.0))
+            .count();
+        let u_table = Vector::new_seq(self.petsc, idx.len())?;
+        let scatter = Scatter::new(self.petsc, global, &u_table, &idx)?;
+        Ok((scatter, u_table, remote_values))
+    }
+
+    /// The refresh of the coupling set's node list (module doc), with `moved` as reduced over the
+    /// ranks; the gather is rebuilt on the new list, laid out as `x`.
+    ///
+    /// Collective.
+    fn refresh_coupling_nodes(&mut self, x: &Vector, moved: bool) -> Result<(), PetscError> {
+        let comm = self.petsc.comm();
+        let (size, rank) = (comm.size() as usize, comm.rank() as usize);
+        let Some(c) = &mut self.coupled else {
+            return Ok(());
+        };
+        // every rank's reach (a leading entry keeps every contribution non-empty)
+        let mut mine = vec![0.0];
+        mine.extend(c.set.reach());
+        let n = mine.len() as i32;
+        let mut counts = vec![0i32; size];
+        comm.all_gather_into(&n, &mut counts[..]);
+        let displs: Vec<i32> = counts
+            .iter()
+            .scan(0, |acc, &k| {
+                let d = *acc;
+                *acc += k;
+                Some(d)
+            })
+            .collect();
+        let mut reach = vec![0.0; counts.iter().sum::<i32>() as usize];
+        {
+            let mut part = PartitionMut::new(&mut reach[..], &counts[..], &displs[..]);
+            comm.all_gather_varcount_into(&mine[..], &mut part);
+        }
+        // this rank's answer to every other rank (each with a leading entry)
+        let mut send: Vec<u32> = Vec::new();
+        let mut send_counts = vec![0i32; size];
+        for q in 0..size {
+            let first = send.len();
+            send.push(0);
+            if q != rank {
+                let (a, b) = (displs[q] as usize + 1, (displs[q] + counts[q]) as usize);
+                send.extend(c.set.answer(&reach[a..b]));
+            }
+            send_counts[q] = (send.len() - first) as i32;
+        }
+        let mut recv_counts = vec![0i32; size];
+        comm.all_to_all_into(&send_counts[..], &mut recv_counts[..]);
+        let offsets = |v: &[i32]| -> Vec<i32> {
+            v.iter()
+                .scan(0, |acc, &k| {
+                    let d = *acc;
+                    *acc += k;
+                    Some(d)
+                })
+                .collect()
+        };
+        let (sd, rd) = (offsets(&send_counts), offsets(&recv_counts));
+        let mut recv = vec![0u32; recv_counts.iter().sum::<i32>() as usize];
+        {
+            let sp = Partition::new(&send[..], &send_counts[..], &sd[..]);
+            let mut rp = PartitionMut::new(&mut recv[..], &recv_counts[..], &rd[..]);
+            comm.all_to_all_varcount_into(&sp, &mut rp);
+        }
+        let mut answers = Vec::with_capacity(recv.len());
+        for q in 0..size {
+            let (a, b) = (rd[q] as usize + 1, (rd[q] + recv_counts[q]) as usize);
+            answers.extend_from_slice(&recv[a..b]);
+        }
+        let mut set = self.coupled.take().expect("checked above");
+        set.set.adopt(&answers, moved);
+        let built = self.gather_of(set.set.as_ref(), x);
+        let out = built.map(|(scatter, u_table, remote)| {
+            set.scatter = scatter;
+            set.u_table = u_table;
+            set.remote_values = remote;
+            set.refreshes += 1;
+        });
+        self.coupled = Some(set);
+        out
     }
 
     /// Before a Newton solve from `x`: if the blocks needed at `x` (or those a Jacobian of the
@@ -162,9 +275,12 @@ impl<'p> Assembler<'p> {
         (self.pattern_ready && !c.stale).then_some(&c.blocks[..])
     }
 
-    /// The coupling set's gathers: (values other ranks own in each, gathers so far).
-    pub fn coupling_traffic(&self) -> Option<(usize, usize)> {
-        self.coupled.as_ref().map(|c| (c.remote_values, c.gathers))
+    /// The coupling set's gathers: values other ranks own received over all gathers, gathers so
+    /// far (not counting those repeated after a refresh), refreshes of the node list.
+    pub fn coupling_traffic(&self) -> Option<(usize, usize, usize)> {
+        self.coupled
+            .as_ref()
+            .map(|c| (c.received_values, c.gathers, c.refreshes))
     }
 
     /// The blocks the next pattern is built from (a restart: those of
@@ -188,12 +304,46 @@ impl<'p> Assembler<'p> {
     ///
     /// Collective.
     pub(super) fn coupling_update(&mut self, x: &Vector) -> Result<(), ProblemError> {
+        if self.coupled.is_none() {
+            return Ok(());
+        }
+        let t0 = Instant::now();
+        let mut rounds = 0;
+        let out = loop {
+            let out = self.gather_and_update(x, rounds == 0);
+            let status = match (&self.coupled, &out) {
+                (Some(c), Ok(_) | Err(ProblemError::Domain(_))) => c.set.ghost_status(),
+                _ => [0, 0],
+            };
+            let mut any = [0u8; 2];
+            self.petsc
+                .comm()
+                .all_reduce_into(&status[..], &mut any[..], SystemOperation::max());
+            if any == [0, 0] {
+                break out;
+            }
+            rounds += 1;
+            if rounds > MAX_REFRESH_ROUNDS {
+                break Err(ProblemError::Fatal(format!(
+                    "the coupling set still lacks data after {MAX_REFRESH_ROUNDS} refreshes of its \
+                     nodes (contact: the ghost layer)"
+                )));
+            }
+            self.refresh_coupling_nodes(x, any[0] != 0).map_err(fatal)?;
+        };
+        self.timers.contact += t0.elapsed().as_secs_f64();
+        out
+    }
+
+    /// One gather of the coupling set's nodes at `x` and the set's update there (`count`: an
+    /// evaluation's first, not one repeated after a refresh).
+    fn gather_and_update(&mut self, x: &Vector, count: bool) -> Result<(), ProblemError> {
         let Some(c) = &mut self.coupled else {
             return Ok(());
         };
-        let t0 = Instant::now();
         c.scatter.gather(x, &mut c.u_table).map_err(fatal)?;
-        c.gathers += 1;
+        c.gathers += count as usize;
+        c.received_values += c.remote_values;
         let u = c.u_table.read().map_err(fatal)?;
         let u: &[f64] = if self.offsets.is_empty() {
             &u
@@ -211,7 +361,6 @@ impl<'p> Assembler<'p> {
             &self.u_table_off
         };
         let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| c.set.update(u)));
-        self.timers.contact += t0.elapsed().as_secs_f64();
         match out {
             Ok(Ok(())) => Ok(()),
             Ok(Err(msg)) => Err(ProblemError::Domain(msg)),

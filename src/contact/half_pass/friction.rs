@@ -7,7 +7,7 @@
 use super::{point_area, HalfPass, PassResult, PointOut, QPoint, Work};
 use crate::contact::kernel::{FrictionIn, FrictionOut, OwnPoint, PointResult, SlipState};
 use crate::contact::pair::{Anchor, Friction};
-use crate::contact::projection::walk;
+use crate::contact::projection::{walk, Absent};
 use crate::contact::surface::MAX_FACE_NODES;
 
 /// A point's committed anchor at the current state.
@@ -25,6 +25,11 @@ pub(super) fn anchor_at(hp: &HalfPass, f: &Friction, a: Anchor) -> Option<Anchor
     let mut el = None;
     let xa = match (a, hp.l, hp.motion) {
         (Anchor::Surface(la, xia), Some(l), _) => {
+            // held by construction: an update requests every anchor element it does not hold,
+            // and the assembler refreshes the ghost layer before any evaluation
+            if !hp.geo.pos[l].has(la as usize) {
+                return None;
+            }
             let ela = &hp.geo.surfaces[l].elements[la as usize];
             let ya = hp.geo.pos[l].of(la as usize);
             let (mut Na, mut dNa, mut ddNa) = (
@@ -120,7 +125,14 @@ pub(super) fn record(
         (Some(t), Some(l), ..) => {
             let start = qp.current.map(|p| (p.elem, p.xi));
             let onto = if fo.state == SlipState::Slip {
-                start.and_then(|w| walk(&hp.geo.surfaces[l], &hp.geo.pos[l], &t, w))
+                match start.map(|w| walk(&hp.geo.surfaces[l], &hp.geo.pos[l], &t, w)) {
+                    Some(Ok(p)) => p,
+                    Some(Err(Absent(f))) => {
+                        po.absent = Some(f);
+                        None
+                    }
+                    None => None,
+                }
             } else {
                 None
             };

@@ -87,6 +87,22 @@ impl CouplingSet for ContactSystem {
         ContactSystem::augment(self, violations, rounds)
     }
 
+    fn ghost_status(&self) -> [u8; 2] {
+        ContactSystem::ghost_status(self)
+    }
+
+    fn reach(&self) -> Vec<f64> {
+        self.ghost_reach()
+    }
+
+    fn answer(&self, reach: &[f64]) -> Vec<u32> {
+        self.ghost_answer(reach)
+    }
+
+    fn adopt(&mut self, answers: &[u32], moved: bool) {
+        self.adopt_ghosts(answers, moved);
+    }
+
     fn as_any(&self) -> &dyn Any {
         self
     }

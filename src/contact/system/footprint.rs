@@ -1,6 +1,7 @@
 //! What the contact system holds on this rank, in bytes (summary.json `contact_data`): the
-//! measure of issue 21's distributed surfaces. Today every rank holds every contact surface
-//! (topology, basis data, current positions, search grid) and its own points; the counts are the
+//! measure of issue 21's distributed surfaces. Today every rank holds every contact surface's
+//! topology and basis data and every surface node's reference coordinates, the current positions
+//! and search grids of the elements it holds (own and ghost layer), and its own points; the counts are the
 //! arrays' lengths times their element sizes (what the allocator hands out beyond that, and
 //! vector capacity slack, are not counted).
 
@@ -63,6 +64,8 @@ fn pass_bytes(p: &Pass) -> usize {
 pub struct Footprint {
     /// Surface nodes whose displacement this rank gathers before every evaluation.
     pub table_nodes: usize,
+    /// Surface elements this rank holds positions of that other ranks own (the ghost layer).
+    pub ghost_elements: usize,
     /// Surfaces (elements, basis data), the node table, current positions and search grids.
     pub surface_bytes: usize,
     /// The half-passes' points and elements on this rank (and the mortar nets).
@@ -73,6 +76,8 @@ impl ContactSystem {
     /// What this rank holds for contact (see [`Footprint`]).
     pub fn footprint(&self) -> Footprint {
         let surfaces = self.surfaces.iter().map(surface_bytes).sum::<usize>()
+            + vec_bytes(&self.all_nodes)
+            + vec_bytes(&self.all_X)
             + vec_bytes(&self.table)
             + vec_bytes(&self.X)
             + self
@@ -103,6 +108,7 @@ impl ContactSystem {
             .sum::<usize>();
         Footprint {
             table_nodes: self.table.len(),
+            ghost_elements: self.ghost_elements(),
             surface_bytes: surfaces,
             point_bytes: points,
         }

@@ -14,9 +14,10 @@ impl ContactSystem {
     /// (Sauer 2013): per surface, `f_A = int N_A p da` with `p = -t . nu_k` (`nu_k` the surface's own
     /// outward normal: positive in compression, negative in adhesion), and `int N_A g_n da` with
     /// `g_n` capped at the search distance where no partner is within reach. Indexed
-    /// `[surface][table node]`, flattened; sum over ranks before [`ContactSystem::l2_project`].
+    /// `[surface][surface node]` (the order of [`ContactSystem::all_surface_nodes`], the same on
+    /// every rank), flattened; sum over ranks before [`ContactSystem::l2_project`].
     pub fn l2_rhs(&self) -> (Vec<f64>, Vec<f64>) {
-        let (dim, nt) = (self.dim, self.table.len());
+        let (dim, nt) = (self.dim, self.all_nodes.len());
         let mut fp = vec![0.0; self.surfaces.len() * nt];
         let mut fg = vec![0.0; self.surfaces.len() * nt];
         self.each_surface_point(false, |pair, k, e, qp, N, nu| {
@@ -27,9 +28,10 @@ impl ContactSystem {
                 .gap
                 .unwrap_or(pair.def.search_distance)
                 .min(pair.def.search_distance);
-            for (b, &t) in self.slots[k][e].iter().enumerate() {
-                fp[k * nt + t as usize] += N[b] * p;
-                fg[k * nt + t as usize] += N[b] * g * J * qp.w;
+            for (b, &a) in el.nodes.iter().enumerate() {
+                let t = self.node_index(a);
+                fp[k * nt + t] += N[b] * p;
+                fg[k * nt + t] += N[b] * g * J * qp.w;
             }
         });
         (fp, fg)
@@ -75,10 +77,10 @@ impl ContactSystem {
     /// surface's body (as [`POINT_RECORD`]'s), then `int N_A chi_stick da` and `int N_A chi_slip da`
     /// with `chi` the indicator of the points that stick / slip (so the projections are the local
     /// fractions of sticking and slipping contact, both 0 out of contact). Indexed
-    /// `[surface][block][table node]` with `dim + 2` blocks per surface, flattened; zero for
+    /// `[surface][block][surface node]` with `dim + 2` blocks per surface, flattened; zero for
     /// frictionless pairs. Sum over ranks before [`ContactSystem::l2_project`].
     pub fn l2_rhs_friction(&self) -> Vec<f64> {
-        let (dim, nt) = (self.dim, self.table.len());
+        let (dim, nt) = (self.dim, self.all_nodes.len());
         let nb = dim + 2;
         let mut f = vec![0.0; self.surfaces.len() * nb * nt];
         self.each_surface_point(true, |_, k, e, qp, N, nu| {
@@ -87,81 +89,110 @@ impl ContactSystem {
             v[..dim].copy_from_slice(&qp.t_t[..dim]);
             v[dim] = (qp.slip == SlipState::Stick) as u8 as f64;
             v[dim + 1] = (qp.slip == SlipState::Slip) as u8 as f64;
-            for (b, &t) in self.slots[k][e].iter().enumerate() {
+            for (b, &a) in self.surfaces[k].elements[e].nodes.iter().enumerate() {
+                let t = self.node_index(a);
                 for (c, vc) in v[..nb].iter().enumerate() {
-                    f[(k * nb + c) * nt + t as usize] += N[b] * vc * jw;
+                    f[(k * nb + c) * nt + t] += N[b] * vc * jw;
                 }
             }
         });
         f
     }
 
-    /// Solves `M x = f` on surface `s` with the consistent mass matrix `M_AB = int N_A N_B da` of its
-    /// own interpolation in the current configuration (conjugate gradients, Jacobi-preconditioned,
-    /// matrix-free over the surface's elements). `f`: `[table node]` (the slice of
-    /// [`ContactSystem::l2_rhs`] for `s`). Returns values per table node (zero off the surface).
-    ///
-    /// `nominal`: the mass matrix of the reference configuration instead, `M_AB = int N_A N_B dA`;
-    /// with the pressure's right-hand side (`int N_A p da`) this gives the nominal pressure, the
-    /// contact force per reference area (the measure a geometrically linear theory such as Hertz's
-    /// predicts; it differs from the current one by the surface stretch).
-    pub fn l2_project(&self, s: usize, f: &[f64], nominal: bool) -> Vec<f64> {
-        let (dim, m, nt) = (self.dim, self.dim - 1, self.table.len());
-        let surf = &self.surfaces[s];
-        // element mass matrices, once
-        let mut blocks: Vec<Vec<f64>> = Vec::with_capacity(surf.elements.len());
+    /// This rank's part of the element mass matrices of the L2 projections: `M_AB = int N_A N_B da`
+    /// of every element of every surface in its own interpolation, current configuration (with
+    /// `nominal`, reference: `dA`), row-major per element, elements in surface order; filled for the
+    /// elements of this rank's cells (the only ones whose positions every rank agrees it holds),
+    /// zero elsewhere. Sum over ranks before [`ContactSystem::l2_project`].
+    pub fn l2_mass(&self, nominal: bool) -> Vec<f64> {
+        let (dim, m) = (self.dim, self.dim - 1);
         let (mut N, mut dN, mut ddN) = (
             [0.0; MAX_FACE_NODES],
             [0.0; 2 * MAX_FACE_NODES],
             [0.0; 4 * MAX_FACE_NODES],
         );
-        let mut diag = vec![0.0; nt];
+        let mut out = Vec::new();
         let mut Xe = Vec::new();
-        for (e, el) in surf.elements.iter().enumerate() {
-            let n = el.basis.n_nodes();
-            let mut Me = vec![0.0; n * n];
-            let x_e: &[f64] = if nominal {
-                Xe.clear();
-                for &t in &self.slots[s][e] {
-                    Xe.extend_from_slice(&self.X[t as usize * dim..(t as usize + 1) * dim]);
+        for (s, surf) in self.surfaces.iter().enumerate() {
+            for (e, el) in surf.elements.iter().enumerate() {
+                let n = el.basis.n_nodes();
+                let first = out.len();
+                out.resize(first + n * n, 0.0);
+                if !self.owns_element(s, e) {
+                    continue;
                 }
-                &Xe
-            } else {
-                self.pos[s].of(e)
-            };
-            let Ok(rule) = tensor_rule(&el.basis.quadrature_counts()) else {
-                blocks.push(Me);
-                continue;
-            };
-            for (q, xi) in rule.points.chunks_exact(m).enumerate() {
-                let mut x2 = [0.0; 2];
-                x2[..m].copy_from_slice(xi);
-                el.basis.eval(xi, &mut N, &mut dN, &mut ddN);
-                let (_, _, nu) = crate::contact::surface::frame(el, dim, x_e, &x2);
-                let J = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt();
-                for a in 0..n {
-                    for b in 0..n {
-                        Me[a * n + b] += N[a] * N[b] * J * rule.weights[q];
+                let Me = &mut out[first..];
+                let x_e: &[f64] = if nominal {
+                    Xe.clear();
+                    for &a in &el.nodes {
+                        let t = self.node_index(a);
+                        Xe.extend_from_slice(&self.all_X[t * dim..(t + 1) * dim]);
+                    }
+                    &Xe
+                } else {
+                    self.pos[s].of(e)
+                };
+                let Ok(rule) = tensor_rule(&el.basis.quadrature_counts()) else {
+                    continue;
+                };
+                for (q, xi) in rule.points.chunks_exact(m).enumerate() {
+                    let mut x2 = [0.0; 2];
+                    x2[..m].copy_from_slice(xi);
+                    el.basis.eval(xi, &mut N, &mut dN, &mut ddN);
+                    let (_, _, nu) = crate::contact::surface::frame(el, dim, x_e, &x2);
+                    let J = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt();
+                    for a in 0..n {
+                        for b in 0..n {
+                            Me[a * n + b] += N[a] * N[b] * J * rule.weights[q];
+                        }
                     }
                 }
             }
-            for (a, &t) in self.slots[s][e].iter().enumerate() {
-                diag[t as usize] += Me[a * n + a].abs();
+        }
+        out
+    }
+
+    /// Solves `M x = f` on surface `s` with the consistent mass matrix `M_AB = int N_A N_B da` of its
+    /// own interpolation (conjugate gradients, Jacobi-preconditioned, matrix-free over the surface's
+    /// elements). `f`: `[surface node]` (the slice of [`ContactSystem::l2_rhs`] for `s`); `mass`:
+    /// [`ContactSystem::l2_mass`] summed over ranks (current configuration, or with `nominal` the
+    /// reference one: with the pressure's right-hand side (`int N_A p da`) this gives the nominal
+    /// pressure, the contact force per reference area, the measure a geometrically linear theory
+    /// such as Hertz's predicts; it differs from the current one by the surface stretch). Returns
+    /// values per surface node (zero off the surface).
+    pub fn l2_project(&self, s: usize, f: &[f64], mass: &[f64]) -> Vec<f64> {
+        let nt = self.all_nodes.len();
+        let start: usize = self.surfaces[..s]
+            .iter()
+            .flat_map(|surf| surf.elements.iter().map(|el| el.basis.n_nodes().pow(2)))
+            .sum();
+        let surf = &self.surfaces[s];
+        let mut blocks: Vec<&[f64]> = Vec::with_capacity(surf.elements.len());
+        let mut slots: Vec<Vec<usize>> = Vec::with_capacity(surf.elements.len());
+        let mut diag = vec![0.0; nt];
+        let mut at = start;
+        for el in &surf.elements {
+            let n = el.basis.n_nodes();
+            let Me = &mass[at..at + n * n];
+            at += n * n;
+            let sl: Vec<usize> = el.nodes.iter().map(|&a| self.node_index(a)).collect();
+            for (a, &t) in sl.iter().enumerate() {
+                diag[t] += Me[a * n + a].abs();
             }
             blocks.push(Me);
+            slots.push(sl);
         }
         let on: Vec<bool> = diag.iter().map(|&d| d > 0.0).collect();
         let apply = |v: &[f64], out: &mut [f64]| {
             out.fill(0.0);
-            for (e, Me) in blocks.iter().enumerate() {
-                let sl = &self.slots[s][e];
+            for (Me, sl) in blocks.iter().zip(&slots) {
                 let n = sl.len();
                 for a in 0..n {
                     let mut acc = 0.0;
                     for b in 0..n {
-                        acc += Me[a * n + b] * v[sl[b] as usize];
+                        acc += Me[a * n + b] * v[sl[b]];
                     }
-                    out[sl[a] as usize] += acc;
+                    out[sl[a]] += acc;
                 }
             }
         };

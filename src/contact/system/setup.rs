@@ -14,7 +14,9 @@ use std::collections::HashMap;
 
 impl ContactSystem {
     /// Sets up the pairs on `surfaces`; this rank integrates the surface elements of the cells
-    /// `cell_part` gives it. Cohesive pairings are found here, in the reference configuration.
+    /// `cell_part` gives it. Cohesive pairings are found here, in the reference configuration,
+    /// where every rank still holds every element; then the node table is limited to the elements
+    /// this rank holds (`ghost.rs`).
     pub fn new(
         dim: usize,
         surfaces: Vec<ContactSurface>,
@@ -68,6 +70,9 @@ impl ContactSystem {
             pos: vec![Positions::default(); surfaces.len()],
             grids: vec![None; surfaces.len()],
             surfaces,
+            all_nodes: table.clone(),
+            all_X: X.clone(),
+            ghost: Default::default(),
             table,
             X,
             slots,
@@ -128,6 +133,7 @@ impl ContactSystem {
             sys.pairs.push(Pair { def, passes });
         }
         sys.pair_cohesive()?;
+        sys.init_ghosts(cell_part, rank);
         Ok(sys)
     }
 

@@ -95,7 +95,7 @@ fn projection_onto_the_nurbs_circle_and_sphere_matches_the_analytic_closest_poin
             } else {
                 surf.elements.len() - 1
             };
-            if let Some(w) = walk(surf, &pos, &x, (far as u32, [0.0; 2])) {
+            if let Ok(Some(w)) = walk(surf, &pos, &x, (far as u32, [0.0; 2])) {
                 let xw = crate::contact::surface::frame(
                     &surf.elements[w.elem as usize],
                     dim,
