@@ -34,12 +34,7 @@ fn cells_only_partition() {
 }
 
 fn column(s: &serde_json::Value, key: &str) -> Vec<u64> {
-    s["contact_data"][key]
-        .as_array()
-        .unwrap_or_else(|| panic!("contact_data.{key} missing: {s}"))
-        .iter()
-        .map(|v| v.as_u64().unwrap())
-        .collect()
+    summary_list(s, "contact_data", key)
 }
 
 #[test]

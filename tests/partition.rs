@@ -6,12 +6,7 @@ mod common;
 use common::*;
 
 fn list(s: &serde_json::Value, key: &str) -> Vec<u64> {
-    s["partition"][key]
-        .as_array()
-        .unwrap_or_else(|| panic!("partition.{key} missing: {s}"))
-        .iter()
-        .map(|v| v.as_u64().unwrap())
-        .collect()
+    summary_list(s, "partition", key)
 }
 
 /// max / mean of the entries.

@@ -227,20 +227,21 @@ mod tests {
         (*state >> 11) as f64 / (1u64 << 53) as f64
     }
 
+    /// A box in [0, 10.8]^dim of sides up to 0.8, inflated by 0.05.
+    fn random_box(dim: usize, s: &mut u64) -> Aabb {
+        let mut b = Aabb::EMPTY;
+        let c: Vec<f64> = (0..dim).map(|_| 10.0 * lcg(s)).collect();
+        b.grow(&c);
+        let c2: Vec<f64> = c.iter().map(|v| v + 0.8 * lcg(s)).collect();
+        b.grow(&c2);
+        b.inflated(dim, 0.05)
+    }
+
     #[test]
     fn bin_grid_finds_exactly_the_boxes_that_contain_a_point() {
         let mut s = 7u64;
         for dim in [2, 3] {
-            let boxes: Vec<Aabb> = (0..300)
-                .map(|_| {
-                    let mut b = Aabb::EMPTY;
-                    let c: Vec<f64> = (0..dim).map(|_| 10.0 * lcg(&mut s)).collect();
-                    b.grow(&c);
-                    let c2: Vec<f64> = c.iter().map(|v| v + 0.8 * lcg(&mut s)).collect();
-                    b.grow(&c2);
-                    b.inflated(dim, 0.05)
-                })
-                .collect();
+            let boxes: Vec<Aabb> = (0..300).map(|_| random_box(dim, &mut s)).collect();
             let grid = BinGrid::new(dim, boxes.clone());
             let mut out = Vec::new();
             for _ in 0..2000 {
@@ -261,15 +262,11 @@ mod tests {
         for dim in [2, 3] {
             let boxes: Vec<Aabb> = (0..200)
                 .map(|i| {
-                    let mut b = Aabb::EMPTY;
                     if i % 3 == 0 {
-                        return b.inflated(dim, 0.05);
+                        Aabb::EMPTY.inflated(dim, 0.05)
+                    } else {
+                        random_box(dim, &mut s)
                     }
-                    let c: Vec<f64> = (0..dim).map(|_| 10.0 * lcg(&mut s)).collect();
-                    b.grow(&c);
-                    let c2: Vec<f64> = c.iter().map(|v| v + 0.8 * lcg(&mut s)).collect();
-                    b.grow(&c2);
-                    b.inflated(dim, 0.05)
                 })
                 .collect();
             assert!(boxes

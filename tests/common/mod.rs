@@ -201,6 +201,16 @@ pub fn summary(dir: &Path) -> serde_json::Value {
     serde_json::from_str(&text).expect("parse summary.json")
 }
 
+/// A per-rank list of summary.json's `section` (e.g. `contact_data`, `partition`) as integers.
+pub fn summary_list(s: &serde_json::Value, section: &str, key: &str) -> Vec<u64> {
+    s[section][key]
+        .as_array()
+        .unwrap_or_else(|| panic!("{section}.{key} missing: {s}"))
+        .iter()
+        .map(|v| v.as_u64().unwrap())
+        .collect()
+}
+
 /// max |a - b| / max |a|.
 pub fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
     assert_eq!(a.len(), b.len(), "compared fields differ in length");
