@@ -23,28 +23,21 @@ fn largest_difference(a: &Path, b: &Path, cols: &[&str]) -> f64 {
     e
 }
 
-/// These tests measure the ghost layer on the cells-only partition: the default partition also
-/// balances the contact points, and with it both of 2 ranks gather every surface node of the long
-/// 2D interface below (measured: 172 of 172 each; our reading: the dual graph has no edges across
-/// the contact, so METIS need not keep facing pieces on one rank; BENCHMARKS.md, "Scale: contact
-/// data per rank").
-/// The runs inherit the variable (rank 0 partitions).
-fn cells_only_partition() {
-    std::env::set_var("NURBS_CONTACT_PARTITION_CELLS_ONLY", "1");
-}
-
 fn column(s: &serde_json::Value, key: &str) -> Vec<u64> {
     summary_list(s, "contact_data", key)
 }
 
 #[test]
 fn contact_data_counts_what_each_rank_holds_and_receives() {
-    cells_only_partition();
     let sets = [
         "meshes.block.divisions=[4,4,4]",
         "meshes.shell.n_surface=4",
         "stages.0.steps=2",
         "output.plots=false",
+        // on this small case the search distance reaches across most of the block top (256
+        // facing cell pairs for 16 + 16 surface cells), so on the default partition every rank
+        // gathers every surface node; the cells-only split shows partial gathers
+        "solver.partition=cells",
     ];
     let d1 = run_case("contact-data-np1", "hemisphere_block_3d.toml", 1, &sets);
     let d2 = run_case("contact-data-np2", "hemisphere_block_3d.toml", 2, &sets);
@@ -117,7 +110,6 @@ fn contact_data_counts_what_each_rank_holds_and_receives() {
 
 #[test]
 fn the_ghost_layer_follows_a_sliding_block_and_changes_no_result() {
-    cells_only_partition();
     // an upper block slid by 3 of its widths' quarters over a lower one with friction: the ghost
     // layer (a quarter of the search distance, 2 h, thick beyond it) must be refreshed
     let sets = [
@@ -152,12 +144,13 @@ fn the_ghost_layer_follows_a_sliding_block_and_changes_no_result() {
 }
 
 #[test]
-fn received_bytes_per_rank_fall_with_the_rank_count_on_a_long_contact_interface() {
-    cells_only_partition();
+fn the_contact_partition_keeps_facing_pieces_together_on_a_long_contact_interface() {
     // two flat blocks 16 long pressed together over their whole length: with the ghost layer a
-    // rank gathers its own surface piece and the partner elements across from it, so the mean
-    // over the ranks of what each receives falls as the pieces shrink (with replicated surfaces it
-    // grew: each rank received nearly every surface value it did not own)
+    // rank gathers its own surface piece and the partner elements across from it, so the table
+    // falls with the rank count; the default partition keeps the facing pieces of the two blocks
+    // on one rank (edges between facing contact cells), so a rank receives only the few values
+    // across its pieces' ends, where the cells-only split (two blocks, no face between them)
+    // separates the facing pieces and a rank receives most of the partner surface under its own
     let sets = [
         "bodies.lower.element=Q1N2",
         "bodies.upper.element=Q1N2",
@@ -182,12 +175,20 @@ fn received_bytes_per_rank_fall_with_the_rank_count_on_a_long_contact_interface(
             )
         })
         .collect();
+    let mut cells_sets = sets.to_vec();
+    cells_sets.push("solver.partition=cells");
+    let cells = run_case(
+        "ghost-long-cells-np2",
+        "sliding_flat_2d.toml",
+        2,
+        &cells_sets,
+    );
     let cols = ["P_slide_upper_bottom_y", "P_slide_lower_top_y"];
     assert!(
         last(&runs[0], cols[0]).abs() > 1e-3,
         "the blocks are pressed together"
     );
-    for (d, np) in runs[1..].iter().zip([2, 4]) {
+    for (d, np) in runs[1..].iter().chain([&cells]).zip([2, 4, 2]) {
         let e = largest_difference(&runs[0], d, &cols);
         assert!(e < 1e-10, "1 vs {np} ranks differ by {e:e}");
     }
@@ -200,14 +201,27 @@ fn received_bytes_per_rank_fall_with_the_rank_count_on_a_long_contact_interface(
     let table: Vec<f64> = s.iter().map(|s| mean(column(s, "table_nodes"))).collect();
     assert_eq!(recv[0], 0.0);
     assert!(
-        recv[1] > 0.0 && recv[2] < recv[1],
-        "mean received bytes per rank on 1, 2, 4 ranks: {recv:?}"
-    );
-    assert!(
         table[2] < table[1] && table[1] < table[0],
         "mean table nodes per rank on 1, 2, 4 ranks: {table:?}"
     );
     // every surface node a rank does not hold is a value it no longer receives
     let all = column(&s[0], "table_nodes")[0];
     assert!(column(&s[2], "table_nodes").iter().all(|&t| t < all));
+    // the partition keeps the facing pieces together: a fraction of the cells-only traffic
+    let sc = summary(&cells);
+    let recv_cells = mean(column(&sc, "received_bytes_per_evaluation"));
+    assert!(
+        recv[1] > 0.0 && 2.0 * recv[1] < recv_cells,
+        "mean received bytes per rank on 2 ranks: {} (contact partition) vs {recv_cells} (cells)",
+        recv[1]
+    );
+    let cut = |s: &serde_json::Value| s["partition"]["cut_facing_pairs"].as_u64().unwrap();
+    let kind = |s: &serde_json::Value| s["partition"]["kind"].as_str().unwrap().to_string();
+    assert_eq!((kind(&s[1]), kind(&sc)), ("contact".into(), "cells".into()));
+    assert!(
+        4 * cut(&s[1]) < cut(&sc),
+        "facing pairs cut: {} vs {}",
+        cut(&s[1]),
+        cut(&sc)
+    );
 }

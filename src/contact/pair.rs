@@ -152,6 +152,66 @@ pub(crate) fn law_traction(law: &Law, touch: f64, g: &[f64; 3], n: &[f64; 3]) ->
 /// Relative round-off tolerance of "touching", in units of the surface's element length.
 pub(crate) const TOUCH: f64 = 1e-12;
 
+/// Pairs of bulk cells `[a, b]` (`a < b`, sorted, no repeats) whose contact surface elements face
+/// each other across a pair between two deformable surfaces in the reference configuration
+/// `coords` [n_global_nodes][dim]: a control point of one element lies within the pair's search
+/// distance of the other's control-point box. The partitioner adds them to the dual graph, so
+/// that METIS keeps facing surface pieces on one rank where it can (each such cut edge is a
+/// partner element a rank must gather; BENCHMARKS.md, "Scale: contact data per rank").
+/// Rigid partners add none.
+pub fn facing_cells(
+    surfaces: &[crate::contact::surface::ContactSurface],
+    pairs: &[PairDef],
+    coords: &[f64],
+    dim: usize,
+) -> Vec<[u32; 2]> {
+    use crate::contact::search::BinGrid;
+    use crate::contact::surface::reference_positions;
+    let mut edges = Vec::new();
+    let mut cand = Vec::new();
+    for def in pairs {
+        for (k, partner) in &def.passes {
+            let Partner::Surface(l) = partner else {
+                continue;
+            };
+            let (own, other) = (&surfaces[*k], &surfaces[*l]);
+            let boxes: Vec<Aabb> = other
+                .elements
+                .iter()
+                .map(|el| {
+                    let mut b = Aabb::EMPTY;
+                    for x in reference_positions(coords, dim, &el.nodes).chunks(dim) {
+                        b.grow(x);
+                    }
+                    b.inflated(dim, def.search_distance)
+                })
+                .collect();
+            let grid = BinGrid::new(dim, boxes);
+            let mut mine = Vec::new();
+            for el in &own.elements {
+                let a = el.cell as u32;
+                mine.clear();
+                for x in reference_positions(coords, dim, &el.nodes).chunks(dim) {
+                    grid.candidates(x, &mut cand);
+                    mine.extend(
+                        cand.iter()
+                            .map(|&e| other.elements[e as usize].cell as u32)
+                            .filter(|&c| c != a)
+                            .map(|c| [a.min(c), a.max(c)]),
+                    );
+                }
+                // one element's points share their partners
+                mine.sort_unstable();
+                mine.dedup();
+                edges.extend_from_slice(&mine);
+            }
+        }
+    }
+    edges.sort_unstable();
+    edges.dedup();
+    edges
+}
+
 /// The contact quadrature points each cell's rank integrates [n_cells]: the points of every
 /// half-pass's surface elements, counted on the element's bulk cell (the partitioner's second
 /// balance constraint). A pair's `region` is not applied: a weight, not a count of active points.

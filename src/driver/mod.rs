@@ -16,9 +16,9 @@ use restore::{read_checkpoint, restore};
 use crate::assembly::{constrained_flags, prescribed_values, DofMap, DofMapError, SkewRows};
 use crate::io::{self, Summary};
 use crate::model::{Model, ModelError};
-use crate::parallel::{edge_cut, partition_cells};
+use crate::parallel::{edge_cut, facing_cut, partition_cells};
 use crate::petsc::{Petsc, PetscError};
-use crate::scene::{load_case, validate, Case, SceneError};
+use crate::scene::{load_case, validate, Case, PartitionKind, SceneError};
 use crate::solver::{SolverError, StepRecord};
 use mpi::collective::SystemOperation;
 use mpi::topology::SimpleCommunicator;
@@ -553,21 +553,28 @@ fn number_and_partition(petsc: &Petsc, case: &Case, model: &Model) -> Result<Num
                 &model.contact_pairs,
                 model.n_cells(),
             );
-            // The bulk-only partition of earlier versions, for the measurement of BENCHMARKS.md
-            // ("Scale: contact data per rank").
-            let weights: &[u32] =
-                if std::env::var_os("NURBS_CONTACT_PARTITION_CELLS_ONLY").is_some() {
-                    &[]
-                } else {
-                    &points
-                };
+            let kind = case.solver.partition;
+            let facing = crate::contact::pair::facing_cells(
+                &model.contact_surfaces,
+                &model.contact_pairs,
+                &model.coords,
+                model.dim,
+            );
+            let (weights, joined): (&[u32], &[[u32; 2]]) = match kind {
+                PartitionKind::Contact => (&points, &facing),
+                PartitionKind::Points => (&points, &[]),
+                PartitionKind::Cells => (&[], &[]),
+            };
             let mesh = model.combined_mesh();
-            partition_cells(&mesh, size, weights)
+            partition_cells(&mesh, size, weights, joined)
                 .inspect(|p| {
                     let mut stats = io::PartitionStats {
                         cells: vec![0; size],
                         contact_points: vec![0; size],
                         cut_faces: edge_cut(&mesh, p) as u64,
+                        kind: kind.name().to_string(),
+                        facing_pairs: facing.len() as u64,
+                        cut_facing_pairs: facing_cut(&facing, p) as u64,
                     };
                     for (c, &r) in p.iter().enumerate() {
                         stats.cells[r as usize] += 1;

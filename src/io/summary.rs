@@ -206,6 +206,12 @@ pub struct PartitionStats {
     pub contact_points: Vec<u64>,
     /// Faces shared by cells of different ranks.
     pub cut_faces: u64,
+    /// Which partition ran (`[solver] partition`: "contact" or "cells").
+    pub kind: String,
+    /// Pairs of cells whose contact surface elements face each other across a pair
+    /// ([`crate::contact::pair::facing_cells`]), and how many of them lie on different ranks.
+    pub facing_pairs: u64,
+    pub cut_facing_pairs: u64,
 }
 
 /// Write `dir/summary.json` atomically; returns its path.

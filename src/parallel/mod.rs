@@ -2,4 +2,4 @@
 
 pub mod partition;
 
-pub use partition::{edge_cut, partition_cells, PartitionError};
+pub use partition::{edge_cut, facing_cut, partition_cells, PartitionError};

@@ -26,10 +26,17 @@ pub enum PartitionError {
 /// cell's rank integrates. When some are non-zero METIS balances two constraints at once: the
 /// cells (bulk work) and the contact points (contact work), so that the ranks owning a contact
 /// surface do not carry all of its points (BENCHMARKS.md, "Scale: contact data per rank").
+///
+/// `facing` (cell pairs `[a, b]`, e.g. [`crate::contact::pair::facing_cells`]) are added to the
+/// dual graph as edges of weight 1 beside the shared faces: cells whose contact surfaces face each
+/// other across a pair, so that METIS keeps facing pieces on one rank where the balance allows
+/// (a two-body scene has no shared face between its bodies, and without them a split along the
+/// contact interface cuts nothing). Empty: the face dual graph alone, as before.
 pub fn partition_cells(
     mesh: &Mesh,
     n_parts: usize,
     contact_points: &[u32],
+    facing: &[[u32; 2]],
 ) -> Result<Vec<u32>, PartitionError> {
     let n_cells = mesh.n_cells();
     if n_parts == 0 || n_parts > n_cells {
@@ -44,6 +51,16 @@ pub fn partition_cells(
         d => return Err(PartitionError::BadDimension(d)),
     };
     let (xadj, adjncy) = mesh.dual_graph(shared);
+    if let Some(&[a, b]) = facing
+        .iter()
+        .find(|&&[a, b]| a as usize >= n_cells || b as usize >= n_cells)
+    {
+        return Err(PartitionError::Metis {
+            n_parts,
+            msg: format!("facing cells [{a}, {b}] out of {n_cells} cells"),
+        });
+    }
+    let (xadj, adjncy, adjwgt) = with_facing_edges(xadj, adjncy, facing);
     let too_large = |what: &str| PartitionError::TooLarge(what.to_string());
     let xadj: Vec<metis::Idx> = xadj
         .into_iter()
@@ -86,6 +103,16 @@ pub fn partition_cells(
     } else {
         graph
     };
+    let adjwgt: Vec<metis::Idx> = adjwgt
+        .into_iter()
+        .map(metis::Idx::try_from)
+        .collect::<Result<_, _>>()
+        .map_err(|_| too_large("adjwgt"))?;
+    let graph = if facing.is_empty() {
+        graph
+    } else {
+        graph.set_adjwgt(&adjwgt)
+    };
     graph
         .set_option(metis::option::Seed(METIS_SEED))
         .part_kway(&mut part)
@@ -98,6 +125,56 @@ pub fn partition_cells(
             })
         })
         .collect()
+}
+
+/// The dual graph `(xadj, adjncy)` with the `facing` cell pairs added as edges both ways, and the
+/// edge weights: 1 per shared face plus 1 per facing pair (a pair that also shares a face, as in
+/// self-contact, weighs 2). Without `facing` the graph is returned as it is, weights empty.
+fn with_facing_edges(
+    xadj: Vec<usize>,
+    adjncy: Vec<u32>,
+    facing: &[[u32; 2]],
+) -> (Vec<usize>, Vec<u32>, Vec<u32>) {
+    if facing.is_empty() {
+        return (xadj, adjncy, Vec::new());
+    }
+    let n = xadj.len() - 1;
+    let mut lists: Vec<Vec<(u32, u32)>> = (0..n)
+        .map(|c| {
+            adjncy[xadj[c]..xadj[c + 1]]
+                .iter()
+                .map(|&o| (o, 1))
+                .collect()
+        })
+        .collect();
+    for &[a, b] in facing {
+        if a != b {
+            lists[a as usize].push((b, 1));
+            lists[b as usize].push((a, 1));
+        }
+    }
+    let (mut x, mut adj, mut w) = (vec![0], Vec::new(), Vec::new());
+    for mut l in lists {
+        l.sort_unstable();
+        for (o, wt) in l {
+            if adj.len() > *x.last().unwrap() && *adj.last().unwrap() == o {
+                *w.last_mut().unwrap() += wt;
+            } else {
+                adj.push(o);
+                w.push(wt);
+            }
+        }
+        x.push(adj.len());
+    }
+    (x, adj, w)
+}
+
+/// Number of `facing` cell pairs that lie in different parts.
+pub fn facing_cut(facing: &[[u32; 2]], part: &[u32]) -> usize {
+    facing
+        .iter()
+        .filter(|&&[a, b]| part[a as usize] != part[b as usize])
+        .count()
 }
 
 /// Number of dual-graph edges (shared faces) whose two cells lie in different parts.
@@ -135,7 +212,7 @@ mod tests {
     }
 
     fn check(mesh: &Mesh, n_parts: usize) {
-        let part = partition_cells(mesh, n_parts, &[]).unwrap();
+        let part = partition_cells(mesh, n_parts, &[], &[]).unwrap();
         let mut sizes = vec![0usize; n_parts];
         for &p in &part {
             sizes[p as usize] += 1;
@@ -150,7 +227,7 @@ mod tests {
         let random_cut = edge_cut(mesh, &random_partition(mesh.n_cells(), n_parts));
         assert!(4 * cut < random_cut, "cut {cut} vs random {random_cut}");
         // deterministic
-        assert_eq!(part, partition_cells(mesh, n_parts, &[]).unwrap());
+        assert_eq!(part, partition_cells(mesh, n_parts, &[], &[]).unwrap());
     }
 
     #[test]
@@ -185,10 +262,10 @@ mod tests {
         };
         let total: u32 = points.iter().sum();
         assert_eq!(total, 4 * 32);
-        let bulk_only = partition_cells(&mesh, 2, &[]).unwrap();
+        let bulk_only = partition_cells(&mesh, 2, &[], &[]).unwrap();
         let t = per_part(&bulk_only, &|c| points[c]);
         assert!(t.contains(&0), "bulk-only split the points: {t:?}");
-        let both = partition_cells(&mesh, 2, &points).unwrap();
+        let both = partition_cells(&mesh, 2, &points, &[]).unwrap();
         let t = per_part(&both, &|c| points[c]);
         assert!(
             t.iter().all(|&n| (n as f64) <= 0.55 * total as f64),
@@ -201,20 +278,98 @@ mod tests {
         );
         let random_cut = edge_cut(&mesh, &random_partition(mesh.n_cells(), 2));
         assert!(4 * edge_cut(&mesh, &both) < random_cut);
-        assert_eq!(both, partition_cells(&mesh, 2, &points).unwrap());
-        assert!(partition_cells(&mesh, 2, &points[1..]).is_err());
+        assert_eq!(both, partition_cells(&mesh, 2, &points, &[]).unwrap());
+        assert!(partition_cells(&mesh, 2, &points[1..], &[]).is_err());
+    }
+
+    /// Two strips stacked without a shared face (two bodies touching along y = 0), each cell of
+    /// the lower one's top row facing the upper one's bottom-row cells it overlaps, both rows
+    /// carrying contact points. Without the facing edges METIS is free to split along the
+    /// interface (no face is cut there), so that every facing pair is cut; with them the split
+    /// runs across the strips and cuts few.
+    #[test]
+    fn facing_contact_cells_are_kept_together() {
+        let lower = rectangle([0.0, -1.0], [16.0, 1.0], [64, 4]).unwrap();
+        let upper = rectangle([0.0, 0.0], [16.0, 1.0], [48, 4]).unwrap();
+        let mut mesh = Mesh::new(2);
+        mesh.coords = lower.coords.clone();
+        mesh.coords.extend_from_slice(&upper.coords);
+        let off = lower.n_nodes() as u32;
+        for c in 0..lower.n_cells() {
+            mesh.push_cell(lower.cell_kind[c], lower.cell(c));
+        }
+        for c in 0..upper.n_cells() {
+            let nodes: Vec<u32> = upper.cell(c).iter().map(|&a| a + off).collect();
+            mesh.push_cell(upper.cell_kind[c], &nodes);
+        }
+        let span = |c: usize| {
+            let ys: Vec<f64> = mesh.cell(c).iter().map(|&a| mesh.node(a)[1]).collect();
+            let xs: Vec<f64> = mesh.cell(c).iter().map(|&a| mesh.node(a)[0]).collect();
+            let (lo, hi) = (
+                xs.iter().cloned().fold(f64::MAX, f64::min),
+                xs.iter().cloned().fold(f64::MIN, f64::max),
+            );
+            let top = ys.iter().any(|&y| y.abs() < 1e-12);
+            (lo, hi, top)
+        };
+        let n_lower = lower.n_cells();
+        let spans: Vec<_> = (0..mesh.n_cells()).map(span).collect();
+        let points: Vec<u32> = spans.iter().map(|s| if s.2 { 3 } else { 0 }).collect();
+        let mut facing = Vec::new();
+        for (a, &(alo, ahi, at)) in spans[..n_lower].iter().enumerate() {
+            for (b, &(blo, bhi, bt)) in spans.iter().enumerate().skip(n_lower) {
+                if at && bt && alo < bhi && blo < ahi {
+                    facing.push([a as u32, b as u32]);
+                }
+            }
+        }
+        assert_eq!(points.iter().filter(|&&p| p > 0).count(), 64 + 48);
+        let apart = partition_cells(&mesh, 2, &points, &[]).unwrap();
+        let joined = partition_cells(&mesh, 2, &points, &facing).unwrap();
+        let (cut_apart, cut_joined) = (facing_cut(&facing, &apart), facing_cut(&facing, &joined));
+        assert!(
+            cut_joined * 10 < facing.len() && cut_joined * 4 < cut_apart.max(1),
+            "facing pairs cut: {cut_joined} joined, {cut_apart} apart, of {}",
+            facing.len()
+        );
+        for part in [&apart, &joined] {
+            let mut cells = [0usize; 2];
+            part.iter().for_each(|&p| cells[p as usize] += 1);
+            assert!(
+                cells
+                    .iter()
+                    .all(|&n| n as f64 <= 0.55 * mesh.n_cells() as f64),
+                "{cells:?}"
+            );
+        }
+        assert_eq!(joined, partition_cells(&mesh, 2, &points, &facing).unwrap());
+        assert!(partition_cells(&mesh, 2, &points, &[[0, 10_000]]).is_err());
+        // the graph with facing edges: symmetric, weights 1 per face and per facing pair
+        let (x0, a0) = mesh.dual_graph(2);
+        let (x, adj, w) = with_facing_edges(x0.clone(), a0.clone(), &facing);
+        assert_eq!(adj.len(), a0.len() + 2 * facing.len());
+        assert_eq!(w.iter().map(|&w| w as usize).sum::<usize>(), adj.len());
+        for c in 0..mesh.n_cells() {
+            for &o in &adj[x[c]..x[c + 1]] {
+                assert!(adj[x[o as usize]..x[o as usize + 1]].contains(&(c as u32)));
+            }
+        }
+        // a pair that also shares a face weighs 2
+        let (_, a1, w1) = with_facing_edges(x0, a0.clone(), &[[0, a0[0]]]);
+        assert_eq!(a1.len(), a0.len());
+        assert_eq!(w1[0], 2);
     }
 
     #[test]
     fn one_part_is_all_zeros_and_bad_counts_are_errors() {
         let m = rectangle([0.0, 0.0], [1.0, 1.0], [2, 2]).unwrap();
-        assert_eq!(partition_cells(&m, 1, &[]).unwrap(), vec![0; 4]);
+        assert_eq!(partition_cells(&m, 1, &[], &[]).unwrap(), vec![0; 4]);
         assert!(matches!(
-            partition_cells(&m, 0, &[]),
+            partition_cells(&m, 0, &[], &[]),
             Err(PartitionError::BadPartCount { .. })
         ));
         assert!(matches!(
-            partition_cells(&m, 5, &[]),
+            partition_cells(&m, 5, &[], &[]),
             Err(PartitionError::BadPartCount { n_parts: 5, .. })
         ));
     }

@@ -588,6 +588,39 @@ pub struct SolverOptions {
     /// contradiction is checked); given, they must agree with it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub linear: Option<LinearSolver>,
+    /// How the cells are split between MPI ranks (METIS k-way on the cells' face graph):
+    /// `"contact"` balances the cells and the contact quadrature points and joins cells whose
+    /// contact surfaces face each other (within the pair's search distance in the reference
+    /// configuration), so that facing pieces stay on one rank where the balance allows;
+    /// `"points"` balances cells and contact points without the joins; `"cells"` balances the
+    /// cells alone (the split of versions before 2026-11-26). All in BENCHMARKS.md, "Scale:
+    /// contact data per rank". Results agree to round-off on every one. Default: `"contact"`.
+    #[serde(default)]
+    pub partition: PartitionKind,
+}
+
+/// `[solver] partition`: what METIS balances and keeps together.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PartitionKind {
+    /// Cells and contact points balanced; facing contact cells joined in the graph.
+    #[default]
+    Contact,
+    /// Cells and contact points balanced on the face graph alone.
+    Points,
+    /// Cells balanced on the face graph alone.
+    Cells,
+}
+
+impl PartitionKind {
+    /// The name in the case file.
+    pub fn name(self) -> &'static str {
+        match self {
+            PartitionKind::Contact => "contact",
+            PartitionKind::Points => "points",
+            PartitionKind::Cells => "cells",
+        }
+    }
 }
 
 impl SolverOptions {
@@ -648,6 +681,7 @@ impl Default for SolverOptions {
             contact_freeze_after: 0,
             stagnation_window: default_stagnation_window(),
             linear: None,
+            partition: PartitionKind::default(),
         }
     }
 }
