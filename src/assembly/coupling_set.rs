@@ -89,18 +89,6 @@ pub trait CouplingSet: Any + Send {
     /// Uses the state of the last [`update`](Self::update).
     fn evaluate(&mut self, f_local: &mut [f64], jac: Option<(&mut dyn MatrixSink, &SlotOf)>);
 
-    /// The blocks of [`evaluate`](Self::evaluate) for a preconditioner's matrix, at the same state
-    /// (called after `evaluate` with a Jacobian, on the same update): a part of the tangent that
-    /// makes a better preconditioner (contact: without its geometric terms). The residual goes to
-    /// `f_scratch`, which is thrown away. Default: the blocks of `evaluate`.
-    fn evaluate_preconditioner(
-        &mut self,
-        f_scratch: &mut [f64],
-        jac: (&mut dyn MatrixSink, &SlotOf),
-    ) {
-        self.evaluate(f_scratch, Some(jac));
-    }
-
     /// Residual entries on [`nodes`](Self::nodes) ([n][dim]) that `evaluate` could not put in
     /// `f_local` because this rank may not hold those nodes (contact's one-pass master surfaces);
     /// the assembler adds them through the gather's reverse scatter. `None`: there are none.

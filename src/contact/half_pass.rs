@@ -21,7 +21,6 @@ pub(crate) mod mortar;
 use crate::assembly::MatrixSink;
 use crate::contact::kernel::{
     contact_point_pass, Area, OwnPoint, PartnerPoint, PointIn, PointResult, Scratch, SlipState,
-    Tangent,
 };
 use crate::contact::law::{self, Traction};
 use crate::contact::pair::{
@@ -199,8 +198,6 @@ pub(crate) struct PairView<'a> {
     pub augmented: bool,
     /// Load parameter (rigid partners' motion).
     pub lambda: f64,
-    /// The tangent the Jacobian evaluation adds (consistent, or the preconditioner's part).
-    pub tangent: Tangent,
 }
 
 /// Buffers the half-passes reuse (nothing allocates per point once they have grown).
@@ -518,7 +515,6 @@ impl HalfPass<'_> {
             friction: at.as_ref().map(|a| &a.fin),
             area,
             one_pass: master,
-            tangent: self.pair.tangent,
         };
         let K = kb.map(|i| &mut work.blocks[i].1[..]);
         let r = if master { &mut work.rc } else { &mut work.r };

@@ -265,25 +265,6 @@ pub struct PointIn<'a> {
     /// One-pass: the partner element's rows follow the own rows in `r` [(n_k + n_l) * dim] and
     /// `K` [(n_k + n_l) * dim][n_cols] (no effect for a rigid partner).
     pub one_pass: bool,
-    /// The tangent without the contact's geometric terms, to build a preconditioner from
-    /// ([`Tangent::Definite`]); the residual is the same.
-    pub tangent: Tangent,
-}
-
-/// Which tangent [`contact_point_pass`] adds.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub enum Tangent {
-    /// The consistent linearisation.
-    #[default]
-    Consistent,
-    /// Its part that does not hold the contact's geometric terms, for a preconditioner: the gap
-    /// varies with the nodes at fixed surface coordinates (`dg = dx_k - N_b(xi_p) dy_b`, no
-    /// `a_b dxi_b`), the normal and the area element are held fixed (no `p dn`, no `t dJ`, no
-    /// curvature `g . a_ab`), and the law's derivative is kept only along the normal and only where it
-    /// stiffens, `min(n . dt/dg n, 0) n n` (the penalty's `-eps_n n n`); a material pairing
-    /// (no normal) keeps its law's whole `dt/dg`. Friction keeps its variations with the normal
-    /// held fixed.
-    Definite,
 }
 
 /// Evaluates one point: adds its residual to `r` [n_k*dim] and, if given, its tangent to `K`
@@ -303,9 +284,7 @@ pub fn contact_point_pass(
         friction,
         area,
         one_pass,
-        tangent,
     } = *input;
-    let definite = tangent == Tangent::Definite;
     let m = dim - 1;
     let nk = own.N.len();
     // own point, tangents and area element
@@ -400,30 +379,10 @@ pub fn contact_point_pass(
     s.dxi.clear();
     s.dxi.resize(nc, [0.0; 2]);
     // area element of the current configuration
-    if area == Area::Current && !definite {
+    if area == Area::Current {
         area_variation(dim, own, &ak, &nu_raw, Jc, s);
     }
-    let mut dt_dg = tr.dt_dg;
-    if definite {
-        fixed_point_variations(dim, own, partner, geom.as_ref(), s);
-        if dot(&n, &n) > 0.0 {
-            // n . dt/dg n, kept where it stiffens
-            let mut knn = 0.0;
-            for i in 0..3 {
-                for j in 0..3 {
-                    knn += n[i] * tr.dt_dg[3 * i + j] * n[j];
-                }
-            }
-            let knn = knn.min(0.0);
-            for i in 0..3 {
-                for j in 0..3 {
-                    dt_dg[3 * i + j] = knn * n[i] * n[j];
-                }
-            }
-        }
-    } else {
-        gap_variations(dim, own, partner, geom.as_ref(), (&g, &n, orthogonal), s);
-    }
+    gap_variations(dim, own, partner, geom.as_ref(), (&g, &n, orthogonal), s);
     // variation of the tangential traction per column (the anchor held fixed)
     s.dtt.clear();
     s.dtt.resize(nc, [0.0; 3]);
@@ -437,7 +396,7 @@ pub fn contact_point_pass(
         for c in 0..nc {
             let mut v = s.dtt[c][i];
             for j in 0..dim {
-                v += dt_dg[3 * i + j] * s.dg[c][j] + tr.dt_dn[3 * i + j] * s.dn[c][j];
+                v += tr.dt_dg[3 * i + j] * s.dg[c][j] + tr.dt_dn[3 * i + j] * s.dn[c][j];
             }
             s.dtJ[i * nc + c] = v * J + t_tot[i] * s.dJ[c];
         }
@@ -659,52 +618,6 @@ fn gap_variations(
             }
         }
         _ => unreachable!(),
-    }
-}
-
-/// [`Tangent::Definite`]'s variations: the gap at fixed surface coordinates (own point and
-/// partner point move with their nodes; a rigid partner's `dg` as it is), no normal and no
-/// coordinate variation (`s.dn`, `s.dxi` stay zero). Measurement hooks (environment):
-/// `PMAT_OWN_ONLY` drops the partner's columns (no coupling between the bodies),
-/// `PMAT_NONE` drops the contact's tangent altogether (the preconditioner from the bulk only).
-fn fixed_point_variations(
-    dim: usize,
-    own: &OwnPoint,
-    partner: &PartnerPoint,
-    geom: Option<&PartnerGeom>,
-    s: &mut Scratch,
-) {
-    let nk = own.N.len();
-    if let PartnerPoint::Rigid(rp) = partner {
-        for a in 0..nk {
-            for i in 0..dim {
-                for j in 0..3 {
-                    s.dg[a * dim + i][j] = rp.dg_dx[3 * j + i] * own.N[a];
-                }
-            }
-        }
-        return;
-    }
-    for a in 0..nk {
-        for i in 0..dim {
-            s.dg[a * dim + i][i] = own.N[a];
-        }
-    }
-    let own_only = std::env::var_os("PMAT_OWN_ONLY").is_some();
-    let none = std::env::var_os("PMAT_NONE").is_some();
-    if none {
-        for a in 0..nk {
-            for i in 0..dim {
-                s.dg[a * dim + i][i] = 0.0;
-            }
-        }
-    }
-    if let Some(ge) = geom.filter(|_| !own_only && !none) {
-        for b in 0..ge.n {
-            for i in 0..dim {
-                s.dg[(nk + b) * dim + i][i] = -ge.N[b];
-            }
-        }
     }
 }
 

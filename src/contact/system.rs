@@ -18,7 +18,7 @@
 
 use crate::assembly::{DofMap, MatrixSink};
 use crate::contact::half_pass::{self, Pass, PassResult};
-use crate::contact::kernel::{SlipState, Tangent};
+use crate::contact::kernel::SlipState;
 use crate::contact::pair::{Anchor, PairDef, Partner, SlotOf};
 use crate::contact::projection::{surface_grid, walk, Absent, Positions};
 use crate::contact::search::BinGrid;
@@ -216,32 +216,12 @@ impl ContactSystem {
     /// Adds the contact residual of this rank's points to `f_local` (ghosted local vector) and, with
     /// `jac`, each coupling block to the sink at the slot `slot_of` gives it. Uses the projections
     /// of the last [`ContactSystem::update`].
-    pub fn assemble(&mut self, f_local: &mut [f64], jac: Option<(&mut dyn MatrixSink, &SlotOf)>) {
-        let jacobian = jac.is_some();
-        self.assemble_with(f_local, jac, Tangent::Consistent);
-        if jacobian {
-            self.observe_iterate();
-        }
-    }
-
-    /// The blocks of [`ContactSystem::assemble`] with the tangent [`Tangent::Definite`] (without
-    /// the contact's geometric terms), for a preconditioner; the residual goes to `f_scratch`
-    /// (the same as `assemble`'s). The state is the one of the last `assemble` (same update):
-    /// nothing is observed for the active set.
-    pub fn assemble_preconditioner(
-        &mut self,
-        f_scratch: &mut [f64],
-        jac: (&mut dyn MatrixSink, &SlotOf),
-    ) {
-        self.assemble_with(f_scratch, Some(jac), Tangent::Definite);
-    }
-
-    fn assemble_with(
+    pub fn assemble(
         &mut self,
         f_local: &mut [f64],
         mut jac: Option<(&mut dyn MatrixSink, &SlotOf)>,
-        tangent: Tangent,
     ) {
+        let jacobian = jac.is_some();
         self.work.r_table.fill(0.0);
         self.work.absent.clear();
         let geo = half_pass::Geometry {
@@ -265,7 +245,6 @@ impl ContactSystem {
                 gap: def.gap,
                 augmented: def.augmented.is_some(),
                 lambda: self.lambda,
-                tangent,
             };
             for pass in &mut pair.passes {
                 let id = pass_id as usize;
@@ -281,6 +260,9 @@ impl ContactSystem {
                 );
                 pass_id += 1;
             }
+        }
+        if jacobian {
+            self.observe_iterate();
         }
     }
 

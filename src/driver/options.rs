@@ -143,9 +143,6 @@ pub(super) fn set_up_solver<'p>(
         )?;
         snes.set_near_null_space(space);
         snes.set_iterative(true);
-        if !model.contact_pairs.is_empty() && !consistent_contact_preconditioner() {
-            asm.use_preconditioner_matrix()?;
-        }
     }
 
     let control = StepControl {
@@ -449,15 +446,6 @@ pub(super) const CONTACT_ITERATIVE_OPTIONS: &str = "-ksp_gmres_restart 400";
 /// 2.1 s against 2.6 s (30^3 block, BENCHMARKS.md, "Scale: direct against iterative"); the environment
 /// variable `NURBS_CONTACT_FLIP_CONSTRAINED_MODES` flips it, for that measurement.
 const ZERO_CONSTRAINED_MODES: bool = true;
-
-/// With contact pairs the iterative route builds GAMG from a matrix of its own (PETSc's Pmat):
-/// the Jacobian without the contact's geometric terms
-/// ([`crate::contact::kernel::Tangent::Definite`]), while GMRES iterates on the Jacobian. The
-/// environment variable `NURBS_CONTACT_CONSISTENT_PC` builds it from the Jacobian instead, as
-/// before (for measurement).
-fn consistent_contact_preconditioner() -> bool {
-    std::env::var_os("NURBS_CONTACT_CONSISTENT_PC").is_some()
-}
 
 /// The case's `solver.petsc_options`, after the defaults that depend on the case and on the
 /// linear route.

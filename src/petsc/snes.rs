@@ -33,14 +33,6 @@ pub trait NonlinearProblem {
     fn stop_requested(&self) -> bool {
         false
     }
-    /// A matrix of its own to build the preconditioner from (PETSc's `Pmat`), filled by
-    /// [`jacobian`](Self::jacobian) beside the Jacobian while `on` (an iterative linear solve);
-    /// `on = false` (a direct solve, which factors the Jacobian itself): not filled. Called before
-    /// every solve; the handle stays valid until the next call. `None`: the preconditioner is
-    /// built from the Jacobian.
-    fn preconditioner_matrix(&mut self, _on: bool) -> Option<sys::Mat> {
-        None
-    }
 }
 
 /// The result of one [`Snes::solve`].
@@ -402,19 +394,6 @@ impl<'p> Snes<'p> {
             jac.set_near_null_space(space)?;
         }
         let jac_raw = jac.as_raw();
-        // the preconditioner's own matrix on the iterative route only: MUMPS (the direct route and
-        // the fallback) factors the Jacobian
-        let pmat_raw = problem
-            .preconditioner_matrix(self.iterative && !self.on_direct)
-            .unwrap_or(jac_raw);
-        if pmat_raw != jac_raw {
-            if let Some(space) = &self.near_null {
-                // SAFETY: the problem's matrix, alive until its next `preconditioner_matrix`
-                // (after this solve); borrowed, not destroyed here.
-                let mut p = unsafe { Matrix::borrowed(pmat_raw) };
-                p.set_near_null_space(space)?;
-            }
-        }
         let mut ctx = Context {
             problem,
             jac: jac as *mut Matrix as *mut c_void,
@@ -427,8 +406,7 @@ impl<'p> Snes<'p> {
         };
         let ctx_ptr = &mut ctx as *mut Context as *mut c_void;
         // SAFETY: ctx outlives SNESSolve (it is on this stack frame); the callbacks are re-registered
-        // with this pointer before every solve, so a stale pointer is never used; SNES takes its
-        // own reference to both matrices (the problem's Pmat is alive at least for this solve).
+        // with this pointer before every solve, so a stale pointer is never used.
         unsafe {
             call!(SNESSetFunction(
                 self.raw,
@@ -439,7 +417,7 @@ impl<'p> Snes<'p> {
             call!(SNESSetJacobian(
                 self.raw,
                 jac_raw,
-                pmat_raw,
+                jac_raw,
                 Some(jacobian_trampoline),
                 ctx_ptr
             ))?;

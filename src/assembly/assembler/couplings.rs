@@ -239,9 +239,6 @@ impl<'p> Assembler<'p> {
         }
         let t0 = Instant::now();
         *jac = Matrix::new_aij(self.petsc, self.dofs.n_owned())?;
-        if self.pmat.is_some() {
-            self.pmat = Some(Matrix::new_aij(self.petsc, self.dofs.n_owned())?);
-        }
         if self.pattern_ready {
             self.timers.pattern_rebuilds += 1;
         }
@@ -468,7 +465,7 @@ impl Assembler<'_> {
         // the gaps at `x` itself (the last evaluation of the solve is there, but make sure)
         let cu = self.coupling_update(x);
         let ok = self.agree(cu).is_ok() && {
-            let local = self.guarded_loop(x, None, None);
+            let local = self.guarded_loop(x, None);
             self.agree(local).is_ok()
         };
         let local = match (&self.coupled, ok) {
@@ -508,7 +505,7 @@ impl Assembler<'_> {
         // make sure)
         let cu = self.coupling_update(x);
         let ok = self.agree(cu).is_ok() && {
-            let local = self.guarded_loop(x, None, None);
+            let local = self.guarded_loop(x, None);
             self.agree(local).is_ok()
         };
         if !ok {

@@ -42,7 +42,7 @@ impl Assembler<'_> {
         let mut sink = DiagSink {
             diag: vec![0.0; self.dofs.n_global()],
         };
-        let local = self.guarded_loop(x, Some(&mut sink), None);
+        let local = self.guarded_loop(x, Some(&mut sink));
         self.agree(local)?;
         let mut global: Vec<f64> = vec![0.0; sink.diag.len()];
         self.petsc

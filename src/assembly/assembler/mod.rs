@@ -127,15 +127,6 @@ pub struct Assembler<'p> {
     skew_copy: Vec<(usize, usize, f64)>,
     /// First COO entry of the owned constraint rows' off-diagonal entries `-a_o`.
     skew_tail: usize,
-    /// The preconditioner's own matrix (PETSc's Pmat; [`Assembler::use_preconditioner_matrix`]):
-    /// the Jacobian's pattern, with the coupling set's preconditioner blocks.
-    pmat: Option<Matrix<'p>>,
-    /// SNES uses `pmat` in the current solve: the Jacobian evaluations fill it.
-    pmat_on: bool,
-    /// COO values of `pmat`.
-    p_values: Vec<f64>,
-    /// The residual of the coupling set's preconditioner evaluation (thrown away).
-    f_scratch: Vec<f64>,
 }
 
 /// Adds the coupled nodes' offsets to an element's unknowns (`slots` from `Assembler::rslot`).
@@ -229,10 +220,6 @@ impl<'p> Assembler<'p> {
             skew_scale: Vec::new(),
             skew_copy: Vec::new(),
             skew_tail: 0,
-            pmat: None,
-            pmat_on: false,
-            p_values: Vec::new(),
-            f_scratch: Vec::new(),
         })
     }
 
@@ -292,28 +279,6 @@ impl<'p> Assembler<'p> {
         }
     }
 
-    /// Builds the linear solver's preconditioner from a matrix of its own (PETSc's Pmat), of the
-    /// Jacobian's pattern, whose coupling blocks are the coupling set's preconditioner blocks
-    /// ([`CouplingSet::evaluate_preconditioner`](super::CouplingSet::evaluate_preconditioner);
-    /// contact: the tangent without its geometric terms); the element blocks are the Jacobian's.
-    /// SNES uses it on the iterative route only ([`NonlinearProblem::preconditioner_matrix`]).
-    /// A second matrix of the Jacobian's size. Only with a coupling set and COO assembly
-    /// (otherwise nothing changes). Call before the first Jacobian.
-    ///
-    /// Collective.
-    pub fn use_preconditioner_matrix(&mut self) -> Result<(), PetscError> {
-        if self.coupled.is_some() && self.mode == MatrixAssembly::Coo {
-            self.pmat = Some(Matrix::new_aij(self.petsc, self.dofs.n_owned())?);
-        }
-        Ok(())
-    }
-
-    /// Whether the linear solver's preconditioner has a matrix of its own
-    /// ([`Assembler::use_preconditioner_matrix`]).
-    pub fn has_preconditioner_matrix(&self) -> bool {
-        self.pmat.is_some()
-    }
-
     /// Sets the load parameter (rigid couplings turn, rigid contact partners move with it).
     pub fn set_load(&mut self, lambda: f64) {
         self.offsets.set_load(lambda);
@@ -323,12 +288,10 @@ impl<'p> Assembler<'p> {
     }
 
     /// Evaluates every element; `with_tangent` also fills the matrix sink.
-    /// With `psink`, the coupling set's preconditioner blocks go there too.
     fn element_loop(
         &mut self,
         x: &Vector,
         sink: Option<&mut dyn MatrixSink>,
-        psink: Option<&mut dyn MatrixSink>,
     ) -> Result<Option<ElementFailure>, PetscError> {
         self.scatter.gather(x, &mut self.x_local)?;
         self.f_local.set(0.0)?;
@@ -384,13 +347,6 @@ impl<'p> Assembler<'p> {
                     &mut fl[..],
                     sink.map(|s| (s, &slot_of as &dyn Fn(&Block) -> Option<usize>)),
                 );
-                if let Some(ps) = psink {
-                    self.f_scratch.resize(fl.len(), 0.0);
-                    c.set.evaluate_preconditioner(
-                        &mut self.f_scratch,
-                        (ps, &slot_of as &dyn Fn(&Block) -> Option<usize>),
-                    );
-                }
                 self.timers.contact += t0.elapsed().as_secs_f64();
             }
         }
@@ -427,11 +383,9 @@ impl<'p> Assembler<'p> {
         &mut self,
         x: &Vector,
         sink: Option<&mut dyn MatrixSink>,
-        psink: Option<&mut dyn MatrixSink>,
     ) -> Result<(), ProblemError> {
-        let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            self.element_loop(x, sink, psink)
-        }));
+        let outcome =
+            std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| self.element_loop(x, sink)));
         match outcome {
             Ok(Ok(None)) => Ok(()),
             Ok(Ok(Some(failure))) => Err(ProblemError::Domain(failure.to_string())),
@@ -443,36 +397,6 @@ impl<'p> Assembler<'p> {
                     .or_else(|| p.downcast_ref::<String>().cloned())
                     .unwrap_or_default()
             ))),
-        }
-    }
-
-    /// The COO values' entries after the element and coupling blocks: skew rows' entries moved to
-    /// the other rows of their node, the skew constraint rows, the identity rows of the
-    /// constrained unknowns and the damping on the free ones.
-    fn finish_coo(&self, offsets: &[usize], values: &mut [f64]) {
-        for &(src, dst, a) in &self.skew_copy {
-            values[dst] = a * values[src];
-        }
-        for &(i, a) in &self.skew_scale {
-            values[i] *= a;
-        }
-        let mut k = self.skew_tail;
-        for (_, others) in &self.skew_owned {
-            for &(_, a) in others {
-                values[k] = -a;
-                k += 1;
-            }
-        }
-        let (tail, end) = (offsets[offsets.len() - 2], offsets[offsets.len() - 1]);
-        let (lo, _) = self.dofs.owned_range();
-        for (i, v) in values[tail..end].iter_mut().enumerate() {
-            *v = if self.constrained[lo as usize + i] {
-                1.0
-            } else if self.stab_c > 0.0 {
-                self.stab_c * self.stab_diag[i]
-            } else {
-                0.0
-            };
         }
     }
 
@@ -521,18 +445,13 @@ impl NonlinearProblem for Assembler<'_> {
         self.pattern_outdated()
     }
 
-    fn preconditioner_matrix(&mut self, on: bool) -> Option<crate::petsc::sys::Mat> {
-        self.pmat_on = on && self.pmat.is_some();
-        self.pmat.as_ref().filter(|_| on).map(|p| p.as_raw())
-    }
-
     fn residual(&mut self, x: &Vector, f: &mut Vector) -> Result<(), ProblemError> {
         let t0 = Instant::now();
         if let Err(e) = self.prepare_couplings(x, false) {
             self.timers.residual += t0.elapsed().as_secs_f64();
             return Err(e);
         }
-        let local = self.guarded_loop(x, None, None);
+        let local = self.guarded_loop(x, None);
         if let Err(e) = self.agree(local) {
             self.timers.residual += t0.elapsed().as_secs_f64();
             return Err(e);
@@ -589,22 +508,15 @@ impl NonlinearProblem for Assembler<'_> {
             MatrixAssembly::Coo => {
                 let mut values = std::mem::take(&mut self.coo_values);
                 let offsets = std::mem::take(&mut self.coo_offsets);
-                let with_pmat = self.pmat_on && self.pmat.is_some();
-                let mut p_values = std::mem::take(&mut self.p_values);
                 // coupling blocks add into their shared regions, and reserved blocks that are not
                 // needed now must not keep old values
                 let mut scattered = Vec::new();
                 let mut first_scattered = usize::MAX;
-                let mut coupling_region = 0..0;
                 if let Some(c) = &mut self.coupled {
-                    coupling_region = offsets[c.first_slot]..offsets[offsets.len() - 2];
-                    values[coupling_region.clone()].fill(0.0);
+                    let (a, b) = (offsets[c.first_slot], offsets[offsets.len() - 2]);
+                    values[a..b].fill(0.0);
                     scattered = std::mem::take(&mut c.block_scatter);
                     first_scattered = c.first_slot;
-                }
-                if with_pmat {
-                    p_values.resize(values.len(), 0.0);
-                    p_values[coupling_region.clone()].fill(0.0);
                 }
                 let res = {
                     let mut sink = CooSink {
@@ -613,43 +525,38 @@ impl NonlinearProblem for Assembler<'_> {
                         scattered: &scattered,
                         first_scattered,
                     };
-                    let mut psink = CooSink {
-                        offsets: &offsets,
-                        values: &mut p_values,
-                        scattered: &scattered,
-                        first_scattered,
-                    };
-                    let psink = with_pmat.then_some(&mut psink as &mut dyn MatrixSink);
-                    self.guarded_loop(x, Some(&mut sink), psink)
+                    self.guarded_loop(x, Some(&mut sink))
                 };
                 if let Some(c) = &mut self.coupled {
                     c.block_scatter = scattered;
                 }
-                if with_pmat {
-                    // the element blocks are the Jacobian's
-                    let a = coupling_region.start;
-                    p_values[..a].copy_from_slice(&values[..a]);
-                    if std::env::var_os("PMAT_DEBUG").is_some() {
-                        // measurement only: the contact region's norms of both matrices
-                        let r = coupling_region.clone();
-                        let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
-                        let diff: f64 = values[r.clone()]
-                            .iter()
-                            .zip(&p_values[r.clone()])
-                            .map(|(a, b)| (a - b) * (a - b))
-                            .sum::<f64>()
-                            .sqrt();
-                        eprintln!(
-                            "PMAT_DEBUG contact |A|={:.4e} |P|={:.4e} |A-P|={diff:.4e}",
-                            norm(&values[r.clone()]),
-                            norm(&p_values[r])
-                        );
-                    }
-                    self.finish_coo(&offsets, &mut p_values);
+                // Skew rows' element entries onto the other rows of their node.
+                for &(src, dst, a) in &self.skew_copy {
+                    values[dst] = a * values[src];
                 }
-                self.finish_coo(&offsets, &mut values);
+                for &(i, a) in &self.skew_scale {
+                    values[i] *= a;
+                }
+                let mut k = self.skew_tail;
+                for (_, others) in &self.skew_owned {
+                    for &(_, a) in others {
+                        values[k] = -a;
+                        k += 1;
+                    }
+                }
+                // Identity rows of the constrained unknowns, damping on the free ones.
+                let (tail, end) = (offsets[offsets.len() - 2], offsets[offsets.len() - 1]);
+                let (lo, _) = self.dofs.owned_range();
+                for (i, v) in values[tail..end].iter_mut().enumerate() {
+                    *v = if self.constrained[lo as usize + i] {
+                        1.0
+                    } else if self.stab_c > 0.0 {
+                        self.stab_c * self.stab_diag[i]
+                    } else {
+                        0.0
+                    };
+                }
                 self.coo_values = values;
-                self.p_values = p_values;
                 self.coo_offsets = offsets;
                 res
             }
@@ -664,7 +571,7 @@ impl NonlinearProblem for Assembler<'_> {
                         rows: Vec::new(),
                         err: None,
                     };
-                    let res = self.guarded_loop(x, Some(&mut sink), None);
+                    let res = self.guarded_loop(x, Some(&mut sink));
                     let err = sink.err.take();
                     self.constrained = constrained;
                     match err {
@@ -679,12 +586,7 @@ impl NonlinearProblem for Assembler<'_> {
             return Err(e);
         }
         match self.mode {
-            MatrixAssembly::Coo => {
-                j.set_values_coo(&self.coo_values).map_err(fatal)?;
-                if let (true, Some(p)) = (self.pmat_on, &mut self.pmat) {
-                    p.set_values_coo(&self.p_values).map_err(fatal)?;
-                }
-            }
+            MatrixAssembly::Coo => j.set_values_coo(&self.coo_values).map_err(fatal)?,
             MatrixAssembly::Preallocated => {
                 let (lo, hi) = self.dofs.owned_range();
                 for g in lo..hi {

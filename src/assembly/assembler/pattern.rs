@@ -160,12 +160,6 @@ impl Assembler<'_> {
                 }
                 self.skew_scale = scale;
                 self.coo_values = vec![0.0; rows.len()];
-                if let Some(p) = &mut self.pmat {
-                    // a fresh matrix (refresh_pattern replaces it with the Jacobian)
-                    let (mut pr, mut pc) = (rows.clone(), cols.clone());
-                    p.set_preallocation_coo(&mut pr, &mut pc)?;
-                    self.p_values = vec![0.0; rows.len()];
-                }
                 j.set_preallocation_coo(&mut rows, &mut cols)?;
             }
             MatrixAssembly::Preallocated => {

@@ -39,14 +39,6 @@ impl CouplingSet for ContactSystem {
         self.assemble(f_local, jac);
     }
 
-    fn evaluate_preconditioner(
-        &mut self,
-        f_scratch: &mut [f64],
-        jac: (&mut dyn MatrixSink, &SlotOf),
-    ) {
-        self.assemble_preconditioner(f_scratch, jac);
-    }
-
     fn node_residual(&self) -> Option<&[f64]> {
         self.has_one_pass().then(|| self.table_residual())
     }
