@@ -58,14 +58,95 @@ const MAX_NEWTON: usize = 50;
 /// Element transfers allowed in one walk.
 const MAX_WALK: usize = 64;
 
-/// Projection onto element `e` from `xi0`, over the box `[-1,1]^m`.
+/// The basis of a face at one point, as [`project_on_element_from`] and the contact kernel take
+/// it: values, first and second derivatives of [`FaceBasis::eval`] one after the other,
+/// `[N (n) | dN (n m) | ddN (n m m)]` (layouts of `FaceBasis::eval`), into `out` (resized).
 #[allow(non_snake_case)]
+pub fn basis_values(basis: &FaceBasis, xi: &[f64; 2], out: &mut Vec<f64>) {
+    let (n, m) = (basis.n_nodes(), basis.n_params());
+    out.clear();
+    out.resize(n * (1 + m + m * m), 0.0);
+    let (N, rest) = out.split_at_mut(n);
+    let (dN, ddN) = rest.split_at_mut(n * m);
+    basis.eval(&xi[..m], N, dN, ddN);
+}
+
+/// A face basis stored at the point it was evaluated at (see [`basis_values`]): a projection or
+/// the kernel reads it instead of evaluating the same basis at the same point again (the basis
+/// depends on the element and the coordinates only, not on the positions).
+#[derive(Debug, Clone, Default)]
+pub struct BasisAt {
+    /// Element and coordinates of the evaluation (`None`: nothing stored).
+    pub at: Option<(u32, [f64; 2])>,
+    /// [`basis_values`] there.
+    pub values: Vec<f64>,
+}
+
+impl BasisAt {
+    /// The stored values if they are those of element `e` at exactly `xi` (bit for bit).
+    pub fn get(&self, e: u32, xi: &[f64; 2]) -> Option<&[f64]> {
+        let (f, yi) = self.at?;
+        (f == e && yi[0].to_bits() == xi[0].to_bits() && yi[1].to_bits() == xi[1].to_bits())
+            .then_some(&self.values[..])
+    }
+
+    /// Stores the basis of element `e` of `s` at `xi`, unless it holds it already.
+    pub fn set(&mut self, s: &ContactSurface, e: u32, xi: &[f64; 2]) {
+        if self.get(e, xi).is_none() {
+            basis_values(&s.elements[e as usize].basis, xi, &mut self.values);
+            self.at = Some((e, *xi));
+        }
+    }
+}
+
+/// Point, tangents and second derivatives `(x, x_,i, x_,ij)` of a face with nodal positions `y`
+/// [n][dim] from its basis `N` [n], `dN` [n][m], `ddN` [n][m][m].
+#[allow(non_snake_case)]
+#[allow(clippy::type_complexity)]
+pub(crate) fn contract(
+    y: &[f64],
+    (n, dim, m): (usize, usize, usize),
+    N: &[f64],
+    dN: &[f64],
+    ddN: &[f64],
+) -> ([f64; 3], [[f64; 3]; 2], [[[f64; 3]; 2]; 2]) {
+    let (mut p, mut a, mut aa) = ([0.0; 3], [[0.0; 3]; 2], [[[0.0; 3]; 2]; 2]);
+    for b in 0..n {
+        for k in 0..dim {
+            let v = y[b * dim + k];
+            p[k] += N[b] * v;
+            for i in 0..m {
+                a[i][k] += dN[b * m + i] * v;
+                for j in 0..m {
+                    aa[i][j][k] += ddN[b * m * m + i * m + j] * v;
+                }
+            }
+        }
+    }
+    (p, a, aa)
+}
+
+/// Projection onto element `e` from `xi0`, over the box `[-1,1]^m`.
 pub fn project_on_element(
     s: &ContactSurface,
     pos: &Positions,
     e: usize,
     x: &[f64; 3],
     xi0: [f64; 2],
+) -> Option<Projection> {
+    project_on_element_from(s, pos, e, x, xi0, None)
+}
+
+/// [`project_on_element`] with the element's basis at the start `xi0` given ([`basis_values`]
+/// at `xi0` clamped to the box), which saves its evaluation; the same result.
+#[allow(non_snake_case)]
+pub fn project_on_element_from(
+    s: &ContactSurface,
+    pos: &Positions,
+    e: usize,
+    x: &[f64; 3],
+    xi0: [f64; 2],
+    start: Option<&[f64]>,
 ) -> Option<Projection> {
     let el = &s.elements[e];
     let dim = s.dim;
@@ -79,20 +160,7 @@ pub fn project_on_element(
     );
     let eval = |xi: &[f64; 2], N: &mut [f64], dN: &mut [f64], ddN: &mut [f64]| {
         el.basis.eval(&xi[..m], N, dN, ddN);
-        let (mut p, mut a, mut aa) = ([0.0; 3], [[0.0; 3]; 2], [[[0.0; 3]; 2]; 2]);
-        for b in 0..n {
-            for k in 0..dim {
-                let v = y[b * dim + k];
-                p[k] += N[b] * v;
-                for i in 0..m {
-                    a[i][k] += dN[b * m + i] * v;
-                    for j in 0..m {
-                        aa[i][j][k] += ddN[b * m * m + i * m + j] * v;
-                    }
-                }
-            }
-        }
-        (p, a, aa)
+        contract(y, (n, dim, m), N, dN, ddN)
     };
     let scale2 = s.h * s.h;
     let mut xi = xi0;
@@ -101,9 +169,15 @@ pub fn project_on_element(
     }
     let f_of = |p: &[f64; 3]| 0.5 * (0..dim).map(|k| (x[k] - p[k]).powi(2)).sum::<f64>();
     let mut free = [true; 2];
-    // the geometry at `xi`: evaluated once here, then carried over from the accepted trial point
-    // of each line search (the same coordinates, so the same values, without a second evaluation)
-    let mut cur = eval(&xi, &mut N, &mut dN, &mut ddN);
+    // the geometry at `xi`: evaluated once here (from the given basis if there is one), then
+    // carried over from the accepted trial point of each line search (the same coordinates, so
+    // the same values, without a second evaluation)
+    let mut cur = match start {
+        Some(b) if b.len() == n * (1 + m + m * m) => {
+            contract(y, (n, dim, m), &b[..n], &b[n..n + n * m], &b[n + n * m..])
+        }
+        _ => eval(&xi, &mut N, &mut dN, &mut ddN),
+    };
     for _ in 0..MAX_NEWTON {
         let (p, a, aa) = cur;
         let g = [x[0] - p[0], x[1] - p[1], x[2] - p[2]];
@@ -254,15 +328,28 @@ pub fn walk(
     x: &[f64; 3],
     start: (u32, [f64; 2]),
 ) -> Result<Option<Projection>, Absent> {
+    walk_from(s, pos, x, start, None)
+}
+
+/// [`walk`] with the start element's basis at the start coordinates given (`start_basis`,
+/// [`basis_values`] there), which saves its evaluation; the same result.
+pub fn walk_from(
+    s: &ContactSurface,
+    pos: &Positions,
+    x: &[f64; 3],
+    start: (u32, [f64; 2]),
+    start_basis: Option<&[f64]>,
+) -> Result<Option<Projection>, Absent> {
     let dim = s.dim;
     let (mut e, mut xi) = (start.0 as usize, start.1);
     let mut visited: Vec<usize> = Vec::with_capacity(4);
     let mut best: Option<Projection> = None;
+    let mut given = start_basis;
     for _ in 0..MAX_WALK {
         if !pos.has(e) {
             return Err(Absent(e as u32));
         }
-        let Some(p) = project_on_element(s, pos, e, x, xi) else {
+        let Some(p) = project_on_element_from(s, pos, e, x, xi, given.take()) else {
             return Ok(None);
         };
         if best.is_none_or(|b| {
@@ -364,6 +451,20 @@ pub fn global_search(
     x: &[f64; 3],
     scratch: &mut Vec<u32>,
 ) -> Result<Option<Projection>, ProjectionFailed> {
+    global_search_from(s, pos, grid, x, scratch, None)
+}
+
+/// [`global_search`] with every element's basis at its centre given (`centres[e]`:
+/// [`basis_values`] at `xi = 0`, where each candidate's projection starts), which saves those
+/// evaluations; the same result.
+pub fn global_search_from(
+    s: &ContactSurface,
+    pos: &Positions,
+    grid: &BinGrid,
+    x: &[f64; 3],
+    scratch: &mut Vec<u32>,
+    centres: Option<&[Vec<f64>]>,
+) -> Result<Option<Projection>, ProjectionFailed> {
     grid.candidates(&x[..s.dim], scratch);
     // nearest boxes first: once an element's box is farther than the best point found, so are the
     // rest (branch and bound), which skips most Newton projections of a global search
@@ -379,7 +480,8 @@ pub fn global_search(
             break;
         }
         tried += 1;
-        if let Some(p) = project_on_element(s, pos, e as usize, x, [0.0; 2]) {
+        let centre = centres.and_then(|c| c.get(e as usize)).map(|c| &c[..]);
+        if let Some(p) = project_on_element_from(s, pos, e as usize, x, [0.0; 2], centre) {
             let better = match best {
                 None => true,
                 Some(b) => {
