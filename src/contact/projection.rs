@@ -110,6 +110,26 @@ pub(crate) fn contract(
     dN: &[f64],
     ddN: &[f64],
 ) -> ([f64; 3], [[f64; 3]; 2], [[[f64; 3]; 2]; 2]) {
+    // the two cases with their sizes known to the compiler (the same sums in the same order)
+    match (dim, m) {
+        (3, 2) => contract_dims(y, (n, 3, 2), N, dN, ddN),
+        (2, 1) => contract_dims(y, (n, 2, 1), N, dN, ddN),
+        _ => contract_dims(y, (n, dim, m), N, dN, ddN),
+    }
+}
+
+/// [`contract`]'s sums (inlined, so that constant sizes unroll them).
+#[allow(non_snake_case)]
+#[allow(clippy::type_complexity)]
+#[inline(always)]
+fn contract_dims(
+    y: &[f64],
+    (n, dim, m): (usize, usize, usize),
+    N: &[f64],
+    dN: &[f64],
+    ddN: &[f64],
+) -> ([f64; 3], [[f64; 3]; 2], [[[f64; 3]; 2]; 2]) {
+    let (y, N, dN, ddN) = (&y[..n * dim], &N[..n], &dN[..n * m], &ddN[..n * m * m]);
     let (mut p, mut a, mut aa) = ([0.0; 3], [[0.0; 3]; 2], [[[0.0; 3]; 2]; 2]);
     for b in 0..n {
         for k in 0..dim {
@@ -261,9 +281,14 @@ fn solve_free(
     free: &[bool; 2],
     m: usize,
 ) -> Option<[f64; 2]> {
-    let idx: Vec<usize> = (0..m).filter(|&i| free[i]).collect();
+    // the free coordinates (no allocation: this runs once per Newton iteration)
+    let (mut idx, mut n_free) = ([0usize; 2], 0);
+    for i in (0..m).filter(|&i| free[i]) {
+        idx[n_free] = i;
+        n_free += 1;
+    }
     let mut d = [0.0; 2];
-    match idx.len() {
+    match n_free {
         0 => return None,
         1 => {
             let i = idx[0];
@@ -342,7 +367,8 @@ pub fn walk_from(
 ) -> Result<Option<Projection>, Absent> {
     let dim = s.dim;
     let (mut e, mut xi) = (start.0 as usize, start.1);
-    let mut visited: Vec<usize> = Vec::with_capacity(4);
+    // the elements entered (on the stack: a walk per point and update)
+    let (mut visited, mut n_visited) = ([0usize; MAX_WALK], 0);
     let mut best: Option<Projection> = None;
     let mut given = start_basis;
     for _ in 0..MAX_WALK {
@@ -358,7 +384,8 @@ pub fn walk_from(
         }) {
             best = Some(p);
         }
-        visited.push(e);
+        visited[n_visited] = e;
+        n_visited += 1;
         let Some(side) = exit_sides(dim, &p).next() else {
             return Ok(Some(p)); // orthogonal projection inside the element
         };
@@ -366,7 +393,7 @@ pub fn walk_from(
             return Ok(None); // beyond the end of the surface: no partner
         }
         match s.elements[e].neighbours[side] {
-            Some((f, s2, rev)) if !visited.contains(&(f as usize)) => {
+            Some((f, s2, rev)) if !visited[..n_visited].contains(&(f as usize)) => {
                 let (t, _) = side_coordinates(dim, side, &p.xi);
                 let t2 = if rev { -t } else { t };
                 xi = side_point(dim, s2 as usize, t2, 0.0);
