@@ -478,12 +478,13 @@ pub fn global_search(
     x: &[f64; 3],
     scratch: &mut Vec<u32>,
 ) -> Result<Option<Projection>, ProjectionFailed> {
-    global_search_from(s, pos, grid, x, scratch, None)
+    search(s, pos, grid, x, scratch, None, false)
 }
 
 /// [`global_search`] with every element's basis at its centre given (`centres[e]`:
 /// [`basis_values`] at `xi = 0`, where each candidate's projection starts), which saves those
-/// evaluations; the same result.
+/// evaluations, and that skips a candidate whose nodes lie beyond the best point found along the
+/// direction to their centroid ([`hull_distance_bound`]); the same result.
 pub fn global_search_from(
     s: &ContactSurface,
     pos: &Positions,
@@ -491,6 +492,61 @@ pub fn global_search_from(
     x: &[f64; 3],
     scratch: &mut Vec<u32>,
     centres: Option<&[Vec<f64>]>,
+) -> Result<Option<Projection>, ProjectionFailed> {
+    search(s, pos, grid, x, scratch, centres, true)
+}
+
+/// A lower bound of the distance from `x` to element `e` of `s` (0 where none is known): the
+/// element lies in the convex hull of its nodes (NURBS with positive weights, linear faces), so no
+/// point of it is nearer than the nodes' least extent along the unit direction from `x` to their
+/// centroid.
+pub(crate) fn hull_distance_bound(
+    s: &ContactSurface,
+    pos: &Positions,
+    e: usize,
+    x: &[f64; 3],
+) -> f64 {
+    let dim = s.dim;
+    if !matches!(
+        s.elements[e].basis,
+        FaceBasis::Nurbs(_) | FaceBasis::Line2 | FaceBasis::Quad4
+    ) {
+        return 0.0;
+    }
+    let y = pos.of(e);
+    let n = y.len() / dim;
+    if n == 0 {
+        return 0.0;
+    }
+    let mut d = [0.0; 3];
+    for node in y.chunks_exact(dim) {
+        for k in 0..dim {
+            d[k] += node[k];
+        }
+    }
+    for k in 0..dim {
+        d[k] = d[k] / n as f64 - x[k];
+    }
+    let l = (0..dim).map(|k| d[k] * d[k]).sum::<f64>().sqrt();
+    if l.is_nan() || l <= 0.0 {
+        return 0.0;
+    }
+    let least = y
+        .chunks_exact(dim)
+        .map(|node| (0..dim).map(|k| (node[k] - x[k]) * d[k]).sum::<f64>() / l)
+        .fold(f64::INFINITY, f64::min);
+    least.max(0.0)
+}
+
+/// The global search; `hull`: skip candidates by [`hull_distance_bound`].
+fn search(
+    s: &ContactSurface,
+    pos: &Positions,
+    grid: &BinGrid,
+    x: &[f64; 3],
+    scratch: &mut Vec<u32>,
+    centres: Option<&[Vec<f64>]>,
+    hull: bool,
 ) -> Result<Option<Projection>, ProjectionFailed> {
     grid.candidates(&x[..s.dim], scratch);
     // nearest boxes first: once an element's box is farther than the best point found, so are the
@@ -505,6 +561,15 @@ pub fn global_search_from(
     for &(lb, e) in &order {
         if best.is_some_and(|b| lb > b.dist * (1.0 + 1e-10) + 1e-14 * s.h) {
             break;
+        }
+        // a candidate whose hull is clearly beyond the best point cannot hold a better one (the
+        // margin, far above round-off, keeps every candidate that could tie with it)
+        if hull
+            && best.is_some_and(|b| {
+                hull_distance_bound(s, pos, e as usize, x) > b.dist * (1.0 + 1e-8) + 1e-10 * s.h
+            })
+        {
+            continue;
         }
         tried += 1;
         let centre = centres.and_then(|c| c.get(e as usize)).map(|c| &c[..]);

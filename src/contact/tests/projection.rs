@@ -289,3 +289,31 @@ fn a_stored_basis_gives_the_same_projections_and_gaps_bit_for_bit() {
     }
     assert!(compared > 100, "{compared} points compared");
 }
+
+#[test]
+fn the_hull_bound_never_exceeds_the_distance_to_a_point_of_the_element() {
+    use crate::contact::projection::hull_distance_bound;
+    let text = case_3d_hemisphere("Q1C1", "Q1N2", "law = \"penalty\"\neps_n = 1.0");
+    let h = Harness::new(&text);
+    let (mut seed, mut positive) = (3u64, 0);
+    for (s, surf) in h.model.contact_surfaces.iter().enumerate() {
+        let pos = positions(&h, s);
+        for e in 0..surf.elements.len() {
+            for _ in 0..20 {
+                let x = [0, 1, 2].map(|_| 1.5 * rnd(&mut seed));
+                let lb = hull_distance_bound(surf, &pos, e, &x);
+                positive += (lb > 0.0) as usize;
+                for i in 0..=8 {
+                    for j in 0..=8 {
+                        let xi = [-1.0 + 0.25 * i as f64, -1.0 + 0.25 * j as f64];
+                        let el = &surf.elements[e];
+                        let p = crate::contact::surface::frame(el, 3, pos.of(e), &xi).0;
+                        let d = (0..3).map(|k| (p[k] - x[k]).powi(2)).sum::<f64>().sqrt();
+                        assert!(lb <= d * (1.0 + 1e-12), "{}: {lb} > {d}", surf.name);
+                    }
+                }
+            }
+        }
+    }
+    assert!(positive > 100, "{positive}");
+}
