@@ -26,7 +26,7 @@ use crate::contact::law::{self, Traction};
 use crate::contact::pair::{
     law_traction, Anchor, Coupling, Friction, GapKind, Law, Partner, SlotOf,
 };
-use crate::contact::projection::{Positions, Projection};
+use crate::contact::projection::{BasisAt, Positions, Projection};
 use crate::contact::rigid::{RigidMotion, RigidShape};
 use crate::contact::surface::{raw_normal, ContactSurface};
 use friction::AnchorAt;
@@ -148,6 +148,10 @@ pub(crate) struct Pass {
     /// Rigid shape at the current load.
     pub(crate) shape: Option<RigidShape>,
     pub(crate) result: PassResult,
+    /// Per point (of `points`; shorter until the first projection): the partner's basis at the
+    /// point's last projection, stored by the update for the evaluations (and the next update's
+    /// warm start) to read instead of evaluating it again.
+    pub(crate) bases: Vec<BasisAt>,
 }
 
 impl Pass {
@@ -287,6 +291,7 @@ pub(crate) fn run(
         mortar,
         shape,
         result,
+        bases,
     } = pass;
     let hp = HalfPass {
         geo,
@@ -310,7 +315,7 @@ pub(crate) fn run(
     gap.begin_pass(&hp, &all, points);
     let mut res = PassResult::default();
     for (i, oe) in elems.iter().enumerate() {
-        hp.element(i, oe, points, &mut gap, &forced, work, &mut res);
+        hp.element(i, oe, points, bases, &mut gap, &forced, work, &mut res);
         gap.end_element(&hp, i, &all, points, work);
         hp.scatter(oe, work, f_local, jac);
     }
@@ -326,6 +331,7 @@ impl HalfPass<'_> {
         i: usize,
         oe: &OwnElem,
         points: &mut [QPoint],
+        bases: &[BasisAt],
         gap: &mut Gap,
         forced: &impl Fn(usize) -> Option<bool>,
         work: &mut Work,
@@ -350,7 +356,11 @@ impl HalfPass<'_> {
             };
             let mut po = PointOut::default();
             let p_mortar = gap.mortar_pressure(i, q - oe.first);
-            for c in self.contributions(&own, &qp).into_iter().flatten() {
+            let known = match (qp.current, bases.get(q)) {
+                (Some(p), Some(b)) => b.get(p.elem, &p.xi),
+                _ => None,
+            };
+            for c in self.contributions(&own, &qp, known).into_iter().flatten() {
                 let forced = forced(q);
                 let gm = (&*gap, g_mean, p_mortar);
                 self.contribution(&own, &qp, q, c, gm, forced, work, res, &mut po);
@@ -370,8 +380,13 @@ impl HalfPass<'_> {
     }
 
     /// The partners of an own point: the law's (projection or rigid closest point) and the
-    /// cohesive material pairing.
-    fn contributions<'s>(&'s self, own: &OwnPoint, qp: &QPoint) -> [Option<Contribution<'s>>; 2] {
+    /// cohesive material pairing. `known`: the partner's basis at the projection, if stored.
+    fn contributions<'s>(
+        &'s self,
+        own: &OwnPoint,
+        qp: &QPoint,
+        known: Option<&'s [f64]>,
+    ) -> [Option<Contribution<'s>>; 2] {
         let dim = self.geo.dim;
         let nk = own.N.len();
         let mut xk = [0.0; 3];
@@ -384,7 +399,7 @@ impl HalfPass<'_> {
         }
         let area = area_of(&self.pair.law);
         let first = self
-            .partner(qp.current, &xk)
+            .partner(qp.current, &xk, known)
             .map(|(le, pp)| (le, pp, area, false));
         let second = match (self.shape, self.l, qp.pairing) {
             (None, Some(l), Some((le, xi0))) => Some((
@@ -404,12 +419,14 @@ impl HalfPass<'_> {
 
     /// The law's partner of an own point at `xk` [3] (its current position; used for a rigid
     /// partner only): the rigid shape's closest point within the search distance, or the point's
-    /// current projection onto surface `l`. Returns the partner element (`u32::MAX`: rigid).
-    fn partner(
-        &self,
+    /// current projection onto surface `l` (`basis`: the partner's basis there, if known, see
+    /// [`PartnerPoint::Projected`]). Returns the partner element (`u32::MAX`: rigid).
+    fn partner<'s>(
+        &'s self,
         current: Option<Projection>,
         xk: &[f64; 3],
-    ) -> Option<(u32, PartnerPoint<'_>)> {
+        basis: Option<&'s [f64]>,
+    ) -> Option<(u32, PartnerPoint<'s>)> {
         let dist = self.pair.search_distance;
         match (self.shape, self.l) {
             (Some(shape), _) => shape
@@ -427,6 +444,7 @@ impl HalfPass<'_> {
                         y: self.geo.pos[l].of(le),
                         xi: p.xi,
                         free: p.free,
+                        basis,
                     },
                 )
             }),

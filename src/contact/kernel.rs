@@ -22,6 +22,7 @@
 #![allow(non_snake_case)]
 
 use crate::contact::law::Traction;
+use crate::contact::projection::contract;
 use crate::contact::rigid::RigidProjection;
 use crate::contact::surface::{raw_normal, SurfaceElement, MAX_FACE_NODES};
 
@@ -49,6 +50,9 @@ pub enum PartnerPoint<'a> {
         y: &'a [f64],
         xi: [f64; 2],
         free: [bool; 2],
+        /// The element's basis at `xi` if known
+        /// ([`crate::contact::projection::basis_values`] there): read instead of evaluated.
+        basis: Option<&'a [f64]>,
     },
     /// A fixed material point of a deformable surface element (cohesive pairing).
     Material {
@@ -162,7 +166,15 @@ struct PartnerGeom {
     n: usize,
 }
 
-fn partner_geom(el: &SurfaceElement, dim: usize, y: &[f64], xi: &[f64; 2]) -> PartnerGeom {
+/// `known`: the basis at `xi` ([`crate::contact::projection::basis_values`]), read instead of
+/// evaluated when given.
+fn partner_geom(
+    el: &SurfaceElement,
+    dim: usize,
+    y: &[f64],
+    xi: &[f64; 2],
+    known: Option<&[f64]>,
+) -> PartnerGeom {
     let m = dim - 1;
     let mut g = PartnerGeom {
         N: [0.0; MAX_FACE_NODES],
@@ -172,20 +184,20 @@ fn partner_geom(el: &SurfaceElement, dim: usize, y: &[f64], xi: &[f64; 2]) -> Pa
         aa: [[[0.0; 3]; 2]; 2],
         n: el.basis.n_nodes(),
     };
-    let mut ddN = [0.0; 4 * MAX_FACE_NODES];
-    el.basis.eval(&xi[..m], &mut g.N, &mut g.dN, &mut ddN);
-    for b in 0..g.n {
-        for k in 0..dim {
-            let v = y[b * dim + k];
-            g.p[k] += g.N[b] * v;
-            for i in 0..m {
-                g.a[i][k] += g.dN[b * m + i] * v;
-                for j in 0..m {
-                    g.aa[i][j][k] += ddN[b * m * m + i * m + j] * v;
-                }
-            }
+    let n = g.n;
+    let mut buf = [0.0; 4 * MAX_FACE_NODES];
+    let ddN: &[f64] = match known {
+        Some(b) if b.len() == n * (1 + m + m * m) => {
+            g.N[..n].copy_from_slice(&b[..n]);
+            g.dN[..n * m].copy_from_slice(&b[n..n + n * m]);
+            &b[n + n * m..]
         }
-    }
+        _ => {
+            el.basis.eval(&xi[..m], &mut g.N, &mut g.dN, &mut buf);
+            &buf
+        }
+    };
+    (g.p, g.a, g.aa) = contract(y, (n, dim, m), &g.N, &g.dN, ddN);
     g
 }
 
@@ -214,8 +226,14 @@ pub fn gap_and_normal(dim: usize, xk: &[f64; 3], partner: &PartnerPoint) -> Opti
             n_nodes: 0,
         }),
         PartnerPoint::Material { .. } => None,
-        PartnerPoint::Projected { el, y, xi, free } => {
-            let ge = partner_geom(el, dim, y, xi);
+        PartnerPoint::Projected {
+            el,
+            y,
+            xi,
+            free,
+            basis,
+        } => {
+            let ge = partner_geom(el, dim, y, xi, *basis);
             let g = [0, 1, 2].map(|k| xk[k] - ge.p[k]);
             let (n, _) = projected_normal(dim, &ge, el.sign, &g, &free[..m]);
             Some(PartnerGap {
@@ -307,9 +325,10 @@ pub fn contact_point_pass(
 
     // gap and normal
     let (geom, el_sign) = match partner {
-        PartnerPoint::Projected { el, y, xi, .. } | PartnerPoint::Material { el, y, xi } => {
-            (Some(partner_geom(el, dim, y, xi)), el.sign)
-        }
+        PartnerPoint::Projected {
+            el, y, xi, basis, ..
+        } => (Some(partner_geom(el, dim, y, xi, *basis)), el.sign),
+        PartnerPoint::Material { el, y, xi } => (Some(partner_geom(el, dim, y, xi, None)), el.sign),
         PartnerPoint::Rigid(_) => (None, 1.0),
     };
     let nl = geom.as_ref().map_or(0, |g| g.n);

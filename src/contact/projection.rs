@@ -58,14 +58,115 @@ const MAX_NEWTON: usize = 50;
 /// Element transfers allowed in one walk.
 const MAX_WALK: usize = 64;
 
-/// Projection onto element `e` from `xi0`, over the box `[-1,1]^m`.
+/// The basis of a face at one point, as [`project_on_element_from`] and the contact kernel take
+/// it: values, first and second derivatives of [`FaceBasis::eval`] one after the other,
+/// `[N (n) | dN (n m) | ddN (n m m)]` (layouts of `FaceBasis::eval`), into `out` (resized).
 #[allow(non_snake_case)]
+pub fn basis_values(basis: &FaceBasis, xi: &[f64; 2], out: &mut Vec<f64>) {
+    let (n, m) = (basis.n_nodes(), basis.n_params());
+    out.clear();
+    out.resize(n * (1 + m + m * m), 0.0);
+    let (N, rest) = out.split_at_mut(n);
+    let (dN, ddN) = rest.split_at_mut(n * m);
+    basis.eval(&xi[..m], N, dN, ddN);
+}
+
+/// A face basis stored at the point it was evaluated at (see [`basis_values`]): a projection or
+/// the kernel reads it instead of evaluating the same basis at the same point again (the basis
+/// depends on the element and the coordinates only, not on the positions).
+#[derive(Debug, Clone, Default)]
+pub struct BasisAt {
+    /// Element and coordinates of the evaluation (`None`: nothing stored).
+    pub at: Option<(u32, [f64; 2])>,
+    /// [`basis_values`] there.
+    pub values: Vec<f64>,
+}
+
+impl BasisAt {
+    /// The stored values if they are those of element `e` at exactly `xi` (bit for bit).
+    pub fn get(&self, e: u32, xi: &[f64; 2]) -> Option<&[f64]> {
+        let (f, yi) = self.at?;
+        (f == e && yi[0].to_bits() == xi[0].to_bits() && yi[1].to_bits() == xi[1].to_bits())
+            .then_some(&self.values[..])
+    }
+
+    /// Stores the basis of element `e` of `s` at `xi`, unless it holds it already.
+    pub fn set(&mut self, s: &ContactSurface, e: u32, xi: &[f64; 2]) {
+        if self.get(e, xi).is_none() {
+            basis_values(&s.elements[e as usize].basis, xi, &mut self.values);
+            self.at = Some((e, *xi));
+        }
+    }
+}
+
+/// Point, tangents and second derivatives `(x, x_,i, x_,ij)` of a face with nodal positions `y`
+/// [n][dim] from its basis `N` [n], `dN` [n][m], `ddN` [n][m][m].
+#[allow(non_snake_case)]
+#[allow(clippy::type_complexity)]
+pub(crate) fn contract(
+    y: &[f64],
+    (n, dim, m): (usize, usize, usize),
+    N: &[f64],
+    dN: &[f64],
+    ddN: &[f64],
+) -> ([f64; 3], [[f64; 3]; 2], [[[f64; 3]; 2]; 2]) {
+    // the two cases with their sizes known to the compiler (the same sums in the same order)
+    match (dim, m) {
+        (3, 2) => contract_dims(y, (n, 3, 2), N, dN, ddN),
+        (2, 1) => contract_dims(y, (n, 2, 1), N, dN, ddN),
+        _ => contract_dims(y, (n, dim, m), N, dN, ddN),
+    }
+}
+
+/// [`contract`]'s sums (inlined, so that constant sizes unroll them).
+#[allow(non_snake_case)]
+#[allow(clippy::type_complexity)]
+#[inline(always)]
+fn contract_dims(
+    y: &[f64],
+    (n, dim, m): (usize, usize, usize),
+    N: &[f64],
+    dN: &[f64],
+    ddN: &[f64],
+) -> ([f64; 3], [[f64; 3]; 2], [[[f64; 3]; 2]; 2]) {
+    let (y, N, dN, ddN) = (&y[..n * dim], &N[..n], &dN[..n * m], &ddN[..n * m * m]);
+    let (mut p, mut a, mut aa) = ([0.0; 3], [[0.0; 3]; 2], [[[0.0; 3]; 2]; 2]);
+    for b in 0..n {
+        for k in 0..dim {
+            let v = y[b * dim + k];
+            p[k] += N[b] * v;
+            for i in 0..m {
+                a[i][k] += dN[b * m + i] * v;
+                for j in 0..m {
+                    aa[i][j][k] += ddN[b * m * m + i * m + j] * v;
+                }
+            }
+        }
+    }
+    (p, a, aa)
+}
+
+/// Projection onto element `e` from `xi0`, over the box `[-1,1]^m`.
 pub fn project_on_element(
     s: &ContactSurface,
     pos: &Positions,
     e: usize,
     x: &[f64; 3],
     xi0: [f64; 2],
+) -> Option<Projection> {
+    project_on_element_from(s, pos, e, x, xi0, None)
+}
+
+/// [`project_on_element`] with the element's basis at the start `xi0` given ([`basis_values`]
+/// at `xi0` clamped to the box), which saves its evaluation; the same result.
+#[allow(non_snake_case)]
+pub fn project_on_element_from(
+    s: &ContactSurface,
+    pos: &Positions,
+    e: usize,
+    x: &[f64; 3],
+    xi0: [f64; 2],
+    start: Option<&[f64]>,
 ) -> Option<Projection> {
     let el = &s.elements[e];
     let dim = s.dim;
@@ -79,20 +180,7 @@ pub fn project_on_element(
     );
     let eval = |xi: &[f64; 2], N: &mut [f64], dN: &mut [f64], ddN: &mut [f64]| {
         el.basis.eval(&xi[..m], N, dN, ddN);
-        let (mut p, mut a, mut aa) = ([0.0; 3], [[0.0; 3]; 2], [[[0.0; 3]; 2]; 2]);
-        for b in 0..n {
-            for k in 0..dim {
-                let v = y[b * dim + k];
-                p[k] += N[b] * v;
-                for i in 0..m {
-                    a[i][k] += dN[b * m + i] * v;
-                    for j in 0..m {
-                        aa[i][j][k] += ddN[b * m * m + i * m + j] * v;
-                    }
-                }
-            }
-        }
-        (p, a, aa)
+        contract(y, (n, dim, m), N, dN, ddN)
     };
     let scale2 = s.h * s.h;
     let mut xi = xi0;
@@ -101,9 +189,15 @@ pub fn project_on_element(
     }
     let f_of = |p: &[f64; 3]| 0.5 * (0..dim).map(|k| (x[k] - p[k]).powi(2)).sum::<f64>();
     let mut free = [true; 2];
-    // the geometry at `xi`: evaluated once here, then carried over from the accepted trial point
-    // of each line search (the same coordinates, so the same values, without a second evaluation)
-    let mut cur = eval(&xi, &mut N, &mut dN, &mut ddN);
+    // the geometry at `xi`: evaluated once here (from the given basis if there is one), then
+    // carried over from the accepted trial point of each line search (the same coordinates, so
+    // the same values, without a second evaluation)
+    let mut cur = match start {
+        Some(b) if b.len() == n * (1 + m + m * m) => {
+            contract(y, (n, dim, m), &b[..n], &b[n..n + n * m], &b[n + n * m..])
+        }
+        _ => eval(&xi, &mut N, &mut dN, &mut ddN),
+    };
     for _ in 0..MAX_NEWTON {
         let (p, a, aa) = cur;
         let g = [x[0] - p[0], x[1] - p[1], x[2] - p[2]];
@@ -187,9 +281,14 @@ fn solve_free(
     free: &[bool; 2],
     m: usize,
 ) -> Option<[f64; 2]> {
-    let idx: Vec<usize> = (0..m).filter(|&i| free[i]).collect();
+    // the free coordinates (no allocation: this runs once per Newton iteration)
+    let (mut idx, mut n_free) = ([0usize; 2], 0);
+    for i in (0..m).filter(|&i| free[i]) {
+        idx[n_free] = i;
+        n_free += 1;
+    }
     let mut d = [0.0; 2];
-    match idx.len() {
+    match n_free {
         0 => return None,
         1 => {
             let i = idx[0];
@@ -254,15 +353,29 @@ pub fn walk(
     x: &[f64; 3],
     start: (u32, [f64; 2]),
 ) -> Result<Option<Projection>, Absent> {
+    walk_from(s, pos, x, start, None)
+}
+
+/// [`walk`] with the start element's basis at the start coordinates given (`start_basis`,
+/// [`basis_values`] there), which saves its evaluation; the same result.
+pub fn walk_from(
+    s: &ContactSurface,
+    pos: &Positions,
+    x: &[f64; 3],
+    start: (u32, [f64; 2]),
+    start_basis: Option<&[f64]>,
+) -> Result<Option<Projection>, Absent> {
     let dim = s.dim;
     let (mut e, mut xi) = (start.0 as usize, start.1);
-    let mut visited: Vec<usize> = Vec::with_capacity(4);
+    // the elements entered (on the stack: a walk per point and update)
+    let (mut visited, mut n_visited) = ([0usize; MAX_WALK], 0);
     let mut best: Option<Projection> = None;
+    let mut given = start_basis;
     for _ in 0..MAX_WALK {
         if !pos.has(e) {
             return Err(Absent(e as u32));
         }
-        let Some(p) = project_on_element(s, pos, e, x, xi) else {
+        let Some(p) = project_on_element_from(s, pos, e, x, xi, given.take()) else {
             return Ok(None);
         };
         if best.is_none_or(|b| {
@@ -271,7 +384,8 @@ pub fn walk(
         }) {
             best = Some(p);
         }
-        visited.push(e);
+        visited[n_visited] = e;
+        n_visited += 1;
         let Some(side) = exit_sides(dim, &p).next() else {
             return Ok(Some(p)); // orthogonal projection inside the element
         };
@@ -279,7 +393,7 @@ pub fn walk(
             return Ok(None); // beyond the end of the surface: no partner
         }
         match s.elements[e].neighbours[side] {
-            Some((f, s2, rev)) if !visited.contains(&(f as usize)) => {
+            Some((f, s2, rev)) if !visited[..n_visited].contains(&(f as usize)) => {
                 let (t, _) = side_coordinates(dim, side, &p.xi);
                 let t2 = if rev { -t } else { t };
                 xi = side_point(dim, s2 as usize, t2, 0.0);
@@ -364,6 +478,76 @@ pub fn global_search(
     x: &[f64; 3],
     scratch: &mut Vec<u32>,
 ) -> Result<Option<Projection>, ProjectionFailed> {
+    search(s, pos, grid, x, scratch, None, false)
+}
+
+/// [`global_search`] with every element's basis at its centre given (`centres[e]`:
+/// [`basis_values`] at `xi = 0`, where each candidate's projection starts), which saves those
+/// evaluations, and that skips a candidate whose nodes lie beyond the best point found along the
+/// direction to their centroid ([`hull_distance_bound`]); the same result.
+pub fn global_search_from(
+    s: &ContactSurface,
+    pos: &Positions,
+    grid: &BinGrid,
+    x: &[f64; 3],
+    scratch: &mut Vec<u32>,
+    centres: Option<&[Vec<f64>]>,
+) -> Result<Option<Projection>, ProjectionFailed> {
+    search(s, pos, grid, x, scratch, centres, true)
+}
+
+/// A lower bound of the distance from `x` to element `e` of `s` (0 where none is known): the
+/// element lies in the convex hull of its nodes (NURBS with positive weights, linear faces), so no
+/// point of it is nearer than the nodes' least extent along the unit direction from `x` to their
+/// centroid.
+pub(crate) fn hull_distance_bound(
+    s: &ContactSurface,
+    pos: &Positions,
+    e: usize,
+    x: &[f64; 3],
+) -> f64 {
+    let dim = s.dim;
+    if !matches!(
+        s.elements[e].basis,
+        FaceBasis::Nurbs(_) | FaceBasis::Line2 | FaceBasis::Quad4
+    ) {
+        return 0.0;
+    }
+    let y = pos.of(e);
+    let n = y.len() / dim;
+    if n == 0 {
+        return 0.0;
+    }
+    let mut d = [0.0; 3];
+    for node in y.chunks_exact(dim) {
+        for k in 0..dim {
+            d[k] += node[k];
+        }
+    }
+    for k in 0..dim {
+        d[k] = d[k] / n as f64 - x[k];
+    }
+    let l = (0..dim).map(|k| d[k] * d[k]).sum::<f64>().sqrt();
+    if l.is_nan() || l <= 0.0 {
+        return 0.0;
+    }
+    let least = y
+        .chunks_exact(dim)
+        .map(|node| (0..dim).map(|k| (node[k] - x[k]) * d[k]).sum::<f64>() / l)
+        .fold(f64::INFINITY, f64::min);
+    least.max(0.0)
+}
+
+/// The global search; `hull`: skip candidates by [`hull_distance_bound`].
+fn search(
+    s: &ContactSurface,
+    pos: &Positions,
+    grid: &BinGrid,
+    x: &[f64; 3],
+    scratch: &mut Vec<u32>,
+    centres: Option<&[Vec<f64>]>,
+    hull: bool,
+) -> Result<Option<Projection>, ProjectionFailed> {
     grid.candidates(&x[..s.dim], scratch);
     // nearest boxes first: once an element's box is farther than the best point found, so are the
     // rest (branch and bound), which skips most Newton projections of a global search
@@ -378,8 +562,18 @@ pub fn global_search(
         if best.is_some_and(|b| lb > b.dist * (1.0 + 1e-10) + 1e-14 * s.h) {
             break;
         }
+        // a candidate whose hull is clearly beyond the best point cannot hold a better one (the
+        // margin, far above round-off, keeps every candidate that could tie with it)
+        if hull
+            && best.is_some_and(|b| {
+                hull_distance_bound(s, pos, e as usize, x) > b.dist * (1.0 + 1e-8) + 1e-10 * s.h
+            })
+        {
+            continue;
+        }
         tried += 1;
-        if let Some(p) = project_on_element(s, pos, e as usize, x, [0.0; 2]) {
+        let centre = centres.and_then(|c| c.get(e as usize)).map(|c| &c[..]);
+        if let Some(p) = project_on_element_from(s, pos, e as usize, x, [0.0; 2], centre) {
             let better = match best {
                 None => true,
                 Some(b) => {

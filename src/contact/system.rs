@@ -20,7 +20,7 @@ use crate::assembly::{DofMap, MatrixSink};
 use crate::contact::half_pass::{self, Pass, PassResult};
 use crate::contact::kernel::SlipState;
 use crate::contact::pair::{Anchor, PairDef, Partner, SlotOf};
-use crate::contact::projection::{surface_grid, walk, Absent, Positions};
+use crate::contact::projection::{surface_grid, walk_from, Absent, Positions};
 use crate::contact::search::BinGrid;
 use crate::contact::surface::ContactSurface;
 use partner_points::PartnerPoint;
@@ -75,6 +75,9 @@ pub struct ContactSystem {
     /// Current positions per surface (of the held elements; the others have none).
     pos: Vec<Positions>,
     grids: Vec<Option<BinGrid>>,
+    /// Per surface, per element: its basis at its centre, where the global search's projections
+    /// start ([`crate::contact::projection::basis_values`] at `xi = 0`; fixed, as the bases).
+    centres: Vec<Vec<Vec<f64>>>,
     pairs: Vec<Pair>,
     lambda: f64,
     cand: Vec<u32>,
@@ -174,8 +177,12 @@ impl ContactSystem {
             |sys, pt| {
                 let PartnerPoint { pair, pass, q, k, e, l, x } = pt;
                 let dist = sys.pairs[pair].def.search_distance;
-                let warm = sys.pairs[pair].passes[pass].points[q].warm;
-                let mut p = match warm.map(|w| walk(&sys.surfaces[l], &sys.pos[l], &x, w)) {
+                let ps = &sys.pairs[pair].passes[pass];
+                let warm = ps.points[q].warm;
+                // the partner basis at the warm start is the one the last evaluation used
+                let known = warm.and_then(|(f, xi)| ps.bases.get(q).and_then(|b| b.get(f, &xi)));
+                let walked = warm.map(|w| walk_from(&sys.surfaces[l], &sys.pos[l], &x, w, known));
+                let mut p = match walked {
                     Some(Ok(p)) => p,
                     // outside the ghost layer: the update is repeated after a refresh
                     Some(Err(Absent(f))) => {
@@ -203,10 +210,17 @@ impl ContactSystem {
                     };
                 }
                 let p = p.filter(|p| p.dist <= dist);
-                let point = &mut sys.pairs[pair].passes[pass].points[q];
+                let ps = &mut sys.pairs[pair].passes[pass];
+                let point = &mut ps.points[q];
                 point.current = p;
                 if let Some(p) = p {
                     point.warm = Some((p.elem, p.xi));
+                    // the partner basis at the projection, for the evaluations (and the next
+                    // update's warm start)
+                    if ps.bases.len() < ps.points.len() {
+                        ps.bases.resize(ps.points.len(), Default::default());
+                    }
+                    ps.bases[q].set(&sys.surfaces[l], p.elem, &p.xi);
                 }
                 Ok(())
             },

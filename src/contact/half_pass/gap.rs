@@ -95,7 +95,7 @@ impl<'a> Gap<'a> {
                     xk[c] += bN[a] * x[a * dim + c];
                 }
             }
-            let Some((le, pp)) = hp.partner(qp.current, &xk) else {
+            let Some((le, pp)) = hp.partner(qp.current, &xk, None) else {
                 continue;
             };
             if let Some(pg) = gap_and_normal(dim, &xk, &pp) {

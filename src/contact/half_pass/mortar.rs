@@ -205,7 +205,7 @@ impl MortarNet {
             let x = hp.geo.pos[hp.k].of(oe.e as usize);
             for q in oe.first..oe.first + oe.n {
                 let xk = oe.position(q, x, dim);
-                let Some((le, pp)) = hp.partner(points[q].current, &xk) else {
+                let Some((le, pp)) = hp.partner(points[q].current, &xk, None) else {
                     continue;
                 };
                 if let Some(pg) = gap_and_normal(dim, &xk, &pp) {

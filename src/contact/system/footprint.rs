@@ -8,6 +8,7 @@
 use super::ContactSystem;
 use crate::contact::basis::FaceBasis;
 use crate::contact::half_pass::{OwnElem, Pass, QPoint};
+use crate::contact::projection::BasisAt;
 use crate::contact::surface::{ContactSurface, SurfaceElement};
 use std::mem::size_of;
 
@@ -56,6 +57,10 @@ fn pass_bytes(p: &Pass) -> usize {
             .map(own_elem_bytes)
             .sum::<usize>()
         + p.mortar.as_ref().map_or(0, |m| m.heap_bytes())
+        + p.bases
+            .iter()
+            .map(|b| size_of::<BasisAt>() + std::mem::size_of_val(&b.values[..]))
+            .sum::<usize>()
 }
 
 /// What the contact system holds on this rank, split into the surfaces every rank holds whole and
@@ -66,9 +71,11 @@ pub struct Footprint {
     pub table_nodes: usize,
     /// Surface elements this rank holds positions of that other ranks own (the ghost layer).
     pub ghost_elements: usize,
-    /// Surfaces (elements, basis data), the node table, current positions and search grids.
+    /// Surfaces (elements, basis data and bases at element centres), the node table, current
+    /// positions and search grids.
     pub surface_bytes: usize,
-    /// The half-passes' points and elements on this rank (and the mortar nets).
+    /// The half-passes' points and elements on this rank (and the mortar nets, and the partner
+    /// bases stored at the points' projections).
     pub point_bytes: usize,
 }
 
@@ -100,6 +107,11 @@ impl ContactSystem {
                 .iter()
                 .flatten()
                 .map(|g| g.heap_bytes())
+                .sum::<usize>()
+            + self
+                .centres
+                .iter()
+                .flat_map(|s| s.iter().map(|v| vec_bytes(v)))
                 .sum::<usize>();
         let points = self
             .pairs

@@ -4,7 +4,7 @@
 
 use super::ContactSystem;
 use crate::contact::pair::{PairDef, Partner};
-use crate::contact::projection::{global_search, Projection, ProjectionFailed};
+use crate::contact::projection::{global_search_from, Projection, ProjectionFailed};
 
 /// A point of a pass against a surface partner, as [`ContactSystem::for_each_partner_point`]
 /// hands it out.
@@ -83,6 +83,14 @@ impl ContactSystem {
     ) -> Result<Option<Projection>, ProjectionFailed> {
         self.ensure_grid(l, dist);
         let grid = self.grids[l].as_ref().expect("built above");
-        global_search(&self.surfaces[l], &self.pos[l], grid, x, &mut self.cand)
+        let centres = self.centres.get(l).map(|c| &c[..]);
+        global_search_from(
+            &self.surfaces[l],
+            &self.pos[l],
+            grid,
+            x,
+            &mut self.cand,
+            centres,
+        )
     }
 }

@@ -7,7 +7,7 @@ use crate::assembly::DofMap;
 use crate::contact::half_pass::mortar::MortarNet;
 use crate::contact::half_pass::{OwnElem, Pass, PassResult, QPoint};
 use crate::contact::pair::{GapKind, Law, PairDef, Partner};
-use crate::contact::projection::Positions;
+use crate::contact::projection::{basis_values, Positions};
 use crate::contact::surface::{raw_normal, ContactSurface, MAX_FACE_NODES};
 use crate::fem::quadrature::tensor_rule;
 use std::collections::HashMap;
@@ -65,10 +65,24 @@ impl ContactSystem {
                     .collect()
             })
             .collect();
+        let centres = surfaces
+            .iter()
+            .map(|s| {
+                s.elements
+                    .iter()
+                    .map(|el| {
+                        let mut b = Vec::new();
+                        basis_values(&el.basis, &[0.0; 2], &mut b);
+                        b
+                    })
+                    .collect()
+            })
+            .collect();
         let mut sys = ContactSystem {
             dim,
             pos: vec![Positions::default(); surfaces.len()],
             grids: vec![None; surfaces.len()],
+            centres,
             surfaces,
             all_nodes: table.clone(),
             all_X: X.clone(),
@@ -128,6 +142,7 @@ impl ContactSystem {
                     mortar,
                     shape: None,
                     result: PassResult::default(),
+                    bases: Vec::new(),
                 });
             }
             sys.pairs.push(Pair { def, passes });

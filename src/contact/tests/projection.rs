@@ -207,3 +207,113 @@ fn a_projection_that_fails_on_every_candidate_is_an_error_for_the_step() {
     let ut: Vec<f64> = h.table.iter().map(|&g| u[g as usize]).collect();
     h.sys.update(&ut).expect("finite state");
 }
+
+#[test]
+fn a_stored_basis_gives_the_same_projections_and_gaps_bit_for_bit() {
+    use crate::contact::kernel::{gap_and_normal, PartnerPoint};
+    use crate::contact::projection::{
+        basis_values, global_search, global_search_from, walk, walk_from, BasisAt,
+    };
+    // the exact hemisphere (Q1N2, rational) and the faceted Q1C1 blocks, 3D; the arc in 2D
+    let cases = [
+        (
+            case_3d_hemisphere("Q1C1", "Q1N2", "law = \"penalty\"\neps_n = 1.0"),
+            [0.0, 0.0, 1.0],
+        ),
+        (
+            case_2d("Q1C1", "Q1N2", "law = \"penalty\"\neps_n = 1.0"),
+            [0.0, 1.0, 0.0],
+        ),
+    ];
+    let mut compared = 0;
+    for (text, c) in cases {
+        let h = Harness::new(&text);
+        for (s, surf) in h.model.contact_surfaces.iter().enumerate() {
+            let dim = surf.dim;
+            let pos = positions(&h, s);
+            let grid = grid_of(surf, &pos, 0.5);
+            let centres: Vec<Vec<f64>> = surf
+                .elements
+                .iter()
+                .map(|el| {
+                    let mut b = Vec::new();
+                    basis_values(&el.basis, &[0.0; 2], &mut b);
+                    b
+                })
+                .collect();
+            let (mut seed, mut scratch) = (7u64, Vec::new());
+            for _ in 0..200 {
+                let mut d = [rnd(&mut seed), -1.0 - rnd(&mut seed).abs(), rnd(&mut seed)];
+                if dim == 2 {
+                    d[2] = 0.0;
+                } else {
+                    d.swap(1, 2);
+                }
+                let x = [0, 1, 2].map(|k| c[k] + 1.2 * d[k]);
+                let slow = global_search(surf, &pos, &grid, &x, &mut scratch);
+                let fast = global_search_from(surf, &pos, &grid, &x, &mut scratch, Some(&centres));
+                assert_eq!(slow, fast, "{}: global search at {x:?}", surf.name);
+                let Ok(Some(p)) = slow else { continue };
+                // a warm start from a shifted point of the found element, basis given or not
+                let start = (p.elem, p.xi.map(|v| 0.5 * v + 0.1 * rnd(&mut seed)));
+                let mut at = BasisAt::default();
+                at.set(surf, start.0, &start.1);
+                let known = at.get(start.0, &start.1);
+                assert!(
+                    known.is_some() && at.get(start.0, &[start.1[0] + 1e-16, start.1[1]]).is_none()
+                );
+                let w_slow = walk(surf, &pos, &x, start);
+                let w_fast = walk_from(surf, &pos, &x, start, known);
+                assert_eq!(w_slow, w_fast, "{}: walk at {x:?}", surf.name);
+                // the kernel's gap and normal with the basis at the projection given
+                at.set(surf, p.elem, &p.xi);
+                let el = &surf.elements[p.elem as usize];
+                let y = pos.of(p.elem as usize);
+                let pp = |basis| PartnerPoint::Projected {
+                    el,
+                    y,
+                    xi: p.xi,
+                    free: p.free,
+                    basis,
+                };
+                let g_slow = gap_and_normal(dim, &x, &pp(None)).expect("a projected partner");
+                let g_fast = gap_and_normal(dim, &x, &pp(at.get(p.elem, &p.xi)))
+                    .expect("a projected partner");
+                let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&g_slow.g), bits(&g_fast.g));
+                assert_eq!(bits(&g_slow.n), bits(&g_fast.n));
+                assert_eq!(bits(&g_slow.basis), bits(&g_fast.basis));
+                compared += 1;
+            }
+        }
+    }
+    assert!(compared > 100, "{compared} points compared");
+}
+
+#[test]
+fn the_hull_bound_never_exceeds_the_distance_to_a_point_of_the_element() {
+    use crate::contact::projection::hull_distance_bound;
+    let text = case_3d_hemisphere("Q1C1", "Q1N2", "law = \"penalty\"\neps_n = 1.0");
+    let h = Harness::new(&text);
+    let (mut seed, mut positive) = (3u64, 0);
+    for (s, surf) in h.model.contact_surfaces.iter().enumerate() {
+        let pos = positions(&h, s);
+        for e in 0..surf.elements.len() {
+            for _ in 0..20 {
+                let x = [0, 1, 2].map(|_| 1.5 * rnd(&mut seed));
+                let lb = hull_distance_bound(surf, &pos, e, &x);
+                positive += (lb > 0.0) as usize;
+                for i in 0..=8 {
+                    for j in 0..=8 {
+                        let xi = [-1.0 + 0.25 * i as f64, -1.0 + 0.25 * j as f64];
+                        let el = &surf.elements[e];
+                        let p = crate::contact::surface::frame(el, 3, pos.of(e), &xi).0;
+                        let d = (0..3).map(|k| (p[k] - x[k]).powi(2)).sum::<f64>().sqrt();
+                        assert!(lb <= d * (1.0 + 1e-12), "{}: {lb} > {d}", surf.name);
+                    }
+                }
+            }
+        }
+    }
+    assert!(positive > 100, "{positive}");
+}
