@@ -10,6 +10,8 @@ use nurbs_contact::petsc::{Ksp, Matrix, NonlinearProblem, Petsc, ProblemError, S
 /// F_i(x) = x_i^3 - 8 (root 2 in every component), with switches for failure modes.
 struct Cubic {
     domain_error_below: f64,
+    /// Residuals at x above this raise a domain error too.
+    domain_error_above: f64,
     panic: bool,
     /// The Jacobian evaluation of this number (from 1) raises a domain error.
     jacobian_error_at: Option<usize>,
@@ -23,6 +25,7 @@ impl Cubic {
     fn new(domain_error_below: f64, panic: bool) -> Cubic {
         Cubic {
             domain_error_below,
+            domain_error_above: f64::INFINITY,
             panic,
             jacobian_error_at: None,
             stop_from: None,
@@ -37,7 +40,10 @@ impl NonlinearProblem for Cubic {
             panic!("deliberate panic in a residual");
         }
         let xa = x.read().map_err(|e| ProblemError::Fatal(e.to_string()))?;
-        if xa.iter().any(|&v| v < self.domain_error_below) {
+        if xa
+            .iter()
+            .any(|&v| v < self.domain_error_below || v > self.domain_error_above)
+        {
             return Err(ProblemError::Domain("x left the domain".into()));
         }
         let mut fa = f.write().map_err(|e| ProblemError::Fatal(e.to_string()))?;
@@ -232,6 +238,31 @@ fn petsc_wrapper_end_to_end() {
         snes.solve(&mut problem, &mut xs, &mut jm)
             .unwrap()
             .converged
+    );
+
+    // PETSc's `l2` line search on x^3 = 8 from x = 1 with a domain error above x = 2.18: the full
+    // step (x = 3.33) fails, lambda = 0.5 (x = 2.17) reduces |F|, and its secant step 0.511
+    // (x = 2.19) lands outside again. Unchecked, SNES would stop there with
+    // DIVERGED_FUNCTION_DOMAIN; the post-check halves that step (x = 1.60) and Newton converges.
+    petsc
+        .insert_options("-snes_linesearch_type l2", "")
+        .unwrap();
+    let mut snes_l2 = Snes::new(&petsc).unwrap();
+    snes_l2.set_tolerances(1e-12, 1e-14, 0.0, 50).unwrap();
+    snes_l2.set_from_options().unwrap();
+    xs.set(1.0).unwrap();
+    let mut problem = Cubic::new(-1e9, false);
+    problem.domain_error_above = 2.18;
+    let out = snes_l2.solve(&mut problem, &mut xs, &mut jm).unwrap();
+    assert!(out.converged, "{out:?}");
+    assert!(xs.read().unwrap().iter().all(|&v| (v - 2.0).abs() < 1e-12));
+    // the first iterate is the halved secant step
+    let first = 1.0 - 0.5108476450438046 / 2.0 * (1.0 - 8.0) / 3.0;
+    let f1 = (first * first * first - 8.0f64).abs() * 3f64.sqrt();
+    assert!(
+        (out.residual_history[1] - f1).abs() < 1e-9 * f1,
+        "{:?} against {f1}",
+        out.residual_history
     );
 
     // The solver is still usable afterwards.

@@ -114,7 +114,13 @@ struct Context<'a> {
     stagnation_window: usize,
     /// The solve was stopped because it stagnated.
     stagnated: bool,
+    /// A residual evaluation since the last Jacobian (i.e. in this iteration's line search) raised
+    /// a domain error: the line search's final step is checked ([`post_check_trampoline`]).
+    line_search_domain: bool,
 }
+
+/// Halvings the line search's post-check tries before it leaves an inadmissible step to SNES.
+const POST_CHECK_HALVINGS: usize = 6;
 
 /// PETSc's code for "error in user callback" (PETSC_ERR_USER in petscerror.h).
 const PETSC_ERR_USER: sys::PetscErrorCode = 83;
@@ -144,6 +150,7 @@ unsafe extern "C" fn residual_trampoline(
         Ok(Ok(())) => 0,
         Ok(Err(ProblemError::Domain(msg))) => {
             ctx.domain = Some(msg);
+            ctx.line_search_domain = true;
             // SAFETY: snes is the live solver calling us.
             unsafe { sys::SNESSetFunctionDomainError(snes) }
         }
@@ -167,6 +174,8 @@ unsafe extern "C" fn jacobian_trampoline(
 ) -> sys::PetscErrorCode {
     // SAFETY: as in residual_trampoline; j is the matrix we registered, alive during the call.
     let ctx = unsafe { &mut *(ctx as *mut Context) };
+    // a new Newton iteration: its line search starts after this Jacobian
+    ctx.line_search_domain = false;
     let xv = unsafe { Vector::borrowed(x) };
     // SAFETY: ctx.jac points to the `Matrix` the caller passed to `solve`, which is not used by the
     // caller while SNESSolve runs; SNES hands back the same Mat we registered, checked here.
@@ -199,6 +208,95 @@ unsafe extern "C" fn jacobian_trampoline(
             PETSC_ERR_USER
         }
     }
+}
+
+/// The line search's post-check: when a residual evaluation of this line search fell outside the
+/// domain (an inverted element, a failed projection), the step it settled on, `w = x - lambda y`,
+/// is evaluated before SNES takes it, and halved while it is outside the domain too. PETSc's `l2`
+/// search cuts lambda after a failed evaluation but then takes its secant step unchecked, which
+/// can land in the failed region again (from 1 to 0.5 and 0.25, then the secant 0.80: BENCHMARKS.md,
+/// "The iterative route on the contact tangent"), and SNES then stops with
+/// `DIVERGED_FUNCTION_DOMAIN` although a shorter step reduced the residual. Costs nothing in a
+/// line search without a domain error. Every rank takes the same branch: the problem raises a
+/// domain error on every rank alike.
+unsafe extern "C" fn post_check_trampoline(
+    ls: sys::SNESLineSearch,
+    x: sys::Vec,
+    y: sys::Vec,
+    w: sys::Vec,
+    _changed_y: *mut sys::PetscBool,
+    changed_w: *mut sys::PetscBool,
+    ctx: *mut c_void,
+) -> sys::PetscErrorCode {
+    // SAFETY: ctx is the &mut Context installed by `solve`, alive for the whole SNESSolve.
+    let ctx = unsafe { &mut *(ctx as *mut Context) };
+    if !ctx.line_search_domain {
+        return 0;
+    }
+    ctx.line_search_domain = false;
+    // SAFETY: x, y, w are valid vectors of the line search for the duration of this call.
+    let (xv, yv, wv) = unsafe {
+        (
+            Vector::borrowed(x),
+            Vector::borrowed(y),
+            Vector::borrowed(w),
+        )
+    };
+    let Ok(mut f) = xv.duplicate() else {
+        return PETSC_ERR_USER;
+    };
+    // the step length the search settled on, from w = x - lambda y (PETSc 3.18's `l2` sets the
+    // line search's lambda only after this check)
+    let (mut dy, mut yy) = (0.0, 0.0);
+    // SAFETY: valid vectors of the same layout; f is ours.
+    let err = unsafe {
+        let mut e = sys::VecWAXPY(f.as_raw(), -1.0, w, x);
+        if e == 0 {
+            e = sys::VecDot(f.as_raw(), y, &mut dy);
+        }
+        if e == 0 {
+            e = sys::VecDot(y, y, &mut yy);
+        }
+        e
+    };
+    if err != 0 {
+        return err;
+    }
+    if yy <= 0.0 {
+        return 0;
+    }
+    let mut lambda = dy / yy;
+    for _ in 0..POST_CHECK_HALVINGS {
+        match catch_unwind(AssertUnwindSafe(|| ctx.problem.residual(&wv, &mut f))) {
+            Ok(Ok(())) => return 0,
+            Ok(Err(ProblemError::Domain(msg))) => ctx.domain = Some(msg),
+            Ok(Err(ProblemError::Fatal(msg))) => {
+                ctx.fatal = Some(msg);
+                return PETSC_ERR_USER;
+            }
+            Err(p) => {
+                ctx.fatal = Some(format!("panic in residual evaluation: {}", panic_text(p)));
+                return PETSC_ERR_USER;
+            }
+        }
+        lambda *= 0.5;
+        // w = x - lambda y
+        // SAFETY: valid vectors of the same layout; changed_w and ls are valid for this call.
+        let err = unsafe {
+            let e = sys::VecWAXPY(wv.as_raw(), -lambda, yv.as_raw(), xv.as_raw());
+            if e != 0 {
+                e
+            } else {
+                *changed_w = sys::PetscBool(1);
+                sys::SNESLineSearchSetLambda(ls, lambda)
+            }
+        };
+        if err != 0 {
+            return err;
+        }
+    }
+    // still outside: SNES evaluates it, meets the domain error and the step is cut back
+    0
 }
 
 /// SNES's default convergence test, then a stop (`SNES_DIVERGED_JACOBIAN_DOMAIN`) when a Jacobian
@@ -403,6 +501,7 @@ impl<'p> Snes<'p> {
             norms: Vec::new(),
             stagnation_window: self.stagnation_window,
             stagnated: false,
+            line_search_domain: false,
         };
         let ctx_ptr = &mut ctx as *mut Context as *mut c_void;
         // SAFETY: ctx outlives SNESSolve (it is on this stack frame); the callbacks are re-registered
@@ -419,6 +518,13 @@ impl<'p> Snes<'p> {
                 jac_raw,
                 jac_raw,
                 Some(jacobian_trampoline),
+                ctx_ptr
+            ))?;
+            let mut ls = std::ptr::null_mut();
+            call!(SNESGetLineSearch(self.raw, &mut ls))?;
+            call!(SNESLineSearchSetPostCheck(
+                ls,
+                Some(post_check_trampoline),
                 ctx_ptr
             ))?;
             // replaces a `-snes_convergence_test` choice: ours is the default test plus the stops
