@@ -156,12 +156,14 @@ fn with_facing_edges(
     let (mut x, mut adj, mut w) = (vec![0], Vec::new(), Vec::new());
     for mut l in lists {
         l.sort_unstable();
+        let start = adj.len();
         for (o, wt) in l {
-            if adj.len() > *x.last().unwrap() && *adj.last().unwrap() == o {
-                *w.last_mut().unwrap() += wt;
-            } else {
-                adj.push(o);
-                w.push(wt);
+            match adj.len().checked_sub(1) {
+                Some(last) if last >= start && adj[last] == o => w[last] += wt,
+                _ => {
+                    adj.push(o);
+                    w.push(wt);
+                }
             }
         }
         x.push(adj.len());
