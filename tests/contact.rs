@@ -453,3 +453,54 @@ fn element_mean_gap_outside_its_scope_is_refused_with_the_key() {
         );
     }
 }
+
+/// Each attempt of a load step has its own budget of sparsity-pattern rebuilds (4). Ironing with
+/// no reserved band (`contact_pattern_ring = 0`: every partner change needs a rebuild) and the
+/// slide in 4 nominal steps: attempts use up their rebuilds and steps are cut back. When the budget
+/// was per step, an attempt after a cutback started with it used up and failed at its first
+/// outdated pattern after 1-2 Newton iterations (10 cutbacks in this run instead of 4; the
+/// 1e5-unknown scale scene's first step needed 7 cutbacks for that reason, BENCHMARKS.md "The
+/// contact pattern's rebuild budget"). An attempt that fails on the budget says so, and has had
+/// at least 5 solves.
+#[test]
+fn every_attempt_of_a_step_has_its_own_pattern_rebuild_budget() {
+    let d = run_case(
+        "pattern-budget",
+        "ironing_2d.toml",
+        1,
+        &["stages.1.steps=4", "solver.contact_pattern_ring=0"],
+    );
+    let s = summary(&d);
+    assert_eq!(s["status"], "converged");
+    let rebuilds = s["contact_pattern"]["rebuilds"].as_u64().unwrap();
+    assert!(
+        rebuilds >= 20,
+        "too few pattern rebuilds to test: {rebuilds}"
+    );
+    let mut on_budget = 0;
+    for st in s["steps"].as_array().unwrap() {
+        let fails = st["failed_attempts"].as_array().unwrap();
+        let n = fails
+            .iter()
+            .filter(|a| {
+                let why = a[1].as_str().unwrap();
+                assert!(
+                    why != "DIVERGED_JACOBIAN_DOMAIN",
+                    "a failure on the pattern that does not say so: {st}"
+                );
+                why.contains("outside the sparsity pattern after 4 rebuilds")
+            })
+            .count() as u64;
+        // each such attempt ran 5 solves of at least one Newton iteration
+        let failed_its = st["failed_iterations"].as_u64().unwrap_or(0);
+        assert!(
+            failed_its >= 5 * n,
+            "{n} attempts failed on the budget in {failed_its} iterations: {st}"
+        );
+        on_budget += n;
+    }
+    assert!(
+        on_budget >= 1,
+        "no attempt used up its budget: nothing tested"
+    );
+}

@@ -390,6 +390,14 @@ pub fn run_load_steps_from<'p>(
             asm.rollback();
             let why = match (&tangled, just_tangled) {
                 (Some((_, fold)), true) => format!("converged to a tangled state: {fold}"),
+                _ if asm.pattern_outdated() => format!(
+                    "contact points still needed couplings outside the sparsity pattern after \
+                     {MAX_PATTERN_RETRIES} rebuilds in this attempt (last solve: {}{})",
+                    out.reason,
+                    out.domain_error
+                        .as_ref()
+                        .map_or(String::new(), |e| format!("; its line search met {e}"))
+                ),
                 _ => out
                     .domain_error
                     .clone()
@@ -439,6 +447,9 @@ pub fn run_load_steps_from<'p>(
                 });
             }
             cutbacks += 1;
+            // each attempt has its own budget of pattern rebuilds (a shorter increment may need
+            // them as much as the longer one that used them up)
+            pattern_retries = 0;
         };
         if snes.on_direct() {
             snes.use_options()?;

@@ -400,12 +400,32 @@ impl<'p> Assembler<'p> {
         // them): the Newton step is taken with the rest, and the solve stops after it
         // (`stop_requested`) for the pattern to be rebuilt between solves.
         let missing = match &self.coupled {
-            Some(c) => c
-                .set
-                .needed_blocks()
-                .iter()
-                .filter(|b| c.blocks.binary_search(b).is_err())
-                .count(),
+            Some(c) => {
+                let needed = c.set.needed_blocks();
+                let out: Vec<_> = needed
+                    .iter()
+                    .filter(|b| c.blocks.binary_search(b).is_err())
+                    .collect();
+                if !out.is_empty() && std::env::var_os("NURBS_CONTACT_DEBUG_PATTERN").is_some() {
+                    // of them, blocks of an element with blocks in the pattern (a point slid
+                    // beyond the band rather than arriving from beyond the search distance)
+                    let slid = out
+                        .iter()
+                        .filter(|b| {
+                            let i = c.blocks.partition_point(|p| (p.0, p.1) < (b.0, b.1));
+                            c.blocks.get(i).is_some_and(|p| (p.0, p.1) == (b.0, b.1))
+                        })
+                        .count();
+                    eprintln!(
+                        "pattern: {} of {} needed blocks outside the pattern ({slid} of elements \
+                         with blocks in it), e.g. {:?}",
+                        out.len(),
+                        needed.len(),
+                        &out[..out.len().min(6)]
+                    );
+                }
+                out.len()
+            }
             None => 0,
         };
         let mut any = 0u64;
