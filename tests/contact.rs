@@ -504,3 +504,55 @@ fn every_attempt_of_a_step_has_its_own_pattern_rebuild_budget() {
         "no attempt used up its budget: nothing tested"
     );
 }
+
+/// `[solver] max_penetration`: a state deeper than the bound is outside the domain. On Hertz
+/// (`eps_n = 1e4`, the first step presses 0.005, 700x the solution's penetration of 7e-6) the
+/// first Newton iterate would lift the whole increment into the block; with a bound of 5e-4 the
+/// line search shortens it (more Newton iterations) and the answer is the unbounded one. A bound
+/// below the solution's penetration leaves no admissible equilibrium: the run fails naming the key.
+#[test]
+fn a_penetration_bound_shortens_newton_steps_and_keeps_the_answer() {
+    let free = run_case("maxpen-free", "hertz_2d.toml", 1, &[]);
+    let bound = run_case(
+        "maxpen-bound",
+        "hertz_2d.toml",
+        1,
+        &["solver.max_penetration=5e-4"],
+    );
+    for col in ["R_disk_top_y", "penetration_flat_disk_arc"] {
+        let (a, b) = (history_col(&free, col), history_col(&bound, col));
+        let d = rel_diff(&a, &b);
+        assert!(d < 1e-8, "{col}: {a:?} vs {b:?} ({d:e})");
+    }
+    let its = |d: &Path| summary(d)["newton"]["total_iterations"].as_u64().unwrap();
+    assert!(
+        its(&bound) > its(&free),
+        "the bound did not act: {} vs {} Newton iterations",
+        its(&bound),
+        its(&free)
+    );
+    let d = scratch("maxpen-below");
+    let c = case("hertz_2d.toml");
+    let out = run(
+        1,
+        &[
+            "run",
+            c.to_str().unwrap(),
+            "--out",
+            d.to_str().unwrap(),
+            "-q",
+            "--set",
+            "output.plots=false",
+            "--set",
+            "solver.max_penetration=5e-6",
+            "--set",
+            "steps.pseudo_steps=0",
+        ],
+    );
+    let err = stderr(&out);
+    assert!(!out.status.success(), "{err}");
+    assert!(
+        err.contains("more than `solver.max_penetration` = 5e-6"),
+        "{err}"
+    );
+}

@@ -89,6 +89,13 @@ pub trait CouplingSet: Any + Send {
     /// Uses the state of the last [`update`](Self::update).
     fn evaluate(&mut self, f_local: &mut [f64], jac: Option<(&mut dyn MatrixSink, &SlotOf)>);
 
+    /// The deepest penetration of this rank's part of the set at the last
+    /// [`evaluate`](Self::evaluate), with what it belongs to (contact: the pair and the surface
+    /// whose point it is); `None` when nothing penetrates.
+    fn deepest(&self) -> Option<(f64, String)> {
+        None
+    }
+
     /// Residual entries on [`nodes`](Self::nodes) ([n][dim]) that `evaluate` could not put in
     /// `f_local` because this rank may not hold those nodes (contact's one-pass master surfaces);
     /// the assembler adds them through the gather's reverse scatter. `None`: there are none.

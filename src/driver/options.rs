@@ -97,6 +97,7 @@ pub(super) fn set_up_solver<'p>(
         )?;
         asm.set_coupling_set(Box::new(sys), &x, case.solver.contact_pattern_ring)?;
         asm.set_freeze_after(case.solver.contact_freeze_after);
+        asm.set_max_penetration(case.solver.max_penetration);
     }
     if !model.couplings.is_empty() {
         let offsets = NodeOffsets::new(&model.couplings, &asm.dofs.rep, &model.coords, model.dim);

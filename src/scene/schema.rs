@@ -597,6 +597,14 @@ pub struct SolverOptions {
     /// contact data per rank". Results agree to round-off on every one. Default: `"contact"`.
     #[serde(default)]
     pub partition: PartitionKind,
+    /// Contact: a state in which a contact point penetrates its partner by more than this length
+    /// is outside the problem's domain, like an inverted element: Newton's line search shortens a
+    /// step that goes deeper (the first iterate of a press step, which lifts the whole increment
+    /// into the partner before any contact force acts), and a step whose converged state would be
+    /// deeper is cut back. Choose it several times the penetration the penalty gives at the
+    /// solution. Default: none (BENCHMARKS.md, "A penetration bound on Newton's iterates").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_penetration: Option<f64>,
 }
 
 /// `[solver] partition`: what METIS balances and keeps together.
@@ -682,6 +690,7 @@ impl Default for SolverOptions {
             stagnation_window: default_stagnation_window(),
             linear: None,
             partition: PartitionKind::default(),
+            max_penetration: None,
         }
     }
 }

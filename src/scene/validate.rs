@@ -33,6 +33,15 @@ pub fn validate(case: &Case) -> Result<(), SceneError> {
     check_bcs(case, dim_ok, &mut v);
     check_ties(case, dim_ok, &mut v);
     check_controls(case, &mut v);
+    if let Some(d) = case.solver.max_penetration {
+        v.positive("solver.max_penetration".into(), d);
+        if case.contact.is_empty() {
+            v.push(
+                "solver.max_penetration",
+                "bounds contact penetration, but the case has no [[contact]] pair",
+            );
+        }
+    }
     if v.0.is_empty() {
         // sizes only mean something once every count is known to be sane
         check_sizes(case, &mut v);
@@ -1024,6 +1033,22 @@ mod tests {
             &["bodies.block.material.nu=0.4999999"],
         );
         assert!(has(&i, "bodies.block.material.nu", "within 1e-6"), "{i:?}");
+    }
+
+    #[test]
+    fn max_penetration_is_positive_and_needs_contact() {
+        let hertz = include_str!("../../cases/hertz_2d.toml");
+        for bad in ["0.0", "-1e-3"] {
+            let i = issues(hertz, &[&format!("solver.max_penetration={bad}")]);
+            assert!(has(&i, "solver.max_penetration", "positive"), "{i:?}");
+        }
+        let o = ["solver.max_penetration=1e-3".to_string()];
+        assert!(parse_case(hertz, Path::new("c.toml"), &o).is_ok());
+        let i = issues(BLOCK_COMPRESSION_3D, &["solver.max_penetration=1e-3"]);
+        assert!(
+            has(&i, "solver.max_penetration", "no [[contact]] pair"),
+            "{i:?}"
+        );
     }
 
     #[test]

@@ -113,6 +113,8 @@ pub struct Assembler<'p> {
     u_table_off: Vec<f64>,
     /// Pseudo-transient damping `c D (u - u_prev)` on the free owned rows (c = 0: off).
     stab_c: f64,
+    /// A state with a deeper contact penetration is outside the domain (`[solver] max_penetration`).
+    max_penetration: Option<f64>,
     /// `D`: the assembled diagonal of the stiffness at the state it was computed. [n_owned]
     stab_diag: Vec<f64>,
     /// `u_prev` on the owned rows. [n_owned]
@@ -213,6 +215,7 @@ impl<'p> Assembler<'p> {
             node_force: Vec::new(),
             u_table_off: Vec::new(),
             stab_c: 0.0,
+            max_penetration: None,
             stab_diag: Vec::new(),
             stab_prev: Vec::new(),
             skew: SkewRows::default(),
@@ -434,6 +437,25 @@ impl<'p> Assembler<'p> {
         }
     }
 
+    /// Sets the contact penetration beyond which a state is outside the domain (`None`: no bound).
+    pub fn set_max_penetration(&mut self, bound: Option<f64>) {
+        self.max_penetration = bound;
+    }
+
+    /// A domain error when the coupling set's deepest penetration at the last evaluation exceeds
+    /// `[solver] max_penetration` (rank-local; the caller agrees on it).
+    fn penetration_bound(&self) -> Result<(), ProblemError> {
+        let (Some(bound), Some(c)) = (self.max_penetration, &self.coupled) else {
+            return Ok(());
+        };
+        match c.set.deepest() {
+            Some((d, what)) if d > bound => Err(ProblemError::Domain(format!(
+                "{what} penetrates its partner by {d:.6e}, more than `solver.max_penetration` = {bound:e}"
+            ))),
+            _ => Ok(()),
+        }
+    }
+
     /// The communicator of the system.
     pub fn comm(&self) -> &mpi::topology::SimpleCommunicator {
         self.petsc.comm()
@@ -451,7 +473,9 @@ impl NonlinearProblem for Assembler<'_> {
             self.timers.residual += t0.elapsed().as_secs_f64();
             return Err(e);
         }
-        let local = self.guarded_loop(x, None);
+        let local = self
+            .guarded_loop(x, None)
+            .and_then(|()| self.penetration_bound());
         if let Err(e) = self.agree(local) {
             self.timers.residual += t0.elapsed().as_secs_f64();
             return Err(e);

@@ -11,6 +11,23 @@ impl CouplingSet for ContactSystem {
         self.table()
     }
 
+    fn deepest(&self) -> Option<(f64, String)> {
+        let mut out: Option<(f64, String)> = None;
+        for pair in &self.pairs {
+            for pass in &pair.passes {
+                let d = pass.result.max_penetration;
+                if d > 0.0 && out.as_ref().is_none_or(|(m, _)| d > *m) {
+                    let what = format!(
+                        "contact `{}`, a point of `{}`",
+                        pair.def.name, self.surfaces[pass.k].name
+                    );
+                    out = Some((d, what));
+                }
+            }
+        }
+        out
+    }
+
     fn set_load(&mut self, lambda: f64) {
         ContactSystem::set_load(self, lambda);
     }
