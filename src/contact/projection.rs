@@ -483,8 +483,8 @@ pub fn global_search(
 
 /// [`global_search`] with every element's basis at its centre given (`centres[e]`:
 /// [`basis_values`] at `xi = 0`, where each candidate's projection starts), which saves those
-/// evaluations, and that skips a candidate whose nodes lie beyond the best point found along the
-/// direction to their centroid ([`hull_distance_bound`]); the same result.
+/// evaluations, and that skips a candidate whose nodes' hull lies beyond the best point found
+/// ([`hull_distance_bound`]); the same result.
 pub fn global_search_from(
     s: &ContactSurface,
     pos: &Positions,
@@ -498,13 +498,30 @@ pub fn global_search_from(
 
 /// A lower bound of the distance from `x` to element `e` of `s` (0 where none is known): the
 /// element lies in the convex hull of its nodes (NURBS with positive weights, linear faces), so no
-/// point of it is nearer than the nodes' least extent along the unit direction from `x` to their
-/// centroid.
+/// point of it is nearer than the nodes' least extent along any unit direction from `x`. The
+/// directions are those from `x` to the iterates of Frank-Wolfe's minimisation of the distance
+/// over the hull, starting at the nodes' centroid; the largest extent is returned (it tends to
+/// the distance to the hull as the iterations go on).
+#[cfg(test)]
 pub(crate) fn hull_distance_bound(
     s: &ContactSurface,
     pos: &Positions,
     e: usize,
     x: &[f64; 3],
+) -> f64 {
+    hull_distance_bound_to(s, pos, e, x, f64::INFINITY)
+}
+
+/// Frank-Wolfe iterations of [`hull_distance_bound`].
+const HULL_ITERATIONS: usize = 8;
+
+/// [`hull_distance_bound`], returned as soon as it exceeds `enough`.
+pub(crate) fn hull_distance_bound_to(
+    s: &ContactSurface,
+    pos: &Positions,
+    e: usize,
+    x: &[f64; 3],
+    enough: f64,
 ) -> f64 {
     let dim = s.dim;
     if !matches!(
@@ -518,24 +535,53 @@ pub(crate) fn hull_distance_bound(
     if n == 0 {
         return 0.0;
     }
-    let mut d = [0.0; 3];
+    // z: a point of the hull relative to x, first the nodes' centroid
+    let mut z = [0.0; 3];
     for node in y.chunks_exact(dim) {
         for k in 0..dim {
-            d[k] += node[k];
+            z[k] += node[k];
         }
     }
     for k in 0..dim {
-        d[k] = d[k] / n as f64 - x[k];
+        z[k] = z[k] / n as f64 - x[k];
     }
-    let l = (0..dim).map(|k| d[k] * d[k]).sum::<f64>().sqrt();
-    if l.is_nan() || l <= 0.0 {
-        return 0.0;
+    let mut bound = 0.0f64;
+    for _ in 0..HULL_ITERATIONS {
+        let l = (0..dim).map(|k| z[k] * z[k]).sum::<f64>().sqrt();
+        if l.is_nan() || l <= 0.0 {
+            break;
+        }
+        // the node of least extent along z (Frank-Wolfe's vertex); the extent bounds the distance
+        let (mut least, mut at) = (f64::INFINITY, 0);
+        for (i, node) in y.chunks_exact(dim).enumerate() {
+            let t = (0..dim).map(|k| (node[k] - x[k]) * z[k]).sum::<f64>();
+            if t < least {
+                (least, at) = (t, i);
+            }
+        }
+        bound = bound.max(least / l);
+        if bound > enough {
+            break;
+        }
+        // exact line search of |z|^2 from z towards that node
+        let v = &y[at * dim..at * dim + dim];
+        let mut dz = [0.0; 3];
+        for k in 0..dim {
+            dz[k] = v[k] - x[k] - z[k];
+        }
+        let dd = (0..dim).map(|k| dz[k] * dz[k]).sum::<f64>();
+        if dd.is_nan() || dd <= 0.0 {
+            break;
+        }
+        let g = (-(0..dim).map(|k| z[k] * dz[k]).sum::<f64>() / dd).clamp(0.0, 1.0);
+        if g <= 0.0 {
+            break; // z is the hull's closest point: the bound is its distance
+        }
+        for k in 0..dim {
+            z[k] += g * dz[k];
+        }
     }
-    let least = y
-        .chunks_exact(dim)
-        .map(|node| (0..dim).map(|k| (node[k] - x[k]) * d[k]).sum::<f64>() / l)
-        .fold(f64::INFINITY, f64::min);
-    least.max(0.0)
+    bound.max(0.0)
 }
 
 /// The global search; `hull`: skip candidates by [`hull_distance_bound`].
@@ -566,7 +612,8 @@ fn search(
         // margin, far above round-off, keeps every candidate that could tie with it)
         if hull
             && best.is_some_and(|b| {
-                hull_distance_bound(s, pos, e as usize, x) > b.dist * (1.0 + 1e-8) + 1e-10 * s.h
+                let enough = b.dist * (1.0 + 1e-8) + 1e-10 * s.h;
+                hull_distance_bound_to(s, pos, e as usize, x, enough) > enough
             })
         {
             continue;

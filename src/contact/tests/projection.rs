@@ -317,3 +317,43 @@ fn the_hull_bound_never_exceeds_the_distance_to_a_point_of_the_element() {
     }
     assert!(positive > 100, "{positive}");
 }
+
+#[test]
+fn the_hull_bound_reaches_the_distance_to_a_long_element_from_beyond_its_corner() {
+    use crate::contact::basis::FaceBasis;
+    use crate::contact::projection::{hull_distance_bound, Positions};
+    use crate::contact::surface::{ContactSurface, SurfaceElement};
+    // a flat 10 x 1 quad: from (11, -1, 0) its closest point is the corner (10, 0, 0), at sqrt(2);
+    // the nodes' extent along the direction to their centroid alone gives 7.5 / 38.25^0.5 = 1.21
+    let surf = ContactSurface {
+        name: "long".into(),
+        body: 0,
+        dim: 3,
+        h: 1.0,
+        elements: vec![SurfaceElement {
+            basis: FaceBasis::Quad4,
+            nodes: vec![0, 1, 2, 3],
+            cell: 0,
+            sign: 1.0,
+            corners: vec![0, 1, 2, 3],
+            neighbours: vec![None; 4],
+        }],
+    };
+    let pos = Positions {
+        offsets: vec![0, 12],
+        x: vec![0.0, 0.0, 0.0, 10.0, 0.0, 0.0, 10.0, 1.0, 0.0, 0.0, 1.0, 0.0],
+    };
+    for (x, d) in [
+        ([11.0, -1.0, 0.0], 2f64.sqrt()),
+        ([11.0, -1.0, 2.0], 6f64.sqrt()),
+        ([-3.0, 2.0, -1.0], 11f64.sqrt()),
+        ([5.0, 3.0, 0.0], 2.0),
+        ([5.0, 0.5, 0.5], 0.5),
+    ] {
+        let lb = hull_distance_bound(&surf, &pos, 0, &x);
+        assert!(
+            lb <= d * (1.0 + 1e-12) && lb >= 0.99 * d,
+            "{x:?}: bound {lb} against the distance {d}"
+        );
+    }
+}
