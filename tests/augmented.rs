@@ -83,26 +83,15 @@ fn two_ranks_give_the_one_rank_answer() {
 
 #[test]
 fn a_pair_out_of_rounds_is_cut_back_then_named() {
-    let d = scratch("augmented/exhausted");
-    let c = case("hertz_2d.toml");
-    let out = run(
+    let (_, out) = run_case_output(
+        "augmented/exhausted",
+        "hertz_2d.toml",
         1,
         &[
-            "run",
-            c.to_str().unwrap(),
-            "--out",
-            d.to_str().unwrap(),
-            "-q",
-            "--overwrite",
-            "--set",
             "contact.0.eps_n=1e2",
-            "--set",
             "contact.0.augmented={ tol = 1e-13, max = 1 }",
-            "--set",
             "steps.max_cutbacks=1",
-            "--set",
             "steps.pseudo_steps=0",
-            "--set",
             "output.plots=false",
         ],
     );

@@ -531,21 +531,13 @@ fn a_penetration_bound_shortens_newton_steps_and_keeps_the_answer() {
         its(&bound),
         its(&free)
     );
-    let d = scratch("maxpen-below");
-    let c = case("hertz_2d.toml");
-    let out = run(
+    let (_, out) = run_case_output(
+        "maxpen-below",
+        "hertz_2d.toml",
         1,
         &[
-            "run",
-            c.to_str().unwrap(),
-            "--out",
-            d.to_str().unwrap(),
-            "-q",
-            "--set",
             "output.plots=false",
-            "--set",
             "solver.max_penetration=5e-6",
-            "--set",
             "steps.pseudo_steps=0",
         ],
     );

@@ -235,8 +235,21 @@ pub fn run_case_with(
     sets: &[&str],
     extra: &[&str],
 ) -> PathBuf {
-    let d = scratch(name);
-    let c = case(case_file);
+    let (d, c) = (scratch(name), case(case_file));
+    run_ok(np, &case_args(&c, &d, sets, extra));
+    d
+}
+
+/// A run of `case_file` into a fresh scratch directory `name` that may fail: the directory and
+/// the process's output (for tests of refused or failing runs).
+pub fn run_case_output(name: &str, case_file: &str, np: usize, sets: &[&str]) -> (PathBuf, Output) {
+    let (d, c) = (scratch(name), case(case_file));
+    let out = run(np, &case_args(&c, &d, sets, &[]));
+    (d, out)
+}
+
+/// `run CASE --out DIR -q --overwrite --set S ... EXTRA...`
+fn case_args<'a>(c: &'a Path, d: &'a Path, sets: &[&'a str], extra: &[&'a str]) -> Vec<&'a str> {
     let mut args = vec![
         "run",
         c.to_str().unwrap(),
@@ -246,11 +259,10 @@ pub fn run_case_with(
         "--overwrite",
     ];
     for s in sets {
-        args.extend(["--set", s]);
+        args.extend(["--set", *s]);
     }
     args.extend_from_slice(extra);
-    run_ok(np, &args);
-    d
+    args
 }
 
 /// The last value of a history.csv column (the last converged step).

@@ -402,11 +402,10 @@ impl<'p> Assembler<'p> {
         let missing = match &self.coupled {
             Some(c) => {
                 let needed = c.set.needed_blocks();
-                let out: Vec<_> = needed
-                    .iter()
-                    .filter(|b| c.blocks.binary_search(b).is_err())
-                    .collect();
-                if !out.is_empty() && std::env::var_os("NURBS_CONTACT_DEBUG_PATTERN").is_some() {
+                let outside = |b: &&Block| c.blocks.binary_search(b).is_err();
+                let missing = needed.iter().filter(outside).count();
+                if missing > 0 && debug_pattern() {
+                    let out: Vec<_> = needed.iter().filter(outside).collect();
                     // of them, blocks of an element with blocks in the pattern (a point slid
                     // beyond the band rather than arriving from beyond the search distance)
                     let slid = out
@@ -417,14 +416,13 @@ impl<'p> Assembler<'p> {
                         })
                         .count();
                     eprintln!(
-                        "pattern: {} of {} needed blocks outside the pattern ({slid} of elements \
-                         with blocks in it), e.g. {:?}",
-                        out.len(),
+                        "pattern: {missing} of {} needed blocks outside the pattern ({slid} of \
+                         elements with blocks in it), e.g. {:?}",
                         needed.len(),
                         &out[..out.len().min(6)]
                     );
                 }
-                out.len()
+                missing
             }
             None => 0,
         };
@@ -553,4 +551,11 @@ impl Assembler<'_> {
     pub fn augmentation_rounds(&self) -> usize {
         self.coupled.as_ref().map_or(0, |c| c.rounds)
     }
+}
+
+/// True when `NURBS_CONTACT_DEBUG_PATTERN` is set (read once): each Jacobian that lacks coupling
+/// blocks prints them.
+fn debug_pattern() -> bool {
+    static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *ON.get_or_init(|| std::env::var_os("NURBS_CONTACT_DEBUG_PATTERN").is_some())
 }
