@@ -24,6 +24,63 @@ fn mortar_mean_tangent_matches_central_differences() {
 }
 
 #[test]
+fn mortar_gaps_tangent_with_multipliers_matches_central_differences() {
+    // augmented Lagrangian: the multipliers of a round taken at one state (lambda_A <- p_A), the
+    // tangent checked at another, less pressed one, where control points with a small positive
+    // weighted gap stay pressed through their multipliers
+    for gap in ["mortar", "mortar_linear"] {
+        let law = format!(
+            "law = \"penalty\"\neps_n = 100.0\ngap = \"{gap}\"\naugmented = {{ tol = 1e-12, max = 100 }}"
+        );
+        let cases = [
+            (case_2d("Q1N2", "Q1N2", &law), false),
+            (case_2d("Q1C1", "Q1N2.1", &law), false),
+            (case_3d_hemisphere("Q1N2", "Q1N2", &law), true),
+        ];
+        for (case, three_d) in cases {
+            let mut h = Harness::new(&case);
+            let (u0, u1) = if three_d {
+                // a corner's weight spans four coarse elements: pressed deeper
+                let d = if gap == "mortar_linear" { 0.22 } else { 0.08 };
+                (
+                    pressed_3d(&h, d, [0.05, 0.08], 2e-3, 23),
+                    pressed_3d(&h, d - 0.02, [0.06, 0.07], 2e-3, 29),
+                )
+            } else {
+                (
+                    pressed(&h, 0.08, 0.13, 2e-3, 11),
+                    pressed(&h, 0.06, 0.14, 2e-3, 13),
+                )
+            };
+            let (plain, _) = h.eval(&u1, false);
+            h.eval(&u0, false);
+            let v = h.sys.augmentation_violations();
+            assert!(v[0] > 0.0, "{gap} 3d={three_d}: no violation to augment");
+            assert!(matches!(
+                h.sys.augment(&v, 0),
+                crate::assembly::Augment::Updated
+            ));
+            let (shifted, _) = h.eval(&u1, false);
+            let fmax = plain.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let df = plain
+                .iter()
+                .zip(&shifted)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            assert!(
+                df > 0.1 * fmax,
+                "{gap} 3d={three_d}: the multipliers do not move the residual ({df:e} of {fmax:e})"
+            );
+            let (err, kmax) = tangent_error(&mut h, &u1);
+            assert!(
+                kmax > 1.0,
+                "{gap} 3d={three_d}: no contact stiffness ({kmax})"
+            );
+            assert!(err < 1e-6, "{gap} 3d={three_d}: tangent error {err:e}");
+        }
+    }
+}
+
+#[test]
 fn mortar_linear_gap_tangent_matches_central_differences() {
     // weights of the linear parent's corners: any surface family, Q1C2 and Q1CH included (the
     // hemisphere pressed deeper: a corner's weight spans four coarse elements, whose mean gap is
