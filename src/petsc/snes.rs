@@ -382,6 +382,39 @@ impl<'p> Snes<'p> {
         })
     }
 
+    /// Lets go of the Jacobian the last solves used, before a new sparsity pattern is built on the
+    /// new matrix `next`: the SNES takes `next` as its Jacobian storage (the callbacks stay; they are
+    /// registered again by every [`Snes::solve`]), and the linear solver drops its operators and
+    /// what it built from them (GAMG's hierarchy or MUMPS's factors, the Krylov vectors; the types
+    /// and options stay). The old matrix is then freed with its last handle, instead of living on
+    /// in the SNES and the KSP while the new pattern is built beside it. Everything dropped is
+    /// built again by the next solve, which sets the linear solver up for the new matrix anyway.
+    ///
+    /// Collective.
+    pub fn release_operators(&mut self, next: &Matrix) -> Result<(), PetscError> {
+        let m = next.as_raw();
+        // SAFETY: valid handles; SNESSetJacobian takes its own references to `m` (and drops its
+        // references to the old matrix); a null callback and context keep the registered ones.
+        unsafe {
+            call!(SNESSetJacobian(self.raw, m, m, None, std::ptr::null_mut()))?;
+        }
+        let iterative = self.iterative && !self.on_direct;
+        let mut ksp = self.ksp()?;
+        if iterative {
+            // KSPReset alone leaves GAMG's level solvers holding operators of the old sizes (the
+            // next set-up fails: "Cannot change local size of Amat after use"); without a PC the
+            // reset has nothing to trip over, and the options database gives the PC back, as
+            // after a MUMPS fallback ([`Snes::use_options`]).
+            ksp.pc()?.set_type("none")?;
+        }
+        // SAFETY: valid handle, borrowed from the SNES for this call.
+        unsafe { call!(KSPReset(ksp.as_raw()))? };
+        if iterative {
+            ksp.set_from_options()?;
+        }
+        Ok(())
+    }
+
     /// The linear solver of the Newton steps, borrowed (e.g. to change its type or PC).
     pub fn ksp(&mut self) -> Result<Ksp<'_>, PetscError> {
         let mut raw = std::ptr::null_mut();

@@ -309,7 +309,7 @@ pub fn run_load_steps_from<'p>(
             if !resume {
                 x_conv.copy_to(x)?;
             }
-            asm.refresh_pattern(x, jac)?;
+            asm.refresh_pattern(x, jac, snes)?;
             let out = super::settle::solve_settled(asm, snes, x, jac)?;
             linear_iterations += out.linear_iterations;
             if !out.converged && out.linear_failed && snes.can_fall_back() {
@@ -496,7 +496,7 @@ fn solve_resuming<'p>(
 ) -> Result<SolveOutcome, SolverError> {
     let mut iterations = 0;
     for _ in 0..=MAX_PATTERN_RETRIES {
-        asm.refresh_pattern(x, jac)?;
+        asm.refresh_pattern(x, jac, snes)?;
         let mut out = super::settle::solve_settled(asm, snes, x, jac)?;
         iterations += out.iterations;
         if out.converged || !asm.pattern_outdated() {

@@ -35,7 +35,7 @@ pub(super) fn solve_settled<'p>(
                 break;
             }
             Augment::Updated => {
-                asm.refresh_pattern(x, jac)?;
+                asm.refresh_pattern(x, jac, snes)?;
                 let next = solve_active_set(asm, snes, x, jac)?;
                 out = chain(out, next);
             }
@@ -70,7 +70,7 @@ fn solve_active_set<'p>(
         if !out.converged || asm.settle_active_set(x) != Settle::Resume {
             break;
         }
-        asm.refresh_pattern(x, jac)?;
+        asm.refresh_pattern(x, jac, snes)?;
         let next = snes.solve(asm, x, jac)?;
         out = chain(out, next);
     }

@@ -15,7 +15,7 @@
 use super::{fatal, Assembler, MatrixAssembly};
 use crate::assembly::coupling_set::{Augment, Block, CouplingSet, Settle};
 use crate::assembly::BlockScatter;
-use crate::petsc::{Matrix, PetscError, PetscInt, ProblemError, Scatter, Vector};
+use crate::petsc::{Matrix, PetscError, PetscInt, ProblemError, Scatter, Snes, Vector};
 use mpi::collective::SystemOperation;
 use mpi::datatype::{Partition, PartitionMut};
 use mpi::traits::*;
@@ -204,7 +204,9 @@ impl<'p> Assembler<'p> {
 
     /// Before a Newton solve from `x`: if the blocks needed at `x` (or those a Jacobian of the
     /// last solves needed) are not all in the sparsity pattern, builds a new pattern reserving a
-    /// band around them, on a new matrix that replaces `jac`. PETSc's COO preallocation is set once
+    /// band around them, on a new matrix that replaces `jac` (and, in `snes`, the matrix the last
+    /// solves used, which is freed before the new pattern is built: [`Snes::release_operators`];
+    /// BENCHMARKS.md "Peak memory at a pattern rebuild"). PETSc's COO preallocation is set once
     /// per matrix (setting it again on a parallel matrix corrupted memory in PETSc 3.18), and
     /// never inside a Newton solve. Returns whether the pattern was rebuilt.
     ///
@@ -213,6 +215,7 @@ impl<'p> Assembler<'p> {
         &mut self,
         x: &Vector,
         jac: &mut Matrix<'p>,
+        snes: &mut Snes<'p>,
     ) -> Result<bool, PetscError> {
         if self.coupled.is_none() {
             return Ok(false);
@@ -238,7 +241,9 @@ impl<'p> Assembler<'p> {
             return Ok(false);
         }
         let t0 = Instant::now();
-        *jac = Matrix::new_aij(self.petsc, self.dofs.n_owned())?;
+        let next = Matrix::new_aij(self.petsc, self.dofs.n_owned())?;
+        snes.release_operators(&next)?;
+        *jac = next;
         if self.pattern_ready {
             self.timers.pattern_rebuilds += 1;
         }
