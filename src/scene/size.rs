@@ -28,6 +28,10 @@ pub const MAX_UNKNOWNS: f64 = i32::MAX as f64;
 /// the more robust, so `auto` switches at 2e4.
 pub const AUTO_ITERATIVE_UNKNOWNS: f64 = 2e4;
 
+/// Krylov vectors the iterative route may hold with contact: GMRES's restart there
+/// (`-ksp_gmres_restart 400`, `CONTACT_ITERATIVE_OPTIONS` in `src/driver/options.rs`).
+pub const CONTACT_KRYLOV_VECTORS: f64 = 400.0;
+
 /// Bytes of the linear solver (whole problem) for `unknowns` unknowns in `dim` dimensions, on the
 /// direct route (MUMPS: factor entries `30 n^(4/3)` in 3D by nested dissection, `12 n log2 n` in
 /// 2D, 12 bytes each) or the iterative one (GAMG's hierarchy, smoothers and Galerkin products,
@@ -36,11 +40,21 @@ pub const AUTO_ITERATIVE_UNKNOWNS: f64 = 2e4;
 /// process: direct 20^3 and 30^3 (644 MB, 2337 MB: 480 and 440 bytes per `n^(4/3)`, taken
 /// low, 360, so that the estimate stays a lower bound), iterative 20^3 to 40^3 (312 MB, 768 MB,
 /// 1821 MB; BENCHMARKS.md, "Scale: direct against iterative").
-pub fn linear_solver_bytes(dim: usize, unknowns: f64, iterative: bool) -> f64 {
+///
+/// With `contact`, the iterative route's GMRES runs without restart up to 400 iterations (the
+/// contact defaults of `src/driver/options.rs`), and PETSc keeps every Krylov vector it allocated:
+/// the first solves of a press step take 233-283 iterations on the 3D scale scene at 1e5
+/// unknowns, so the estimate counts [`CONTACT_KRYLOV_VECTORS`] vectors instead of 40.
+pub fn linear_solver_bytes(dim: usize, unknowns: f64, iterative: bool, contact: bool) -> f64 {
     let n = unknowns.max(1.0);
     if iterative {
         let fine = 12.0 * n * 3f64.powi(dim as i32) * dim as f64;
-        2.5 * fine + 8.0 * 40.0 * n
+        let vectors = if contact {
+            CONTACT_KRYLOV_VECTORS
+        } else {
+            40.0
+        };
+        2.5 * fine + 8.0 * vectors * n
     } else if dim == 3 {
         12.0 * 30.0 * n.powf(4.0 / 3.0)
     } else {
@@ -170,7 +184,12 @@ impl CaseSize {
         if let Some(t) = &mut total {
             let route = case.solver.linear_setting().resolve(t.total.unknowns());
             t.iterative = route == crate::scene::schema::LinearSolver::Iterative;
-            t.linear_bytes = linear_solver_bytes(t.total.dim, t.total.unknowns(), t.iterative);
+            t.linear_bytes = linear_solver_bytes(
+                t.total.dim,
+                t.total.unknowns(),
+                t.iterative,
+                !case.contact.is_empty(),
+            );
         }
         total
     }
@@ -306,15 +325,21 @@ mod tests {
         // 30^3 block, 89,373 unknowns: MUMPS's factors measured at about 1.8 GB, GAMG + GMRES
         // a few hundred MB
         let n = 89_373.0;
-        let direct = linear_solver_bytes(3, n, false);
-        let iterative = linear_solver_bytes(3, n, true);
+        let direct = linear_solver_bytes(3, n, false, false);
+        let iterative = linear_solver_bytes(3, n, true, false);
         assert!(direct > 1.2e9 && direct < 2.0e9, "{direct}");
         assert!(iterative > 1e8 && iterative < 6e8, "{iterative}");
         // factors grow faster than the hierarchy
-        let ratio =
-            |k: f64| linear_solver_bytes(3, k * n, false) / linear_solver_bytes(3, k * n, true);
+        let ratio = |k: f64| {
+            linear_solver_bytes(3, k * n, false, false) / linear_solver_bytes(3, k * n, true, false)
+        };
         assert!(ratio(8.0) > 1.5 * ratio(1.0));
-        assert!(linear_solver_bytes(2, 1e4, false) > 0.0);
+        assert!(linear_solver_bytes(2, 1e4, false, false) > 0.0);
+        // with contact, GMRES may keep 400 Krylov vectors instead of 40 (8 bytes each); the
+        // direct route does not change
+        let extra = linear_solver_bytes(3, n, true, true) - iterative;
+        assert!((extra - 8.0 * 360.0 * n).abs() < 1.0, "{extra}");
+        assert_eq!(linear_solver_bytes(3, n, false, true), direct);
         assert_eq!(LinearSolver::Auto.resolve(n), LinearSolver::Iterative);
         assert_eq!(
             LinearSolver::Auto.resolve(AUTO_ITERATIVE_UNKNOWNS - 1.0),
