@@ -515,3 +515,22 @@ impl<'p> Solver<'p> {
         result
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::CONTACT_ITERATIVE_OPTIONS;
+    use crate::scene::size::CONTACT_KRYLOV_VECTORS;
+
+    /// `check`'s memory estimate counts as many Krylov vectors with contact as GMRES's restart the
+    /// contact defaults set: the two numbers live in two files and must not drift apart.
+    #[test]
+    fn the_contact_krylov_estimate_follows_the_contact_restart() {
+        let mut words = CONTACT_ITERATIVE_OPTIONS.split_whitespace();
+        let restart = words
+            .by_ref()
+            .skip_while(|&w| w != "-ksp_gmres_restart")
+            .nth(1)
+            .and_then(|v| v.parse::<f64>().ok());
+        assert_eq!(restart, Some(CONTACT_KRYLOV_VECTORS));
+    }
+}
