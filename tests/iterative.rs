@@ -211,6 +211,64 @@ fn a_failed_krylov_solve_falls_back_to_mumps_and_is_counted() {
     }
 }
 
+/// When the MUMPS fallback fails too (`-mat_mumps_icntl_23 1`: one megabyte of working memory,
+/// MUMPS error -19, as MUMPS ran out of memory at 10^6 unknowns), the attempt is cut back on the
+/// Krylov route, which solves the shorter increments: the press in one step with GMRES limited to
+/// 30 iterations (the full increment needs 34 in its third Newton iteration, the halves at most
+/// 32; any limit from 26 to 33 shows the same) converges, to the MUMPS answer. Before, MUMPS
+/// stayed for every cutback of the step and the run failed at the minimum increment.
+#[test]
+fn a_failed_mumps_fallback_cuts_back_on_the_krylov_route() {
+    let mut sets = HEMISPHERE.to_vec();
+    sets.retain(|s| !s.starts_with("stages.0.steps"));
+    sets.push("stages.0.steps=1");
+    let direct = run_case_with(
+        "mumps-fails-direct",
+        "hemisphere_block_3d.toml",
+        1,
+        &sets,
+        &[],
+    );
+    sets.push("solver.linear=\"iterative\"");
+    let d = run_case_with(
+        "mumps-fails",
+        "hemisphere_block_3d.toml",
+        1,
+        &sets,
+        &["-ksp_max_it", "30", "-mat_mumps_icntl_23", "1"],
+    );
+    let s = summary(&d);
+    assert_eq!(s["status"], "converged");
+    let newton = &s["newton"];
+    let fallbacks = newton["linear_fallbacks"].as_u64().unwrap();
+    assert!(
+        fallbacks >= 1,
+        "GMRES(30) no longer fails here: the test shows nothing"
+    );
+    let steps = s["steps"].as_array().unwrap();
+    assert!(steps.len() >= 2, "the step was not cut back");
+    let mumps_failures = steps
+        .iter()
+        .flat_map(|st| st["failed_attempts"].as_array().unwrap())
+        .filter(|a| {
+            let why = a[1].as_str().unwrap();
+            why.contains("(MUMPS)")
+                && why.contains("INFOG(1) = -19")
+                && why.contains("out of memory")
+        })
+        .count() as u64;
+    assert_eq!(
+        mumps_failures, fallbacks,
+        "every fallback failed and was named in the step's failed attempts: {steps:?}"
+    );
+    assert!(newton["linear_iterations"].as_u64().unwrap() > 0);
+    let e = rel_diff(
+        &h5_last(&direct, "bulk", "displacement"),
+        &h5_last(&d, "bulk", "displacement"),
+    );
+    assert!(e < 1e-7, "the Krylov cutbacks differ from MUMPS by {e:e}");
+}
+
 /// A preconditioner PETSc cannot set up in the solve (ILU has no parallel implementation in
 /// PETSc: an error in `PCSetUp` on 2 ranks) is a counted fallback too, not the end of the run.
 #[test]

@@ -140,10 +140,9 @@ impl Snes<'_> {
 }
 
 impl Snes<'_> {
-    /// Null pivots MUMPS found in the last factorisation (`INFOG(28)`, with `-mat_mumps_icntl_24 1`);
-    /// `None` when the linear solver is not an LU or Cholesky factorisation by MUMPS, or nothing
-    /// was factored yet.
-    pub fn null_pivots(&mut self) -> Result<Option<i32>, PetscError> {
+    /// The factor matrix of the linear solver's PC when it is an LU or Cholesky factorisation by
+    /// MUMPS that has been factored (or attempted); `None` otherwise.
+    fn mumps_factor(&mut self) -> Result<Option<sys::Mat>, PetscError> {
         let mut ksp = std::ptr::null_mut();
         let mut pc = std::ptr::null_mut();
         let mut pc_type: *const c_char = std::ptr::null();
@@ -171,16 +170,85 @@ impl Snes<'_> {
             unsafe { call!(PCFactorGetMatrix(pc, &mut f))? };
             Ok(f)
         });
-        let Ok(f) = factor else {
+        Ok(factor.ok().filter(|f| !f.is_null()))
+    }
+
+    /// Null pivots MUMPS found in the last factorisation (`INFOG(28)`, with `-mat_mumps_icntl_24 1`);
+    /// `None` when the linear solver is not an LU or Cholesky factorisation by MUMPS, or nothing
+    /// was factored yet.
+    pub fn null_pivots(&mut self) -> Result<Option<i32>, PetscError> {
+        let Some(f) = self.mumps_factor()? else {
             return Ok(None);
         };
-        if f.is_null() {
-            return Ok(None);
-        }
         let mut v: PetscInt = 0;
         // SAFETY: `f` is the MUMPS factor of the PC; writes one integer.
         unsafe { call!(MatMumpsGetInfog(f, 28, &mut v))? };
         Ok(Some(v as i32))
+    }
+
+    /// Why the last linear solve failed, for a Newton solve that stopped with
+    /// `DIVERGED_LINEAR_SOLVE`: the KSP and PC types, the KSP's reason and iteration count, and for
+    /// a MUMPS factorisation its error code (`INFOG(1)`, `INFOG(2)`; -9 and -13 mean it ran out of
+    /// memory, -19 that it needs more than `-mat_mumps_icntl_23` allows), e.g. `gmres + gamg: DIVERGED_ITS after 400 iterations` or
+    /// `preonly + lu (MUMPS): DIVERGED_PC_FAILED, MUMPS INFOG(1) = -13, INFOG(2) = 2400`.
+    ///
+    /// Collective.
+    pub fn linear_failure_detail(&mut self) -> Result<String, PetscError> {
+        let mut ksp = std::ptr::null_mut();
+        let mut pc = std::ptr::null_mut();
+        let mut ksp_type: *const c_char = std::ptr::null();
+        let mut pc_type: *const c_char = std::ptr::null();
+        let mut reason = sys::KSPConvergedReason(0);
+        let mut text: *const c_char = std::ptr::null();
+        let mut its: PetscInt = 0;
+        // SAFETY: valid handles borrowed from the SNES; PETSc returns pointers to its own static
+        // strings (null when unset).
+        let (kt, pt, why) = unsafe {
+            call!(SNESGetKSP(self.as_raw(), &mut ksp))?;
+            call!(KSPGetPC(ksp, &mut pc))?;
+            call!(KSPGetType(ksp, &mut ksp_type))?;
+            call!(PCGetType(pc, &mut pc_type))?;
+            call!(KSPGetConvergedReason(ksp, &mut reason))?;
+            call!(KSPGetConvergedReasonString(ksp, &mut text))?;
+            call!(KSPGetIterationNumber(ksp, &mut its))?;
+            let s = |p: *const c_char| {
+                if p.is_null() {
+                    "?".to_string()
+                } else {
+                    CStr::from_ptr(p).to_string_lossy().into_owned()
+                }
+            };
+            (s(ksp_type), s(pc_type), s(text))
+        };
+        let why = if text.is_null() {
+            reason.0.to_string()
+        } else {
+            why
+        };
+        let mut detail = format!("{kt} + {pt}");
+        let mumps = self.mumps_factor()?;
+        if mumps.is_some() {
+            detail.push_str(" (MUMPS)");
+        }
+        detail.push_str(&format!(": {why}"));
+        if kt != "preonly" {
+            detail.push_str(&format!(" after {its} iterations"));
+        }
+        if let Some(f) = mumps {
+            let (mut e1, mut e2): (PetscInt, PetscInt) = (0, 0);
+            // SAFETY: `f` is the MUMPS factor of the PC; each call writes one integer.
+            unsafe {
+                call!(MatMumpsGetInfog(f, 1, &mut e1))?;
+                call!(MatMumpsGetInfog(f, 2, &mut e2))?;
+            }
+            if e1 != 0 {
+                detail.push_str(&format!(", MUMPS INFOG(1) = {e1}, INFOG(2) = {e2}"));
+                if matches!(e1, -9 | -13 | -19) {
+                    detail.push_str(" (out of memory)");
+                }
+            }
+        }
+        Ok(detail)
     }
 }
 

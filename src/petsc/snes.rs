@@ -498,7 +498,21 @@ impl<'p> Snes<'p> {
     ///
     /// Collective.
     pub fn use_options(&mut self) -> Result<(), PetscError> {
-        self.ksp()?.set_from_options()?;
+        {
+            let mut ksp = self.ksp()?;
+            ksp.set_from_options()?;
+            // a factorisation that failed leaves its reason on the PC, which the next KSP set-up
+            // would report as the new preconditioner's failure (DIVERGED_PC_FAILED in 0
+            // iterations, FACTOR_OTHER) before setting it up
+            let pc = ksp.pc()?;
+            // SAFETY: valid handle, borrowed from the KSP for this call.
+            unsafe {
+                call!(PCSetFailedReason(
+                    pc.as_raw(),
+                    sys::PCFailedReason::PC_NOERROR
+                ))?
+            };
+        }
         self.on_direct = false;
         Ok(())
     }
@@ -638,6 +652,14 @@ impl<'p> Snes<'p> {
                 .to_string_lossy()
                 .into_owned()
         };
+        let linear_failed = reason == sys::SNESConvergedReason::SNES_DIVERGED_LINEAR_SOLVE;
+        // which linear solver failed and how (a Krylov limit, a preconditioner, MUMPS out of
+        // memory): the cutback and fallback messages and the step's failed attempts say it
+        let reason_text = if linear_failed {
+            format!("{reason_text} ({})", self.linear_failure_detail()?)
+        } else {
+            reason_text
+        };
         let n = (n_hist.max(0) as usize).min(self.history.len());
         Ok(SolveOutcome {
             converged: reason.0 > 0,
@@ -645,7 +667,7 @@ impl<'p> Snes<'p> {
             iterations: its.max(0) as usize,
             residual_history: self.history[..n].to_vec(),
             domain_error: ctx.domain,
-            linear_failed: reason == sys::SNESConvergedReason::SNES_DIVERGED_LINEAR_SOLVE,
+            linear_failed,
             linear_iterations: lin_its.max(0) as usize,
         })
     }

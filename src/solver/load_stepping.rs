@@ -294,6 +294,8 @@ pub fn run_load_steps_from<'p>(
         let mut resumed_iterations = 0;
         let mut pseudo = 0;
         let mut linear_fallbacks = 0;
+        // the MUMPS fallback failed in this step: Krylov failures are cut back instead
+        let mut direct_failed = false;
         let mut linear_iterations = 0;
         // the last attempt of this step that converged to a folded state: (load, where)
         let mut tangled: Option<(f64, String)> = None;
@@ -312,7 +314,7 @@ pub fn run_load_steps_from<'p>(
             asm.refresh_pattern(x, jac, snes)?;
             let out = super::settle::solve_settled(asm, snes, x, jac)?;
             linear_iterations += out.linear_iterations;
-            if !out.converged && out.linear_failed && snes.can_fall_back() {
+            if !out.converged && out.linear_failed && snes.can_fall_back() && !direct_failed {
                 // A Krylov solve that failed (or an AMG that could not be set up) says nothing
                 // about the step: the attempt is retried as it was, with MUMPS, which stays for
                 // the rest of this step (switched back after it), and the fallback is counted.
@@ -331,6 +333,22 @@ pub fn run_load_steps_from<'p>(
                 asm.rollback();
                 resume = false;
                 continue;
+            }
+            if !out.converged && out.linear_failed && snes.on_direct() {
+                // The MUMPS fallback failed as a linear solver too (above the size MUMPS fits in
+                // memory: the 1e6-unknown twist ran out of it in every cutback while Krylov had
+                // converged the longer increments): the attempt is cut back on the Krylov route,
+                // and a Krylov failure later in this step is cut back, not retried with MUMPS.
+                if std::env::var_os("NURBS_CONTACT_DEBUG_LINEAR").is_some() {
+                    eprintln!(
+                        "linear fallback failed: step {} load {target}: {}; back to the Krylov \
+                         route for this step",
+                        step + 1,
+                        out.reason
+                    );
+                }
+                snes.use_options()?;
+                direct_failed = true;
             }
             // A singular tangent (a body nothing holds) would give an arbitrary answer. A
             // translation that only contact could hold is checked on the tangent itself (exact,
