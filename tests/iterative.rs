@@ -121,15 +121,18 @@ const PRESS_IN_ONE_STEP: &[&str] = &[
 
 /// With contact the iterative route does not restart GMRES before `-ksp_max_it`: the press that
 /// fell back to MUMPS with the contact-free restart (`-ksp_gmres_restart 100`, given on the
-/// command line here) converges on the Krylov route with no fallback, to the MUMPS answer.
+/// command line here, and no solve accepted at the limit: `krylov_accept = 0`) converges on the
+/// Krylov route with no fallback, to the MUMPS answer.
 #[test]
 fn the_contact_default_solves_the_indefinite_press_tangent_without_falling_back() {
     let case_file = "hemisphere_twist_scale_3d.toml";
+    let mut no_accept = PRESS_IN_ONE_STEP.to_vec();
+    no_accept.push("solver.krylov_accept=0.0");
     let before = run_case_with(
         "press-restart100",
         case_file,
         1,
-        PRESS_IN_ONE_STEP,
+        &no_accept,
         &["-ksp_gmres_restart", "100"],
     );
     let s = summary(&before);
@@ -162,6 +165,41 @@ fn the_contact_default_solves_the_indefinite_press_tangent_without_falling_back(
     assert!(er < 1e-7, "rim reactions differ by {er:e}");
 }
 
+/// `[solver] krylov_accept` (default 1e-3): the GMRES(100) solve of the indefinite press tangent
+/// that stops at 400 iterations with its residual reduced 3.4e-4 times (above) is an inexact
+/// Newton direction, counted in summary.json, instead of a fallback to MUMPS; the press converges
+/// on the Krylov route to the answer of the unrestarted default.
+#[test]
+fn a_krylov_solve_stopped_at_its_limit_with_a_small_residual_is_an_inexact_newton_direction() {
+    let case_file = "hemisphere_twist_scale_3d.toml";
+    let d = run_case_with(
+        "press-restart100-accept",
+        case_file,
+        1,
+        PRESS_IN_ONE_STEP,
+        &["-ksp_gmres_restart", "100"],
+    );
+    let s = summary(&d);
+    assert_eq!(s["status"], "converged");
+    let newton = &s["newton"];
+    assert_eq!(newton["linear_fallbacks"].as_u64(), Some(0), "a fallback");
+    let accepted = newton["linear_accepted_at_limit"].as_u64().unwrap();
+    assert!(accepted >= 1, "no solve accepted at the limit: {newton}");
+    let per_step: u64 = s["steps"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|st| st["linear_accepted"].as_u64().unwrap_or(0))
+        .sum();
+    assert_eq!(per_step, accepted, "per-step counts in summary.json");
+    let reference = run_case_with("press-accept-ref", case_file, 1, PRESS_IN_ONE_STEP, &[]);
+    let e = rel_diff(
+        &h5_last(&reference, "bulk", "displacement"),
+        &h5_last(&d, "bulk", "displacement"),
+    );
+    assert!(e < 1e-7, "the inexact directions' answer differs by {e:e}");
+}
+
 /// `-ksp_max_it 1`: no Krylov solve converges, every step is retried with MUMPS, counted once per
 /// step in history.csv and summary.json, and the answer is the direct one.
 #[test]
@@ -176,6 +214,7 @@ fn a_failed_krylov_solve_falls_back_to_mumps_and_is_counted() {
         );
         let mut sets = HEMISPHERE.to_vec();
         sets.push("solver.linear=\"iterative\"");
+        sets.push("solver.krylov_accept=0.0");
         let d = run_case_with(
             &format!("fallback-np{np}"),
             "hemisphere_block_3d.toml",
@@ -230,6 +269,8 @@ fn a_failed_mumps_fallback_cuts_back_on_the_krylov_route() {
         &[],
     );
     sets.push("solver.linear=\"iterative\"");
+    // GMRES(30)'s residual at the limit would be accepted as an inexact Newton direction
+    sets.push("solver.krylov_accept=0.0");
     let d = run_case_with(
         "mumps-fails",
         "hemisphere_block_3d.toml",

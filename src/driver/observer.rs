@@ -105,8 +105,11 @@ impl<'c, 'p> StepObserver<'c, 'p> {
         self.interrupted = crate::interrupt::agreed(asm.comm());
         self.newton
             .record(rec.iterations as u32, rec.failed_iterations as u64);
-        self.newton
-            .record_linear(rec.linear_fallbacks as u64, rec.linear_iterations as u64);
+        self.newton.record_linear(
+            rec.linear_fallbacks as u64,
+            rec.linear_iterations as u64,
+            rec.linear_accepted as u64,
+        );
         self.step_log.push(io::StepLog {
             step: rec.step,
             load: rec.load,
@@ -118,6 +121,7 @@ impl<'c, 'p> StepObserver<'c, 'p> {
             failed_iterations: rec.failed_iterations,
             augmentation_rounds: rec.augmentation_rounds,
             linear_fallbacks: rec.linear_fallbacks,
+            linear_accepted: rec.linear_accepted,
         });
         let reactions: Vec<f64> = model
             .reactions

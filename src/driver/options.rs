@@ -144,6 +144,11 @@ pub(super) fn set_up_solver<'p>(
         )?;
         snes.set_near_null_space(space);
         snes.set_iterative(true);
+        // a solve stopped by `-ksp_max_it` that has reduced its residual enough is an inexact
+        // Newton direction, not a failure (`[solver] krylov_accept`)
+        if case.solver.krylov_accept > 0.0 {
+            snes.ksp()?.accept_at_limit(case.solver.krylov_accept)?;
+        }
     }
 
     let control = StepControl {

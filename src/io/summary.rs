@@ -26,14 +26,19 @@ pub struct NewtonStats {
     /// for the direct solver).
     #[serde(default)]
     pub linear_iterations: u64,
+    /// Krylov solves stopped by their iteration limit and taken as inexact Newton directions
+    /// (`[solver] krylov_accept`), of the converged steps.
+    #[serde(default)]
+    pub linear_accepted_at_limit: u64,
 }
 
 impl NewtonStats {
-    /// Account for one converged step's linear solves: its fallbacks to the direct solver and its
-    /// Krylov iterations.
-    pub fn record_linear(&mut self, fallbacks: u64, iterations: u64) {
+    /// Account for one converged step's linear solves: its fallbacks to the direct solver, its
+    /// Krylov iterations and its solves accepted at the iteration limit.
+    pub fn record_linear(&mut self, fallbacks: u64, iterations: u64, accepted_at_limit: u64) {
         self.linear_fallbacks += fallbacks;
         self.linear_iterations += iterations;
+        self.linear_accepted_at_limit += accepted_at_limit;
     }
 
     /// Account for one converged step and the iterations of its failed attempts.
@@ -101,6 +106,9 @@ pub struct StepLog {
     /// Retries of the step with the direct solver after an iterative linear solve failed.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub linear_fallbacks: usize,
+    /// Krylov solves stopped by their iteration limit and taken as inexact Newton directions.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub linear_accepted: usize,
 }
 
 fn is_zero(n: &usize) -> bool {
@@ -270,6 +278,7 @@ mod tests {
                 failed_iterations: 30,
                 augmentation_rounds: 0,
                 linear_fallbacks: 0,
+                linear_accepted: 0,
             }],
             status,
         }

@@ -6,7 +6,7 @@
 use super::error::{call, PetscError};
 use super::{handle, sys, Matrix, Petsc, PetscInt, Vector};
 use mpi::raw::AsRaw;
-use std::ffi::{CStr, CString};
+use std::ffi::{c_void, CStr, CString};
 use std::marker::PhantomData;
 
 /// A PETSc `KSP`.
@@ -165,5 +165,131 @@ impl Pc<'_> {
         let k = c_string(package)?;
         // SAFETY: valid handle; PETSc copies the name.
         unsafe { call!(PCFactorSetMatSolverType(self.raw, k.as_ptr())) }
+    }
+}
+
+/// The context of [`converged_or_accepted_at_limit`]: PETSc's default test's own context, the
+/// relative residual that a solve stopped by its iteration limit must have reached, the solve's
+/// first residual norm, and the count of solves so accepted.
+struct AcceptAtLimit {
+    default_ctx: *mut c_void,
+    rtol: f64,
+    rnorm0: f64,
+    accepted: usize,
+}
+
+/// PETSc's default convergence test, except that a solve that reaches its iteration limit
+/// (`-ksp_max_it`) with its residual norm at most `rtol` times the first one is converged
+/// (`CONVERGED_ITS`) instead of `DIVERGED_ITS`: an inexact Newton direction.
+unsafe extern "C" fn converged_or_accepted_at_limit(
+    ksp: sys::KSP,
+    n: PetscInt,
+    rnorm: f64,
+    reason: *mut sys::KSPConvergedReason,
+    ctx: *mut c_void,
+) -> sys::PetscErrorCode {
+    // SAFETY: `ctx` is the `AcceptAtLimit` that `Ksp::accept_at_limit` gave PETSc with this
+    // function; PETSc passes valid `ksp` and `reason`.
+    unsafe {
+        let c = &mut *(ctx as *mut AcceptAtLimit);
+        let ierr = sys::KSPConvergedDefault(ksp, n, rnorm, reason, c.default_ctx);
+        if ierr != 0 {
+            return ierr;
+        }
+        if n == 0 {
+            c.rnorm0 = rnorm;
+        }
+        if *reason == sys::KSPConvergedReason::KSP_CONVERGED_ITERATING {
+            let mut max_it: PetscInt = 0;
+            let ierr = sys::KSPGetTolerances(
+                ksp,
+                std::ptr::null_mut(),
+                std::ptr::null_mut(),
+                std::ptr::null_mut(),
+                &mut max_it,
+            );
+            if ierr != 0 {
+                return ierr;
+            }
+            if n >= max_it && rnorm.is_finite() && rnorm <= c.rtol * c.rnorm0 {
+                *reason = sys::KSPConvergedReason::KSP_CONVERGED_ITS;
+                c.accepted += 1;
+            }
+        }
+        0
+    }
+}
+
+/// Frees the context of [`converged_or_accepted_at_limit`] (PETSc calls it when the test is
+/// replaced or the KSP destroyed).
+unsafe extern "C" fn destroy_accept_at_limit(ctx: *mut c_void) -> sys::PetscErrorCode {
+    // SAFETY: `ctx` came from `Box::into_raw` in `Ksp::accept_at_limit`, and PETSc calls this once.
+    unsafe {
+        let c = Box::from_raw(ctx as *mut AcceptAtLimit);
+        sys::KSPConvergedDefaultDestroy(c.default_ctx)
+    }
+}
+
+impl Ksp<'_> {
+    /// Accepts a Krylov solve stopped by its iteration limit whose residual norm fell to at most
+    /// `rtol` times its first one, as an inexact Newton direction (`CONVERGED_ITS`), instead of
+    /// failing it (`DIVERGED_ITS`). Other solves are judged by PETSc's default test.
+    ///
+    /// Collective.
+    pub fn accept_at_limit(&mut self, rtol: f64) -> Result<(), PetscError> {
+        let mut default_ctx = std::ptr::null_mut();
+        // SAFETY: PETSc allocates the default test's context.
+        unsafe { call!(KSPConvergedDefaultCreate(&mut default_ctx))? };
+        let ctx = Box::into_raw(Box::new(AcceptAtLimit {
+            default_ctx,
+            rtol,
+            rnorm0: 0.0,
+            accepted: 0,
+        }));
+        // SAFETY: valid handle; PETSc owns `ctx` from here and frees it with the destroy function.
+        unsafe {
+            call!(KSPSetConvergenceTest(
+                self.raw,
+                Some(converged_or_accepted_at_limit),
+                ctx as *mut c_void,
+                Some(destroy_accept_at_limit)
+            ))
+        }
+    }
+
+    /// Solves accepted at the iteration limit by [`Ksp::accept_at_limit`] so far (0 when that
+    /// test is not installed).
+    pub fn accepted_at_limit(&self) -> Result<usize, PetscError> {
+        let mut test: Option<
+            unsafe extern "C" fn(
+                sys::KSP,
+                PetscInt,
+                f64,
+                *mut sys::KSPConvergedReason,
+                *mut c_void,
+            ) -> sys::PetscErrorCode,
+        > = None;
+        let mut ctx: *mut c_void = std::ptr::null_mut();
+        // SAFETY: valid handle; PETSc writes the test's function pointer and context.
+        unsafe {
+            call!(KSPGetConvergenceTest(
+                self.raw,
+                &mut test,
+                &mut ctx,
+                std::ptr::null_mut()
+            ))?
+        };
+        let ours: unsafe extern "C" fn(
+            sys::KSP,
+            PetscInt,
+            f64,
+            *mut sys::KSPConvergedReason,
+            *mut c_void,
+        ) -> sys::PetscErrorCode = converged_or_accepted_at_limit;
+        if test.map(|t| t as usize) != Some(ours as usize) || ctx.is_null() {
+            return Ok(0);
+        }
+        // SAFETY: the test is ours, so its context is the `AcceptAtLimit` it was installed with.
+        Ok(unsafe { (*(ctx as *const AcceptAtLimit)).accepted })
     }
 }

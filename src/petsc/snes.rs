@@ -55,6 +55,9 @@ pub struct SolveOutcome {
     /// Linear (Krylov) iterations of this solve, summed over its Newton iterations (one per
     /// Newton iteration for a direct solve).
     pub linear_iterations: usize,
+    /// Krylov solves of this solve stopped by their iteration limit and taken as inexact Newton
+    /// directions ([`Ksp::accept_at_limit`]).
+    pub linear_accepted: usize,
 }
 
 const HISTORY_LEN: usize = 1000;
@@ -538,6 +541,7 @@ impl<'p> Snes<'p> {
         if let Some(space) = &self.near_null {
             jac.set_near_null_space(space)?;
         }
+        let accepted_before = self.ksp()?.accepted_at_limit()?;
         let jac_raw = jac.as_raw();
         let mut ctx = Context {
             problem,
@@ -615,6 +619,7 @@ impl<'p> Snes<'p> {
                 domain_error: ctx.domain,
                 linear_failed: true,
                 linear_iterations: 0,
+                linear_accepted: 0,
             });
         }
         let mut reason = sys::SNESConvergedReason(0);
@@ -669,6 +674,7 @@ impl<'p> Snes<'p> {
             domain_error: ctx.domain,
             linear_failed,
             linear_iterations: lin_its.max(0) as usize,
+            linear_accepted: self.ksp()?.accepted_at_limit()? - accepted_before,
         })
     }
 }

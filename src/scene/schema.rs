@@ -605,6 +605,14 @@ pub struct SolverOptions {
     /// solution. Default: none (BENCHMARKS.md, "A penetration bound on Newton's iterates").
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_penetration: Option<f64>,
+    /// The iterative route: a Krylov solve stopped by its iteration limit (`-ksp_max_it`) whose
+    /// residual norm fell to at most this fraction of its first one is taken as an inexact Newton
+    /// direction instead of a failed linear solve (which retries the attempt with MUMPS); Newton's
+    /// own residual still decides convergence. 0 disables it (every solve that reaches the limit
+    /// fails). In [0, 1). Default: 1e-3 (BENCHMARKS.md, "Krylov solves accepted at the iteration
+    /// limit").
+    #[serde(default = "default_krylov_accept")]
+    pub krylov_accept: f64,
 }
 
 /// `[solver] partition`: what METIS balances and keeps together.
@@ -681,6 +689,10 @@ fn default_stagnation_window() -> usize {
     10
 }
 
+fn default_krylov_accept() -> f64 {
+    1e-3
+}
+
 impl Default for SolverOptions {
     fn default() -> Self {
         SolverOptions {
@@ -691,6 +703,7 @@ impl Default for SolverOptions {
             linear: None,
             partition: PartitionKind::default(),
             max_penetration: None,
+            krylov_accept: default_krylov_accept(),
         }
     }
 }

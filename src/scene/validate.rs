@@ -42,6 +42,16 @@ pub fn validate(case: &Case) -> Result<(), SceneError> {
             );
         }
     }
+    let a = case.solver.krylov_accept;
+    if !(0.0..1.0).contains(&a) {
+        v.push(
+            "solver.krylov_accept",
+            format!(
+                "must be in [0, 1) (a fraction of a Krylov solve's first residual norm; 0 \
+                 disables it), got {a}"
+            ),
+        );
+    }
     if v.0.is_empty() {
         // sizes only mean something once every count is known to be sane
         check_sizes(case, &mut v);
@@ -1033,6 +1043,25 @@ mod tests {
             &["bodies.block.material.nu=0.4999999"],
         );
         assert!(has(&i, "bodies.block.material.nu", "within 1e-6"), "{i:?}");
+    }
+
+    #[test]
+    fn krylov_accept_is_a_fraction_below_one() {
+        for bad in ["-1e-3", "1.0", "2.0", "nan"] {
+            let i = issues(
+                BLOCK_COMPRESSION_3D,
+                &[&format!("solver.krylov_accept={bad}")],
+            );
+            assert!(
+                has(&i, "solver.krylov_accept", "must be in [0, 1)"),
+                "{bad}: {i:?}"
+            );
+        }
+        for good in ["0.0", "1e-3", "0.5"] {
+            let o = [format!("solver.krylov_accept={good}")];
+            let c = parse_case(BLOCK_COMPRESSION_3D, Path::new("c.toml"), &o);
+            assert!(c.is_ok(), "{good}: {c:?}");
+        }
     }
 
     #[test]

@@ -129,6 +129,9 @@ pub struct StepRecord {
     /// Linear (Krylov) iterations of all the step's Newton solves (converged, resumed and failed
     /// attempts; not the rescue's): one per Newton iteration for the direct solver.
     pub linear_iterations: usize,
+    /// Krylov solves of the step's Newton solves stopped by their iteration limit and taken as
+    /// inexact Newton directions (`[solver] krylov_accept`).
+    pub linear_accepted: usize,
 }
 
 /// Where the load stepping stands after a converged step: enough to continue it exactly (restart).
@@ -297,6 +300,7 @@ pub fn run_load_steps_from<'p>(
         // the MUMPS fallback failed in this step: Krylov failures are cut back instead
         let mut direct_failed = false;
         let mut linear_iterations = 0;
+        let mut linear_accepted = 0;
         // the last attempt of this step that converged to a folded state: (load, where)
         let mut tangled: Option<(f64, String)> = None;
         let (out, target) = loop {
@@ -314,6 +318,7 @@ pub fn run_load_steps_from<'p>(
             asm.refresh_pattern(x, jac, snes)?;
             let out = super::settle::solve_settled(asm, snes, x, jac)?;
             linear_iterations += out.linear_iterations;
+            linear_accepted += out.linear_accepted;
             if !out.converged && out.linear_failed && snes.can_fall_back() && !direct_failed {
                 // A Krylov solve that failed (or an AMG that could not be set up) says nothing
                 // about the step: the attempt is retried as it was, with MUMPS, which stays for
@@ -494,6 +499,7 @@ pub fn run_load_steps_from<'p>(
             position: sizer.position(step),
             linear_fallbacks,
             linear_iterations,
+            linear_accepted,
         };
         let after = observer(&rec, x, asm).map_err(SolverError::Observer)?;
         let load = rec.load;

@@ -49,6 +49,7 @@ fn chain(first: SolveOutcome, next: SolveOutcome) -> SolveOutcome {
     SolveOutcome {
         iterations: first.iterations + next.iterations,
         linear_iterations: first.linear_iterations + next.linear_iterations,
+        linear_accepted: first.linear_accepted + next.linear_accepted,
         residual_history: first
             .residual_history
             .into_iter()
