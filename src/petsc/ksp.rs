@@ -169,18 +169,19 @@ impl Pc<'_> {
 }
 
 /// The context of [`converged_or_accepted_at_limit`]: PETSc's default test's own context, the
-/// relative residual that a solve stopped by its iteration limit must have reached, the solve's
-/// first residual norm, and the count of solves so accepted.
+/// relative true residual that a solve stopped by its iteration limit must have reached, the count
+/// of solves so accepted, and the relative true residual of the last solve that reached the limit.
 struct AcceptAtLimit {
     default_ctx: *mut c_void,
     rtol: f64,
-    rnorm0: f64,
     accepted: usize,
+    last_true: f64,
 }
 
 /// PETSc's default convergence test, except that a solve that reaches its iteration limit
-/// (`-ksp_max_it`) with its residual norm at most `rtol` times the first one is converged
-/// (`CONVERGED_ITS`) instead of `DIVERGED_ITS`: an inexact Newton direction.
+/// (`-ksp_max_it`) with its true residual `|b - A x|` at most `rtol |b|` is converged
+/// (`CONVERGED_ITS`) instead of `DIVERGED_ITS`: an inexact Newton direction with forcing term
+/// `rtol` (Eisenstat and Walker's condition on the linearised residual).
 unsafe extern "C" fn converged_or_accepted_at_limit(
     ksp: sys::KSP,
     n: PetscInt,
@@ -196,9 +197,6 @@ unsafe extern "C" fn converged_or_accepted_at_limit(
         if ierr != 0 {
             return ierr;
         }
-        if n == 0 {
-            c.rnorm0 = rnorm;
-        }
         if *reason == sys::KSPConvergedReason::KSP_CONVERGED_ITERATING {
             let mut max_it: PetscInt = 0;
             let ierr = sys::KSPGetTolerances(
@@ -211,9 +209,39 @@ unsafe extern "C" fn converged_or_accepted_at_limit(
             if ierr != 0 {
                 return ierr;
             }
-            if n >= max_it && rnorm.is_finite() && rnorm <= c.rtol * c.rnorm0 {
-                *reason = sys::KSPConvergedReason::KSP_CONVERGED_ITS;
-                c.accepted += 1;
+            if n >= max_it && rnorm.is_finite() {
+                // the true residual of the linear system, |b - A x_n| / |b|: with left
+                // preconditioning the Krylov method's own norm is the preconditioned one, which
+                // near a converged Newton iterate can be 50x the true one's scale (the 1e6 twist)
+                // and says little about the direction's quality
+                let mut r: sys::Vec = std::ptr::null_mut();
+                let mut b: sys::Vec = std::ptr::null_mut();
+                let (mut r_norm, mut b_norm) = (f64::INFINITY, 0.0);
+                let mut ierr =
+                    sys::KSPBuildResidual(ksp, std::ptr::null_mut(), std::ptr::null_mut(), &mut r);
+                if ierr == 0 {
+                    ierr = sys::VecNorm(r, sys::NormType::NORM_2, &mut r_norm);
+                }
+                if !r.is_null() {
+                    let e = sys::VecDestroy(&mut r);
+                    if ierr == 0 {
+                        ierr = e;
+                    }
+                }
+                if ierr == 0 {
+                    ierr = sys::KSPGetRhs(ksp, &mut b);
+                }
+                if ierr == 0 {
+                    ierr = sys::VecNorm(b, sys::NormType::NORM_2, &mut b_norm);
+                }
+                if ierr != 0 {
+                    return ierr;
+                }
+                c.last_true = r_norm / b_norm;
+                if r_norm.is_finite() && r_norm <= c.rtol * b_norm {
+                    *reason = sys::KSPConvergedReason::KSP_CONVERGED_ITS;
+                    c.accepted += 1;
+                }
             }
         }
         0
@@ -231,9 +259,10 @@ unsafe extern "C" fn destroy_accept_at_limit(ctx: *mut c_void) -> sys::PetscErro
 }
 
 impl Ksp<'_> {
-    /// Accepts a Krylov solve stopped by its iteration limit whose residual norm fell to at most
-    /// `rtol` times its first one, as an inexact Newton direction (`CONVERGED_ITS`), instead of
-    /// failing it (`DIVERGED_ITS`). Other solves are judged by PETSc's default test.
+    /// Accepts a Krylov solve stopped by its iteration limit whose true residual `|b - A x|` is
+    /// at most `rtol |b|`, as an inexact Newton direction (`CONVERGED_ITS`), instead of failing it
+    /// (`DIVERGED_ITS`). Other solves are judged by PETSc's default test (in the method's own
+    /// norm).
     ///
     /// Collective.
     pub fn accept_at_limit(&mut self, rtol: f64) -> Result<(), PetscError> {
@@ -243,8 +272,8 @@ impl Ksp<'_> {
         let ctx = Box::into_raw(Box::new(AcceptAtLimit {
             default_ctx,
             rtol,
-            rnorm0: 0.0,
             accepted: 0,
+            last_true: f64::NAN,
         }));
         // SAFETY: valid handle; PETSc owns `ctx` from here and frees it with the destroy function.
         unsafe {
@@ -257,9 +286,10 @@ impl Ksp<'_> {
         }
     }
 
-    /// Solves accepted at the iteration limit by [`Ksp::accept_at_limit`] so far (0 when that
-    /// test is not installed).
-    pub fn accepted_at_limit(&self) -> Result<usize, PetscError> {
+    /// The state of [`Ksp::accept_at_limit`]'s test: the solves it accepted so far, and the
+    /// relative true residual `|b - A x| / |b|` of the last solve that reached the iteration
+    /// limit (NaN before one did); `None` when that test is not installed.
+    pub fn limit_state(&self) -> Result<Option<(usize, f64)>, PetscError> {
         let mut test: Option<
             unsafe extern "C" fn(
                 sys::KSP,
@@ -287,9 +317,16 @@ impl Ksp<'_> {
             *mut c_void,
         ) -> sys::PetscErrorCode = converged_or_accepted_at_limit;
         if test.map(|t| t as usize) != Some(ours as usize) || ctx.is_null() {
-            return Ok(0);
+            return Ok(None);
         }
         // SAFETY: the test is ours, so its context is the `AcceptAtLimit` it was installed with.
-        Ok(unsafe { (*(ctx as *const AcceptAtLimit)).accepted })
+        let c = unsafe { &*(ctx as *const AcceptAtLimit) };
+        Ok(Some((c.accepted, c.last_true)))
+    }
+
+    /// Solves accepted at the iteration limit by [`Ksp::accept_at_limit`] so far (0 when that
+    /// test is not installed).
+    pub fn accepted_at_limit(&self) -> Result<usize, PetscError> {
+        Ok(self.limit_state()?.map_or(0, |(n, _)| n))
     }
 }

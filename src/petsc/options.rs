@@ -233,6 +233,13 @@ impl Snes<'_> {
         detail.push_str(&format!(": {why}"));
         if kt != "preonly" {
             detail.push_str(&format!(" after {its} iterations"));
+            // the true residual at the limit, when the accepting test computed it
+            let limit = self.ksp()?.limit_state()?;
+            if let Some((_, rel)) = limit.filter(|&(_, r)| r.is_finite()) {
+                if why == "DIVERGED_ITS" {
+                    detail.push_str(&format!(", true residual {rel:.1e} of |b|"));
+                }
+            }
         }
         if let Some(f) = mumps {
             let (mut e1, mut e2): (PetscInt, PetscInt) = (0, 0);
