@@ -665,6 +665,15 @@ impl<'p> Snes<'p> {
         } else {
             reason_text
         };
+        let limit = self.ksp()?.limit_state()?;
+        let linear_accepted = limit.map_or(0, |(n, _)| n) - accepted_before;
+        if linear_accepted > 0 && std::env::var_os("NURBS_CONTACT_DEBUG_LINEAR").is_some() {
+            eprintln!(
+                "linear: {linear_accepted} Krylov solve(s) accepted at the iteration limit, the \
+                 last with true residual {:.2e} of |b|",
+                limit.map_or(f64::NAN, |(_, r)| r)
+            );
+        }
         let n = (n_hist.max(0) as usize).min(self.history.len());
         Ok(SolveOutcome {
             converged: reason.0 > 0,
@@ -674,7 +683,7 @@ impl<'p> Snes<'p> {
             domain_error: ctx.domain,
             linear_failed,
             linear_iterations: lin_its.max(0) as usize,
-            linear_accepted: self.ksp()?.accepted_at_limit()? - accepted_before,
+            linear_accepted,
         })
     }
 }
