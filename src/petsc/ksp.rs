@@ -168,6 +168,15 @@ impl Pc<'_> {
     }
 }
 
+/// A KSP convergence test as PETSc calls it: `(ksp, iteration, residual norm, reason, context)`.
+type ConvergenceTest = unsafe extern "C" fn(
+    sys::KSP,
+    PetscInt,
+    f64,
+    *mut sys::KSPConvergedReason,
+    *mut c_void,
+) -> sys::PetscErrorCode;
+
 /// The context of [`converged_or_accepted_at_limit`]: PETSc's default test's own context, the
 /// relative true residual that a solve stopped by its iteration limit must have reached, the count
 /// of solves so accepted, and the relative true residual of the last solve that reached the limit.
@@ -290,15 +299,7 @@ impl Ksp<'_> {
     /// relative true residual `|b - A x| / |b|` of the last solve that reached the iteration
     /// limit (NaN before one did); `None` when that test is not installed.
     pub fn limit_state(&self) -> Result<Option<(usize, f64)>, PetscError> {
-        let mut test: Option<
-            unsafe extern "C" fn(
-                sys::KSP,
-                PetscInt,
-                f64,
-                *mut sys::KSPConvergedReason,
-                *mut c_void,
-            ) -> sys::PetscErrorCode,
-        > = None;
+        let mut test: Option<ConvergenceTest> = None;
         let mut ctx: *mut c_void = std::ptr::null_mut();
         // SAFETY: valid handle; PETSc writes the test's function pointer and context.
         unsafe {
@@ -309,13 +310,7 @@ impl Ksp<'_> {
                 std::ptr::null_mut()
             ))?
         };
-        let ours: unsafe extern "C" fn(
-            sys::KSP,
-            PetscInt,
-            f64,
-            *mut sys::KSPConvergedReason,
-            *mut c_void,
-        ) -> sys::PetscErrorCode = converged_or_accepted_at_limit;
+        let ours: ConvergenceTest = converged_or_accepted_at_limit;
         if test.map(|t| t as usize) != Some(ours as usize) || ctx.is_null() {
             return Ok(None);
         }
