@@ -5,7 +5,7 @@
 # solve + assembly; assembly includes contact = gather + search + projection + contact blocks, and
 # the pattern rebuilds; contact_share = contact / (solve + assembly)), and the peak RSS (KiB:
 # /usr/bin/time's %M, the largest single process, so per rank under mpirun; and PETSc's peak, the
-# largest rank's, in MB).
+# largest rank's, in MB), and each rank's own contact and assembly timers (summary.json rank_times).
 # usage: ci/scale_scene.sh SIZE ROUTE NP [ARGS...]   SIZE = e4 | e4.5 | e5 | e6, ROUTE = direct | iterative
 #   e.g. nice -n 19 ci/scale_scene.sh e5 iterative 2
 # SIZE e4 is the case file as it is (3 + 3 steps); e4.5 (cube 24^3, 54,252 unknowns, where
@@ -46,4 +46,10 @@ print(f"{o.rsplit('/', 1)[1]:20s} n={s['unknowns']} ranks={s['ranks']} status={s
       f"asm/it={w['assembly'] / its:.3f}s contact/it={w['contact'] / its:.3f}s "
       f"pattern/it={w['pattern'] / its:.3f}s contact_share={w['contact'] / (w['solve'] + w['assembly']):.3f} "
       f"total={w['total']:.1f}s wall={t[0]}s peakKB={t[1]} petsc_peakMB={s['peak_memory_mb']:.0f}")
+r = s.get('rank_times')
+if r:
+    f = lambda k: '/'.join(f"{v:.2f}" for v in r[k])
+    print(f"  per rank (s): contact {f('contact')} = update {f('contact_update')} + evaluate "
+          f"{f('contact_evaluate')} + gathers and waits; residual {f('residual')} jacobian "
+          f"{f('jacobian')} pattern {f('pattern')}")
 PY

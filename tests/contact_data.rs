@@ -106,6 +106,35 @@ fn contact_data_counts_what_each_rank_holds_and_receives() {
     let ev = |s: &serde_json::Value| s["contact_data"]["evaluations"].as_u64().unwrap();
     assert!(ev(&s1) > 0);
     assert_eq!(ev(&s1), ev(&s2));
+    // each rank's own timers: the contact work (update, evaluation) is part of its contact time;
+    // the slowest rank's is `wall_time`'s
+    for (s, np) in [(&s1, 1), (&s2, 2), (&s4, 4)] {
+        let t = |key: &str| -> Vec<f64> {
+            s["rank_times"][key]
+                .as_array()
+                .unwrap_or_else(|| panic!("rank_times.{key} on {np} ranks"))
+                .iter()
+                .map(|v| v.as_f64().unwrap())
+                .collect()
+        };
+        let (update, evaluate, contact) =
+            (t("contact_update"), t("contact_evaluate"), t("contact"));
+        assert_eq!(
+            contact.len(),
+            np,
+            "rank_times on {np} ranks: one entry per rank"
+        );
+        for r in 0..np {
+            assert!(update[r] > 0.0 && evaluate[r] > 0.0, "rank {r} of {np}");
+            assert!(update[r] + evaluate[r] <= contact[r], "rank {r} of {np}");
+        }
+        let slowest = contact.iter().copied().fold(0.0, f64::max);
+        assert_eq!(
+            s["wall_time"]["contact"].as_f64(),
+            Some(slowest),
+            "{np} ranks"
+        );
+    }
 }
 
 #[test]

@@ -123,3 +123,30 @@ pub(super) fn contact_data(
         evaluations,
     })
 }
+
+/// Every rank's own assembly timers, in rank order (collective).
+pub(super) fn rank_times(
+    world: &SimpleCommunicator,
+    t: &crate::assembly::Timers,
+) -> crate::io::RankTimes {
+    let mine = [
+        t.residual,
+        t.jacobian,
+        t.pattern,
+        t.contact,
+        t.contact_update,
+        t.contact_evaluate,
+    ];
+    const N: usize = 6;
+    let mut all = vec![0.0f64; N * world.size() as usize];
+    world.all_gather_into(&mine[..], &mut all[..]);
+    let column = |k: usize| all.chunks_exact(N).map(|r| r[k]).collect::<Vec<f64>>();
+    crate::io::RankTimes {
+        residual: column(0),
+        jacobian: column(1),
+        pattern: column(2),
+        contact: column(3),
+        contact_update: column(4),
+        contact_evaluate: column(5),
+    }
+}

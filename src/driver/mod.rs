@@ -7,7 +7,7 @@ mod options;
 mod output;
 mod restore;
 
-use gather::{contact_data, gather_errors};
+use gather::{contact_data, gather_errors, rank_times};
 use observer::StepObserver;
 use options::{check_solver_options, set_up_solver, warn_unused_options, Solver};
 use output::{gather_points, Output};
@@ -726,6 +726,7 @@ fn finish_and_report(
         }),
         contact_data: contact_data(comm, asm),
         partition,
+        rank_times: Some(rank_times(comm, &t)),
         steps: observer.step_log,
         status,
     };

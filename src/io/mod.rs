@@ -25,5 +25,5 @@ pub use history::{HistoryRow, HistoryWriter};
 pub use outdir::{claim_output_dir, RUN_MARKER};
 pub use summary::{
     write_summary, ContactDataStats, ContactPatternStats, NewtonStats, PartitionStats, PhaseTimes,
-    RunStatus, StepLog, Summary,
+    RankTimes, RunStatus, StepLog, Summary,
 };

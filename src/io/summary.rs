@@ -162,6 +162,10 @@ pub struct Summary {
     /// How the cells were split between the ranks. Absent on one rank.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub partition: Option<PartitionStats>,
+    /// Each rank's own assembly timers (`wall_time` holds the slowest rank's), to show load
+    /// imbalance. Absent in summaries written before it existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rank_times: Option<RankTimes>,
     /// One entry per converged load step, with its Newton residual history.
     pub steps: Vec<StepLog>,
     #[serde(flatten)]
@@ -202,6 +206,21 @@ pub struct ContactDataStats {
     /// Gathers over the run (one per residual, Jacobian and pattern refresh), rank 0's count
     /// (the gather is collective, so every rank's is the same).
     pub evaluations: u64,
+}
+
+/// Per-rank wall seconds of the assembly's phases, in rank order. `residual`, `jacobian`,
+/// `pattern` and `contact` are the timers of `wall_time` on each rank; `contact` includes the
+/// gathers and the agreement after each update, i.e. the wait for the slowest rank, while
+/// `contact_update` (search and projection) and `contact_evaluate` (the contact residual and
+/// blocks) are the rank's own contact work alone.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RankTimes {
+    pub residual: Vec<f64>,
+    pub jacobian: Vec<f64>,
+    pub pattern: Vec<f64>,
+    pub contact: Vec<f64>,
+    pub contact_update: Vec<f64>,
+    pub contact_evaluate: Vec<f64>,
 }
 
 /// The cell partition of a run on several ranks (METIS, two constraints with contact).
@@ -267,6 +286,7 @@ mod tests {
             contact_pattern: None,
             contact_data: None,
             partition: None,
+            rank_times: None,
             steps: vec![StepLog {
                 step: 1,
                 load: 0.5,

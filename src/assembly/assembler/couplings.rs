@@ -365,7 +365,9 @@ impl<'p> Assembler<'p> {
             }
             &self.u_table_off
         };
+        let t0 = Instant::now();
         let out = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| c.set.update(u)));
+        self.timers.contact_update += t0.elapsed().as_secs_f64();
         match out {
             Ok(Ok(())) => Ok(()),
             Ok(Err(msg)) => Err(ProblemError::Domain(msg)),

@@ -55,6 +55,11 @@ pub struct Timers {
     /// projection) and evaluation (part of
     /// `residual` and `jacobian`).
     pub contact: f64,
+    /// Of `contact`: the coupling set's updates alone (contact: search and projection), without
+    /// the gathers before them and the agreement after them.
+    pub contact_update: f64,
+    /// Of `contact`: the coupling set's evaluations alone (contact residual and blocks).
+    pub contact_evaluate: f64,
     /// Sparsity pattern rebuilds because the coupling set's needed blocks left the pattern.
     pub pattern_rebuilds: usize,
 }
@@ -350,7 +355,9 @@ impl<'p> Assembler<'p> {
                     &mut fl[..],
                     sink.map(|s| (s, &slot_of as &dyn Fn(&Block) -> Option<usize>)),
                 );
-                self.timers.contact += t0.elapsed().as_secs_f64();
+                let dt = t0.elapsed().as_secs_f64();
+                self.timers.contact += dt;
+                self.timers.contact_evaluate += dt;
             }
         }
         Ok(failure)
