@@ -335,28 +335,50 @@ pub fn stages_started(p: &LoadPosition) -> usize {
 }
 
 /// Why the case `now` cannot continue a checkpoint of `saved` (both resolved cases as TOML), or
-/// `Ok` when they differ only in output settings and in stages the checkpoint has not started
-/// (with the per-stage values of those stages in boundary conditions and contact pairs).
-pub fn compare_cases(saved: &str, now: &str, started: usize) -> Result<(), String> {
+/// the `[solver]` settings that differ (`` `solver.key` (was there, is now) ``, empty when none)
+/// when the cases differ only in those, in output settings and in stages the checkpoint has not
+/// started (with the per-stage values of those stages in boundary conditions and contact pairs).
+///
+/// `[solver]` is how the problem is solved, not the problem (tolerances, the linear route, the
+/// penetration bound of the iterates, the contact pattern's reach, the partition), as are the PETSc
+/// options of the command line: continuing a failed run with other solver settings is what a
+/// restart is for, so they may change, and the caller reports them.
+pub fn compare_cases(saved: &str, now: &str, started: usize) -> Result<Vec<String>, String> {
     // through the schema, which knows its per-stage lists ([`Case::truncate_stages`]), then
     // compared as TOML trees so that the first differing key can be named
-    let trimmed = |t: &str| -> Result<toml::Value, String> {
+    let trimmed = |t: &str| -> Result<(toml::Value, toml::Value), String> {
         let mut case: crate::scene::Case =
             toml::from_str(t).map_err(|e| format!("the case does not parse: {e}"))?;
         case.truncate_stages(started);
         let mut v = toml::Value::try_from(&case).map_err(|e| e.to_string())?;
+        let mut solver = toml::Value::Table(Default::default());
         if let Some(t) = v.as_table_mut() {
             t.remove("output");
+            if let Some(s) = t.remove("solver") {
+                solver = s;
+            }
         }
-        Ok(v)
+        Ok((v, solver))
     };
-    let (a, b) = (trimmed(saved)?, trimmed(now)?);
-    match first_difference(&a, &b, "") {
-        None => Ok(()),
-        Some((key, was, is)) => Err(format!(
-            "`{key}` differs from the case the checkpoint was written for ({was} there, {is} now); only `output` and the stages after the first {started} (those the checkpoint has started) may change"
-        )),
+    let ((a, sa), (b, sb)) = (trimmed(saved)?, trimmed(now)?);
+    if let Some((key, was, is)) = first_difference(&a, &b, "") {
+        return Err(format!(
+            "`{key}` differs from the case the checkpoint was written for ({was} there, {is} now); only `output`, `solver` and the stages after the first {started} (those the checkpoint has started) may change"
+        ));
     }
+    let mut changed = Vec::new();
+    if let (Some(x), Some(y)) = (sa.as_table(), sb.as_table()) {
+        let mut keys: Vec<&String> = x.keys().chain(y.keys()).collect();
+        keys.sort();
+        keys.dedup();
+        for k in keys {
+            let (u, v) = (x.get(k), y.get(k));
+            if u != v {
+                changed.push(format!("`solver.{k}` ({} there, {} now)", show(u), show(v)));
+            }
+        }
+    }
+    Ok(changed)
 }
 
 fn show(v: Option<&toml::Value>) -> String {
@@ -496,10 +518,28 @@ every = 1
         for ((from, to), key) in changes.iter().zip(keys) {
             assert!(CASE.contains(from), "{from}");
             let later = CASE.replace("every = 1", "every = 5").replacen(from, to, 1);
-            assert_eq!(compare_cases(CASE, &later, 1), Ok(()), "{from} -> {to}");
+            assert_eq!(compare_cases(CASE, &later, 1), Ok(vec![]), "{from} -> {to}");
             let err = compare_cases(CASE, &later, 2).unwrap_err();
             assert!(err.starts_with(&format!("{key} differs")), "{err}");
         }
+        // solver settings are not the problem: they may change, and are reported
+        let tuned = CASE.replace(
+            "[output]",
+            "[solver]\nmax_penetration = 0.05\nlinear = \"iterative\"\n[output]",
+        );
+        let changed = compare_cases(CASE, &tuned, 2).unwrap();
+        assert_eq!(changed.len(), 2, "{changed:?}");
+        assert!(
+            changed
+                .iter()
+                .any(|c| c.starts_with("`solver.max_penetration` (") && c.ends_with("0.05 now)")),
+            "{changed:?}"
+        );
+        assert!(
+            changed.iter().any(|c| c.starts_with("`solver.linear`")),
+            "{changed:?}"
+        );
+        assert_eq!(compare_cases(&tuned, &tuned, 2), Ok(vec![]));
         let e = CASE.replace("E = 1.0", "E = 2.0");
         let err = compare_cases(CASE, &e, 1).unwrap_err();
         assert!(err.contains("`bodies.b.material.E`"), "{err}");
@@ -508,7 +548,7 @@ every = 1
         let more = format!("{CASE}\n[[stages]]\nname = \"s2\"\nsteps = 3\n")
             .replace("[0.2]]", "[0.2], [0.4]]")
             .replace("[1.0, 2.0]", "[1.0, 2.0, 3.0]");
-        assert_eq!(compare_cases(CASE, &more, 2), Ok(()));
+        assert_eq!(compare_cases(CASE, &more, 2), Ok(vec![]));
         let err = compare_cases(&more, CASE, 3).unwrap_err();
         assert!(err.contains("`bcs.0.value.2`"), "{err}");
         assert!(err.contains("stages after the first 3"), "{err}");

@@ -335,7 +335,7 @@ fn a_checkpoint_written_on_2_ranks_restarts_on_1() {
 }
 
 /// A restart with a changed material value is refused, naming the key; the run directory is left
-/// as it was.
+/// as it was. Output and solver settings may change.
 #[test]
 fn a_restart_with_a_changed_material_is_refused_with_the_key() {
     let dir = scratch("restart/changed");
@@ -356,16 +356,21 @@ fn a_restart_with_a_changed_material_is_refused_with_the_key() {
     assert!(err.contains("`bodies.block.material.E` differs"), "{err}");
     assert!(!err.contains("panicked"), "{err}");
     assert_eq!(std::fs::read(killed.join("history.csv")).unwrap(), before);
-    // output settings may change
+    // output and solver settings may change; the changed solver settings are reported
     let out = run_ok(
         1,
         &args(
             &case,
-            &["output.every=3"],
+            &["output.every=3", "solver.krylov_accept=0.01"],
             &["--restart", killed.to_str().unwrap()],
         ),
     );
     assert_eq!(summary(&killed)["status"], "converged", "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("solver settings that differ from the checkpoint's: `solver.krylov_accept` (0.001 there, 0.01 now)"),
+        "{}",
+        stderr(&out)
+    );
     // and a directory without a checkpoint is refused
     let out = run(1, &args(&case, &[], &["--restart", dir.to_str().unwrap()]));
     assert!(!out.status.success());

@@ -18,27 +18,37 @@ pub(super) fn read_checkpoint(
     let Some(dir) = &opts.restart else {
         return Ok(None);
     };
-    let read = || -> Result<(PathBuf, crate::checkpoint::State), Error> {
+    let read = || -> Result<(PathBuf, crate::checkpoint::State, Vec<String>), Error> {
         let ckpt = crate::checkpoint::latest(dir).map_err(Error::Restart)?;
         let state = crate::checkpoint::read_state(&ckpt)?;
         let started = crate::checkpoint::stages_started(&state.position);
-        crate::checkpoint::compare_cases(&state.case_toml, &case.to_toml_string()?, started)
-            .and_then(|()| {
-                crate::checkpoint::compare_meshes(
-                    &state.log.mesh_hashes,
-                    &crate::checkpoint::mesh_hashes(case),
-                )
-            })
-            .map_err(|m| {
-                Error::Restart(format!(
-                    "{}: cannot continue the checkpoint {}: {m}",
-                    case.file.display(),
-                    ckpt.display()
-                ))
-            })?;
-        Ok((ckpt, state))
+        let changed =
+            crate::checkpoint::compare_cases(&state.case_toml, &case.to_toml_string()?, started)
+                .and_then(|changed| {
+                    crate::checkpoint::compare_meshes(
+                        &state.log.mesh_hashes,
+                        &crate::checkpoint::mesh_hashes(case),
+                    )
+                    .map(|()| changed)
+                })
+                .map_err(|m| {
+                    Error::Restart(format!(
+                        "{}: cannot continue the checkpoint {}: {m}",
+                        case.file.display(),
+                        ckpt.display()
+                    ))
+                })?;
+        Ok((ckpt, state, changed))
     };
-    let r = agree(petsc.comm(), read())?;
+    let (ckpt, state, changed) = agree(petsc.comm(), read())?;
+    if !changed.is_empty() && comm_rank(petsc) == 0 {
+        // printed at any verbosity: the run from here is not the one the checkpoint began
+        eprintln!(
+            "note: continuing with solver settings that differ from the checkpoint's: {}",
+            changed.join(", ")
+        );
+    }
+    let r = (ckpt, state);
     log(comm_rank(petsc), opts.verbosity, Verbosity::Normal, || {
         format!(
             "restart from {} (step {}, load {:.6}, written on {} rank{})",

@@ -152,6 +152,11 @@ unsafe extern "C" fn residual_trampoline(
     match catch_unwind(AssertUnwindSafe(|| ctx.problem.residual(&xv, &mut fv))) {
         Ok(Ok(())) => 0,
         Ok(Err(ProblemError::Domain(msg))) => {
+            // what cuts a line search's step (each evaluation outside the domain; every rank prints
+            // its own message)
+            if std::env::var_os("NURBS_CONTACT_DEBUG_DOMAIN").is_some() {
+                eprintln!("domain error in a residual evaluation: {msg}");
+            }
             ctx.domain = Some(msg);
             ctx.line_search_domain = true;
             // SAFETY: snes is the live solver calling us.
