@@ -50,6 +50,6 @@ r = s.get('rank_times')
 if r:
     f = lambda k: '/'.join(f"{v:.2f}" for v in r[k])
     print(f"  per rank (s): contact {f('contact')} = update {f('contact_update')} + evaluate "
-          f"{f('contact_evaluate')} + gathers and waits; residual {f('residual')} jacobian "
+          f"{f('contact_evaluate')} + refresh {f('contact_refresh')} + gathers and waits; residual {f('residual')} jacobian "
           f"{f('jacobian')} pattern {f('pattern')}")
 PY

@@ -136,8 +136,9 @@ pub(super) fn rank_times(
         t.contact,
         t.contact_update,
         t.contact_evaluate,
+        t.contact_refresh,
     ];
-    const N: usize = 6;
+    const N: usize = 7;
     let mut all = vec![0.0f64; N * world.size() as usize];
     world.all_gather_into(&mine[..], &mut all[..]);
     let column = |k: usize| all.chunks_exact(N).map(|r| r[k]).collect::<Vec<f64>>();
@@ -148,5 +149,6 @@ pub(super) fn rank_times(
         contact: column(3),
         contact_update: column(4),
         contact_evaluate: column(5),
+        contact_refresh: column(6),
     }
 }

@@ -212,7 +212,8 @@ pub struct ContactDataStats {
 /// `pattern` and `contact` are the timers of `wall_time` on each rank; `contact` includes the
 /// gathers and the agreement after each update, i.e. the wait for the slowest rank, while
 /// `contact_update` (search and projection) and `contact_evaluate` (the contact residual and
-/// blocks) are the rank's own contact work alone.
+/// blocks) are the rank's own contact work alone, `contact_refresh` the refreshes of its ghost
+/// layer (collective).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RankTimes {
     pub residual: Vec<f64>,
@@ -221,6 +222,8 @@ pub struct RankTimes {
     pub contact: Vec<f64>,
     pub contact_update: Vec<f64>,
     pub contact_evaluate: Vec<f64>,
+    #[serde(default)]
+    pub contact_refresh: Vec<f64>,
 }
 
 /// The cell partition of a run on several ranks (METIS, two constraints with contact).

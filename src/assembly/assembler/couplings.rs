@@ -334,7 +334,9 @@ impl<'p> Assembler<'p> {
                      nodes (contact: the ghost layer)"
                 )));
             }
+            let t1 = Instant::now();
             self.refresh_coupling_nodes(x, any[0] != 0).map_err(fatal)?;
+            self.timers.contact_refresh += t1.elapsed().as_secs_f64();
         };
         self.timers.contact += t0.elapsed().as_secs_f64();
         out

@@ -60,6 +60,9 @@ pub struct Timers {
     pub contact_update: f64,
     /// Of `contact`: the coupling set's evaluations alone (contact residual and blocks).
     pub contact_evaluate: f64,
+    /// Of `contact`: refreshes of the coupling set's node list (contact: the ghost layer, and the
+    /// gather rebuilt for it).
+    pub contact_refresh: f64,
     /// Sparsity pattern rebuilds because the coupling set's needed blocks left the pattern.
     pub pattern_rebuilds: usize,
 }
