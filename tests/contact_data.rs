@@ -250,6 +250,20 @@ fn the_contact_partition_keeps_facing_pieces_together_on_a_long_contact_interfac
         "mean received bytes per rank on 2 ranks: {} (contact partition) vs {recv_cells} (cells)",
         recv[1]
     );
+    // the default partition balances the points that face a partner, on 2 and 4 ranks
+    for s in &s[1..] {
+        let facing: Vec<u64> = s["partition"]["facing_points"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_u64().unwrap())
+            .collect();
+        let (lo, hi) = (facing.iter().min().unwrap(), facing.iter().max().unwrap());
+        assert!(
+            *lo > 0 && 10 * (hi - lo) <= hi + lo,
+            "facing points per rank {facing:?}"
+        );
+    }
     let cut = |s: &serde_json::Value| s["partition"]["cut_facing_pairs"].as_u64().unwrap();
     let kind = |s: &serde_json::Value| s["partition"]["kind"].as_str().unwrap().to_string();
     assert_eq!((kind(&s[1]), kind(&sc)), ("contact".into(), "cells".into()));

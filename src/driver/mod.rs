@@ -560,8 +560,9 @@ fn number_and_partition(petsc: &Petsc, case: &Case, model: &Model) -> Result<Num
                 &model.coords,
                 model.dim,
             );
+            let facing_points = crate::contact::pair::facing_points(&points, &facing);
             let (weights, joined): (&[u32], &[[u32; 2]]) = match kind {
-                PartitionKind::Contact => (&points, &facing),
+                PartitionKind::Contact => (&facing_points, &facing),
                 PartitionKind::Points => (&points, &[]),
                 PartitionKind::Cells => (&[], &[]),
             };
@@ -571,6 +572,7 @@ fn number_and_partition(petsc: &Petsc, case: &Case, model: &Model) -> Result<Num
                     let mut stats = io::PartitionStats {
                         cells: vec![0; size],
                         contact_points: vec![0; size],
+                        facing_points: vec![0; size],
                         cut_faces: edge_cut(&mesh, p) as u64,
                         kind: kind.name().to_string(),
                         facing_pairs: facing.len() as u64,
@@ -579,6 +581,7 @@ fn number_and_partition(petsc: &Petsc, case: &Case, model: &Model) -> Result<Num
                     for (c, &r) in p.iter().enumerate() {
                         stats.cells[r as usize] += 1;
                         stats.contact_points[r as usize] += points[c] as u64;
+                        stats.facing_points[r as usize] += facing_points[c] as u64;
                     }
                     partition_stats = Some(stats);
                 })

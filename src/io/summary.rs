@@ -234,6 +234,10 @@ pub struct PartitionStats {
     /// Contact quadrature points per rank (the points of the half-passes' surface elements of
     /// its cells), in rank order.
     pub contact_points: Vec<u64>,
+    /// Of them, the points of cells whose contact surface faces a partner, per rank: what
+    /// `partition = "contact"` balances ([`crate::contact::pair::facing_points`]).
+    #[serde(default)]
+    pub facing_points: Vec<u64>,
     /// Faces shared by cells of different ranks.
     pub cut_faces: u64,
     /// Which partition ran (`[solver] partition`: "contact" or "cells").

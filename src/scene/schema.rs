@@ -589,9 +589,10 @@ pub struct SolverOptions {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub linear: Option<LinearSolver>,
     /// How the cells are split between MPI ranks (METIS k-way on the cells' face graph):
-    /// `"contact"` balances the cells and the contact quadrature points and joins cells whose
-    /// contact surfaces face each other (within the pair's search distance in the reference
-    /// configuration), so that facing pieces stay on one rank where the balance allows;
+    /// `"contact"` balances the cells and the contact quadrature points of the cells whose contact
+    /// surfaces face a partner (within the pair's search distance in the reference
+    /// configuration; every point when none does), where the contact work is, and joins facing
+    /// cells, so that facing pieces stay on one rank where the balance allows;
     /// `"points"` balances cells and contact points without the joins; `"cells"` balances the
     /// cells alone (the split of versions before 2026-11-26). All in BENCHMARKS.md, "Scale:
     /// contact data per rank". Results agree to round-off on every one. Default: `"contact"`.
