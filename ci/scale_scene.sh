@@ -7,7 +7,7 @@
 # /usr/bin/time's %M, the largest single process, so per rank under mpirun; and PETSc's peak, the
 # largest rank's, in MB), and each rank's own contact and assembly timers (summary.json rank_times).
 # usage: ci/scale_scene.sh SIZE ROUTE NP [ARGS...]   SIZE = e4 | e4.5 | e5 | e6, ROUTE = direct | iterative
-#   e.g. nice -n 19 ci/scale_scene.sh e5 iterative 2
+#   e.g. nice -n 19 ci/scale_scene.sh e5 iterative 2   (BIN=path: another binary; OUT=dir)
 # SIZE e4 is the case file as it is (3 + 3 steps); e4.5 (cube 24^3, 54,252 unknowns, where
 # GMRES(100) + GAMG first failed on the contact tangent), e5 and e6 press in PRESS (default 3) steps and
 # twist in TWIST (default 1) steps.
@@ -26,7 +26,7 @@ esac
 case $route in direct | iterative) ;; *) echo "ROUTE must be direct or iterative" >&2; exit 2 ;; esac
 launch=(); [ "$np" -gt 1 ] && launch=(mpirun -np "$np")
 out=${OUT:-/tmp/scale-scene}/$size-$route-np$np; mkdir -p "$(dirname "$out")"
-/usr/bin/time -o $out.time -f "%e %M" "${launch[@]}" ./target/release/nurbs-contact run \
+/usr/bin/time -o $out.time -f "%e %M" "${launch[@]}" ${BIN:-./target/release/nurbs-contact} run \
     cases/hemisphere_twist_scale_3d.toml "${sets[@]}" --set solver.linear=$route \
     --set output.plots=false --out $out -q --overwrite "$@" > $out.log 2>&1
 python3 - $out <<'PY'
