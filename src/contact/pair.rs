@@ -219,8 +219,9 @@ pub fn facing_cells(
 /// active) is many times that of a point with none (a bin lookup that finds no candidate), so
 /// balancing all points let one rank take every facing piece and the other the far ones: on the
 /// 1e5 scale scene one rank did 74 % of the projections' time and 82 % of the contact blocks'
-/// (BENCHMARKS.md, "Balancing the contact work"). When no cell faces a partner (rigid partners
-/// only, or surfaces farther apart than the search distance), every point counts.
+/// (BENCHMARKS.md, "The 1e6 twist's line search, balancing the contact work, per-rank timers").
+/// When no cell faces a partner (rigid partners only, or surfaces farther apart than the search
+/// distance), every point counts.
 pub fn facing_points(points: &[u32], facing: &[[u32; 2]]) -> Vec<u32> {
     let mut faces = vec![false; points.len()];
     for &[a, b] in facing {
