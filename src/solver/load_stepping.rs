@@ -727,11 +727,19 @@ impl StepSizer {
         }
     }
 
-    /// Continues from a position of [`position`](Self::position) (a restart).
+    /// Continues from a position of [`position`](Self::position) (a restart). A stage the
+    /// position has not started begins with its own nominal increment, from the steps it has now
+    /// (a restart may change them); within a stage the increment is the position's, at most the
+    /// stage's nominal one. With the same steps this is the increment the run would have taken.
     pub fn resume(&mut self, p: &LoadPosition) {
         self.stage = p.stage;
         self.lambda = p.lambda;
-        self.dl = p.dl;
+        let started = p.lambda > p.stage as f64 + 1e-12 * (p.stage as f64).max(1.0);
+        self.dl = if started {
+            p.dl.min(self.nominal())
+        } else {
+            self.nominal()
+        };
     }
 
     /// The stage of the next step, or `None` when all stages are done.
@@ -780,6 +788,36 @@ impl StepSizer {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_resumed_stage_not_yet_started_takes_its_new_step_count() {
+        let control = |steps: Vec<usize>| control(steps, 8);
+        // a run of 3 + 1 steps stopped after the first stage
+        let mut old = StepSizer::new(&control(vec![3, 1]));
+        for _ in 0..3 {
+            let t = old.target();
+            old.accept(t, 1, 0);
+        }
+        let p = old.position(3);
+        assert_eq!((p.stage, p.lambda, p.dl), (1, 1.0, 1.0));
+        // resumed with the second stage in 4 steps: a quarter of it, not the whole
+        let mut new = StepSizer::new(&control(vec![3, 4]));
+        new.resume(&p);
+        assert!((new.target() - 1.25).abs() < 1e-12, "{}", new.target());
+        // with the same steps, the increment the run would have taken
+        let mut same = StepSizer::new(&control(vec![3, 1]));
+        same.resume(&p);
+        assert_eq!(same.target(), old.target());
+        // within a started stage the position's (cut-back) increment stays
+        let mut mid = StepSizer::new(&control(vec![3, 4]));
+        mid.resume(&LoadPosition {
+            step: 4,
+            stage: 1,
+            lambda: 1.1,
+            dl: 0.05,
+        });
+        assert!((mid.target() - 1.15).abs() < 1e-12, "{}", mid.target());
+    }
 
     /// The pseudo-steps at which the trigger tries an undamped solve, for a sequence of damping
     /// forces (the last one is the rescue's last pseudo-step).
