@@ -330,8 +330,7 @@ pub fn latest(dir: &Path) -> Result<PathBuf, String> {
 
 /// Stages (from the first) the checkpoint has started: they must not change on a restart.
 pub fn stages_started(p: &LoadPosition) -> usize {
-    let in_progress = p.lambda > p.stage as f64 + 1e-12 * (p.stage as f64).max(1.0);
-    p.stage + usize::from(in_progress)
+    p.stage + usize::from(p.stage_started())
 }
 
 /// Why the case `now` cannot continue a checkpoint of `saved` (both resolved cases as TOML), or

@@ -147,6 +147,13 @@ pub struct LoadPosition {
     pub dl: f64,
 }
 
+impl LoadPosition {
+    /// The load has passed the start of `stage` (the stage of the next step is under way).
+    pub fn stage_started(&self) -> bool {
+        self.lambda > self.stage as f64 + 1e-12 * (self.stage as f64).max(1.0)
+    }
+}
+
 /// What the load stepping does after the observer has seen a converged step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum AfterStep {
@@ -734,8 +741,7 @@ impl StepSizer {
     pub fn resume(&mut self, p: &LoadPosition) {
         self.stage = p.stage;
         self.lambda = p.lambda;
-        let started = p.lambda > p.stage as f64 + 1e-12 * (p.stage as f64).max(1.0);
-        self.dl = if started {
+        self.dl = if p.stage_started() {
             p.dl.min(self.nominal())
         } else {
             self.nominal()
