@@ -9,6 +9,21 @@ pub trait MatrixSink {
     /// Adds a rectangular block `k` [rows.len()][cols.len()] (contact couplings: rows of one
     /// element, columns of it and of its partner).
     fn add_block(&mut self, slot: usize, rows: &[i32], cols: &[i32], k: &[f64]);
+    /// Adds `k` [rows.len()][cols.len()] at global `rows` x `cols` that are the rows of coupling
+    /// block `row_slot` from its row `row_from` on and the columns of coupling block `col_slot`
+    /// from its column `col_from` on, two blocks of one shared region (contact's one-pass mortar
+    /// gap: master rows of one block times the columns of another). Sinks that place values by
+    /// their global indices add it as any block.
+    fn add_cross(
+        &mut self,
+        (row_slot, _row_from): (usize, usize),
+        (_col_slot, _col_from): (usize, usize),
+        rows: &[i32],
+        cols: &[i32],
+        k: &[f64],
+    ) {
+        self.add_block(row_slot, rows, cols, k);
+    }
 }
 
 /// Values laid out in the order of a COO pattern: element `slot` owns `n_e^2` consecutive entries
@@ -61,6 +76,37 @@ impl MatrixSink for CooSink<'_> {
             }
             let out = &mut self.values[s.base + ra as usize * s.stride..][..s.stride];
             for (&cb, &v) in s.cols.iter().zip(&k[a * nc..(a + 1) * nc]) {
+                if cb != u32::MAX {
+                    out[cb as usize] += v;
+                }
+            }
+        }
+    }
+    fn add_cross(
+        &mut self,
+        (row_slot, row_from): (usize, usize),
+        (col_slot, col_from): (usize, usize),
+        rows: &[i32],
+        cols: &[i32],
+        k: &[f64],
+    ) {
+        let scattered = self.scattered;
+        let first = self.first_scattered;
+        let (sr, sc) = (&scattered[row_slot - first], &scattered[col_slot - first]);
+        assert!(
+            sr.base == sc.base && sr.stride == sc.stride,
+            "a cross block spans two regions (slots {row_slot} and {col_slot})"
+        );
+        let (base, stride) = (sr.base, sr.stride);
+        let rmap = &sr.rows[row_from..row_from + rows.len()];
+        let cmap = &sc.cols[col_from..col_from + cols.len()];
+        let nc = cols.len();
+        for (a, &ra) in rmap.iter().enumerate() {
+            if ra == u32::MAX {
+                continue;
+            }
+            let out = &mut self.values[base + ra as usize * stride..][..stride];
+            for (&cb, &v) in cmap.iter().zip(&k[a * nc..(a + 1) * nc]) {
                 if cb != u32::MAX {
                     out[cb as usize] += v;
                 }
@@ -153,5 +199,50 @@ mod tests {
         for (b, &j) in union.iter().enumerate() {
             assert_eq!(values[2 + b], dense.a[j as usize], "column {j}");
         }
+    }
+
+    /// A cross block (the rows of one block from a row on, the columns of another) lands where
+    /// the dense matrix puts it, within the region the two blocks share.
+    #[test]
+    fn cross_blocks_add_rows_of_one_block_times_columns_of_another() {
+        // region rows [0, 1, 2] x cols [0, 1, 2, 3]; block 0: rows [0, 1], cols [0, 1];
+        // block 1: rows [0, 1, 2], cols [0, 1, 2, 3] (row 1 constrained)
+        let scattered = vec![
+            BlockScatter {
+                base: 0,
+                stride: 4,
+                rows: vec![0, u32::MAX],
+                cols: vec![0, 1],
+            },
+            BlockScatter {
+                base: 0,
+                stride: 4,
+                rows: vec![0, u32::MAX, 2],
+                cols: vec![0, 1, 2, 3],
+            },
+        ];
+        let offsets = [0, 12];
+        let mut values = vec![0.0; 12];
+        let mut sink = CooSink {
+            offsets: &offsets,
+            values: &mut values,
+            scattered: &scattered,
+            first_scattered: 0,
+        };
+        // rows of block 1 from row 1 (global 1, 2), columns of block 1 from column 2 (global 2, 3)
+        let k = [1.0, 2.0, 3.0, 4.0];
+        sink.add_cross((1, 1), (1, 2), &[1, 2], &[2, 3], &k);
+        // rows of block 1 from row 2 (global 2), columns of block 0 (global 0, 1)
+        sink.add_cross((1, 2), (0, 0), &[2], &[0, 1], &[5.0, 6.0]);
+        let mut dense = DenseSink::new(4);
+        dense.add_cross((1, 1), (1, 2), &[-1, 2], &[2, 3], &k);
+        dense.add_cross((1, 2), (0, 0), &[2], &[0, 1], &[5.0, 6.0]);
+        for (r, &i) in [0, 1, 2].iter().enumerate() {
+            for j in 0..4 {
+                let coo = if i == 1 { 0.0 } else { values[r * 4 + j] };
+                assert_eq!(coo, dense.a[i * 4 + j], "entry ({i}, {j})");
+            }
+        }
+        assert_eq!(&values[8..], &[5.0, 6.0, 3.0, 4.0]);
     }
 }

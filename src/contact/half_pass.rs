@@ -28,7 +28,7 @@ use crate::contact::pair::{
 };
 use crate::contact::projection::{BasisAt, Positions, Projection};
 use crate::contact::rigid::{RigidMotion, RigidShape};
-use crate::contact::surface::{raw_normal, ContactSurface};
+use crate::contact::surface::{raw_normal, ContactSurface, MAX_FACE_NODES};
 use friction::AnchorAt;
 use gap::Gap;
 use mortar::MortarNet;
@@ -222,6 +222,13 @@ pub(crate) struct Work {
     /// them in use (the buffers are kept between elements and evaluations).
     blocks: Blocks,
     n_used: usize,
+    /// One-pass mortar gap: blocks of the master rows of partner element `.0` times the columns of
+    /// block key `.1` (rows of one block of the element's region, columns of another), `n_cross`
+    /// in use; and the master rows of one control point's `G_A`, per partner element (element,
+    /// its number of rows, the rows).
+    cross: Vec<(u32, u32, Vec<f64>)>,
+    n_cross: usize,
+    g_master: Vec<(u32, usize, [f64; 3 * MAX_FACE_NODES])>,
 }
 
 impl Work {
@@ -343,6 +350,7 @@ impl HalfPass<'_> {
         work.r.clear();
         work.r.resize(nk * dim, 0.0);
         work.n_used = 0;
+        work.n_cross = 0;
         let g_mean = gap.begin_element(self, oe, points, x);
         for q in oe.first..oe.first + oe.n {
             let qp = points[q];
@@ -633,14 +641,36 @@ impl HalfPass<'_> {
                     }
                     cols
                 };
-                let rows = if self.pair.one_pass && self.l.is_some() {
-                    &cols
-                } else {
-                    own_rows
-                };
+                // one-pass: a partner block's rows are the own element's and the partner's (an
+                // own-columns block of the mortar gap keeps the own rows)
+                let rows =
+                    if self.pair.one_pass && self.l.is_some() && mortar::own_columns(*le).is_none()
+                    {
+                        &cols
+                    } else {
+                        own_rows
+                    };
                 if let Some(slot) = slot_of(&c) {
                     sink.add_block(slot, rows, &cols, kb);
                 }
+            }
+            // one-pass mortar gap: master rows of a partner element's block times the columns
+            // of another block of the element
+            for (le, key, kb) in &work.cross[..work.n_cross] {
+                let l = self.l.expect("a master surface");
+                let own_rows = &self.geo.gdofs[self.k][e];
+                let (cols, col_from) = match mortar::own_columns(*key) {
+                    Some(e2) => (&self.geo.gdofs[self.k][e2 as usize], 0),
+                    None => (&self.geo.gdofs[l][*key as usize], own_rows.len()),
+                };
+                let rows = &self.geo.gdofs[l][*le as usize];
+                let (Some(rs), Some(cs)) = (
+                    slot_of(&(self.pass_id, oe.e, *le)),
+                    slot_of(&(self.pass_id, oe.e, *key)),
+                ) else {
+                    continue;
+                };
+                sink.add_cross((rs, own_rows.len()), (cs, col_from), rows, cols, kb);
             }
         }
     }

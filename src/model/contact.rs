@@ -286,9 +286,8 @@ pub fn build_contact(
     Ok((surfaces, pairs))
 }
 
-/// The gap of pair `i` (`gap`), with the mortar gap's scope checked: the penalty law, two-half-pass
-/// or a rigid partner, no friction, no active-set freezing, surfaces with a non-negative,
-/// interpolating basis.
+/// The gap of pair `i` (`gap`), with the mortar gap's scope checked: the penalty law, no
+/// active-set freezing, surfaces with a non-negative basis (`mortar`, `mortar_mean`).
 fn gap_kind(
     case: &Case,
     i: usize,
@@ -316,8 +315,6 @@ fn gap_kind(
     });
     let why = if !matches!(spec.law, LawKind::Penalty) {
         Some("goes with the `penalty` law only".to_string())
-    } else if spec.algorithm == Algorithm::OnePass && spec.rigid.is_none() {
-        Some("is implemented for the two-half-pass algorithm (or a rigid partner) only".to_string())
     } else if case.solver.contact_freeze_after > 0 {
         Some("has one status per weight node; `solver.contact_freeze_after` holds pointwise statuses (drop one of them)".to_string())
     } else if let (Some(&s), GapKind::Mortar | GapKind::MortarMean) = (negative, kind) {

@@ -57,11 +57,13 @@ pub struct ContactSpec {
     /// element scale (BENCHMARKS.md, "One pressure per surface element"). Two-half-pass penalty
     /// contact (deformable or rigid partners, with or without friction: the cone uses the
     /// element's pressure). `mortar`: the gap weighted by each surface control point's basis
-    /// function, `g_A = int R_A g_N dA / int R_A dA` over the surface's own points (reference
+    /// function, `g_A = int R_A g_N da / int R_A da` over the surface's own points (current
     /// area), one pressure `p_A = eps_n <-g_A>` per control point, interpolated by the surface
-    /// basis, `p = sum_A R_A p_A`, at every point (traction `p n` on the reference area). Needs a
-    /// non-negative basis (Q1C1, Q1Np, Q1Np.t surfaces; not Q1C2 or Q1CH), two-half-pass or a
-    /// rigid partner, frictionless. `mortar_linear`: the same with the linear parent's corner
+    /// basis, `p = sum_A R_A p_A`, at every point (traction `p n` on the current area). Needs a
+    /// non-negative basis (Q1C1, Q1Np, Q1Np.t surfaces; not Q1C2 or Q1CH); two-half-pass (each
+    /// surface weighted on its own basis, with or without friction), one-pass (the slave's
+    /// control points carry the pressure, the master the opposite traction) or a rigid partner.
+    /// `mortar_linear`: the same with the linear parent's corner
     /// functions as weights (one pressure per element corner, a coarser pressure than the
     /// control points of an enriched surface; any surface family). `mortar_mean`: each control
     /// point's pressure is the mean of the points' penalty pressures weighted by its basis

@@ -329,6 +329,8 @@ impl MortarNet {
         let oe = all[i];
         let nk = oe.N.len() / oe.n;
         let rows = nk * dim;
+        // one-pass: the master element's rows carry the opposite force, `-c N^l t`
+        let one_pass = hp.pair.one_pass && hp.l.is_some();
         let mut G = [0.0; 3 * MAX_FACE_NODES];
         for b in 0..self.elem_cps[i].len() {
             let a = self.elem_cps[i][b] as usize;
@@ -336,6 +338,7 @@ impl MortarNet {
                 continue;
             }
             G[..rows].fill(0.0);
+            work.g_master.clear();
             let mut any = false;
             for q in oe.first..oe.first + oe.n {
                 let Some(mp) = &self.pts[q] else { continue };
@@ -354,6 +357,22 @@ impl MortarNet {
                         G[a2 * dim + k] += c * N[a2] * t[k];
                     }
                 }
+                if one_pass && mp.nl > 0 {
+                    let im = match work.g_master.iter().position(|(le, ..)| *le == mp.le) {
+                        Some(im) => im,
+                        None => {
+                            work.g_master
+                                .push((mp.le, mp.nl * dim, [0.0; 3 * MAX_FACE_NODES]));
+                            work.g_master.len() - 1
+                        }
+                    };
+                    let gm = &mut work.g_master[im].2;
+                    for b2 in 0..mp.nl {
+                        for k in 0..dim {
+                            gm[b2 * dim + k] -= c * mp.nl_vals[b2] * t[k];
+                        }
+                    }
+                }
                 any = true;
             }
             if !any {
@@ -363,13 +382,34 @@ impl MortarNet {
                 self.d[a] = Some(self.columns(a, all, points, dim, eps_n));
             }
             let f = eps_n / self.w[a];
+            let g_master = std::mem::take(&mut work.g_master);
             for (key, vals) in self.d[a].as_ref().expect("built above") {
                 let (ncols, off) = if own_columns(*key).is_some() {
                     (vals.len(), 0)
                 } else {
                     (rows + vals.len(), rows)
                 };
-                let ib = block_slot(&mut work.blocks, &mut work.n_used, *key, rows * ncols);
+                for &(le, nrows, ref gm) in &g_master {
+                    let ic = cross_slot(work, le, *key, nrows * vals.len());
+                    let kb = &mut work.cross[ic].2;
+                    for r in 0..nrows {
+                        let gr = f * gm[r];
+                        if gr == 0.0 {
+                            continue;
+                        }
+                        let row = &mut kb[r * vals.len()..(r + 1) * vals.len()];
+                        for (v, &d) in row.iter_mut().zip(vals) {
+                            *v += gr * d;
+                        }
+                    }
+                }
+                // one-pass: a partner block holds the partner's rows below the own ones
+                let nrows = if one_pass && own_columns(*key).is_none() {
+                    ncols
+                } else {
+                    rows
+                };
+                let ib = block_slot(&mut work.blocks, &mut work.n_used, *key, nrows * ncols);
                 let kb = &mut work.blocks[ib].1;
                 for r in 0..rows {
                     let gr = f * G[r];
@@ -382,6 +422,7 @@ impl MortarNet {
                     }
                 }
             }
+            work.g_master = g_master;
         }
     }
 
@@ -497,6 +538,27 @@ impl MortarNet {
         }
         out
     }
+}
+
+/// The slot of the one-pass cross block of master element `le`'s rows and block key `key`'s
+/// columns, zeroed to `len` entries when it is new for this element.
+fn cross_slot(work: &mut Work, le: u32, key: u32, len: usize) -> usize {
+    let n = work.n_cross;
+    if let Some(i) = work.cross[..n]
+        .iter()
+        .position(|(l, k, _)| *l == le && *k == key)
+    {
+        return i;
+    }
+    if n == work.cross.len() {
+        work.cross.push((le, key, Vec::new()));
+    }
+    let (l, k, buf) = &mut work.cross[n];
+    (*l, *k) = (le, key);
+    buf.clear();
+    buf.resize(len, 0.0);
+    work.n_cross += 1;
+    n
 }
 
 /// The index of the piece keyed `key` in `out`, added with `len` zeros if new.

@@ -104,6 +104,76 @@ fn mortar_gaps_friction_tangent_matches_central_differences_in_stick_and_slip() 
     friction_fd_2d("Q1CH", "Q1N2.1", law);
 }
 
+#[test]
+fn one_pass_mortar_tangent_matches_central_differences_and_balances_momentum() {
+    // one-pass: the master element carries the opposite of each slave point's traction, whose
+    // pressure is interpolated from the slave's control points; the master rows then vary with
+    // the weighted gaps of every point in those control points' supports (cross blocks: a
+    // partner's rows times another element's columns)
+    for gap in ["mortar", "mortar_mean", "mortar_linear"] {
+        let law =
+            format!("law = \"penalty\"\neps_n = 100.0\ngap = \"{gap}\"\nalgorithm = \"one_pass\"");
+        let mut cases = vec![
+            (case_2d("Q1C1", "Q1C1", &law), 2),
+            (case_2d("Q1N2", "Q1N2", &law), 2),
+            (case_2d("Q1C1", "Q1N3", &law), 2),
+            (case_3d_blocks("Q1N2", "Q1N2", &law), 3),
+            (case_3d_hemisphere("Q1N2", "Q1N2", &law), 4),
+        ];
+        if gap == "mortar_linear" {
+            cases.push((case_2d("Q1C2", "Q1CH", &law), 2));
+        }
+        for (i, (case, kind)) in cases.into_iter().enumerate() {
+            let mut h = Harness::new(&case);
+            let u = match kind {
+                2 => pressed(&h, 0.08, 0.13, 2e-3, 11),
+                3 => pressed_3d(&h, 0.04, [0.11, -0.07], 2e-3, 17),
+                _ => pressed_3d(&h, 0.2, [0.05, 0.08], 2e-3, 23),
+            };
+            let (err, kmax) = tangent_error(&mut h, &u);
+            assert!(kmax > 1.0, "{gap} case {i}: no contact stiffness ({kmax})");
+            assert!(err < 1e-6, "{gap} case {i}: tangent error {err:e}");
+            let (f, _) = h.eval(&u, false);
+            let (sum, scale) = net_force(&h, &f);
+            let smax = scale.iter().fold(0.0f64, |m, &v| m.max(v));
+            assert!(smax > 1e-3, "{gap} case {i}: no contact force ({smax})");
+            for c in 0..h.model.dim {
+                assert!(
+                    sum[c].abs() < 1e-12 * smax,
+                    "{gap} case {i}: net force {} (scale {smax})",
+                    sum[c]
+                );
+            }
+        }
+    }
+}
+
+/// Per component: the sum of the contact residual over the bodies' nodes (Hermite tangent
+/// pseudo-nodes left out: they carry no force component) and its largest entry.
+fn net_force(h: &Harness, f: &[f64]) -> ([f64; 3], [f64; 3]) {
+    let (mut sum, mut scale) = ([0.0; 3], [0.0f64; 3]);
+    for node in 0..h.model.n_nodes() as u32 {
+        let pseudo = h.model.bodies.iter().any(|b| {
+            b.enrichment.as_ref().is_some_and(|e| {
+                node >= b.node_offset
+                    && e.pseudo_nodes
+                        .binary_search(&(node - b.node_offset))
+                        .is_ok()
+            })
+        });
+        if pseudo {
+            continue;
+        }
+        for c in 0..h.model.dim {
+            if let Some(g) = h.dofs.global(node, c) {
+                sum[c] += f[g.0 as usize];
+                scale[c] = scale[c].max(f[g.0 as usize].abs());
+            }
+        }
+    }
+    (sum, scale)
+}
+
 /// FD checks of `law` on 2D pairs (three, then `extra_2d`), 3D blocks, the hemisphere (pressed
 /// by `hemisphere_depth`) and rigid partners.
 fn mortar_tangents(law: &str, extra_2d: &[(&str, &str)], hemisphere_depth: f64) {
@@ -184,6 +254,10 @@ fn split_eval(h: &Harness, u: &[f64]) -> (Vec<f64>, Vec<f64>) {
         for (a, b) in k.iter_mut().zip(&sink.a) {
             *a += b;
         }
+        // one-pass: the master rows this part adds, whichever part integrates their elements
+        for (&g, r) in sys.table_dofs(&h.dofs).iter().zip(sys.table_residual()) {
+            f[g as usize] += r;
+        }
     }
     (f, k)
 }
@@ -199,6 +273,16 @@ fn mortar_gap_split_over_two_ranks_sums_to_the_whole() {
         case_3d_hemisphere("Q1N2", "Q1N2", MORTAR),
         case_2d("Q1N2", "Q1C2", MORTAR_LINEAR),
         case_3d_hemisphere("Q1N2", "Q1N2", MORTAR_LINEAR),
+        case_2d(
+            "Q1N2",
+            "Q1N3",
+            &format!("{MORTAR}\nalgorithm = \"one_pass\""),
+        ),
+        case_3d_hemisphere(
+            "Q1N2",
+            "Q1N2",
+            &format!("{MORTAR_MEAN}\nalgorithm = \"one_pass\""),
+        ),
     ];
     for (i, case) in cases.iter().enumerate() {
         let mut h = Harness::new(case);
