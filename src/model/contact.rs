@@ -359,11 +359,6 @@ fn augmented(case: &Case, i: usize, spec: &ContactSpec) -> Result<Option<Augment
              gaps\"; use `gap = \"mortar\"` for an answer free of `eps_n`)"
                 .to_string(),
         ))
-    } else if spec.algorithm == Algorithm::OnePass && spec.rigid.is_none() {
-        Some((
-            String::new(),
-            "is implemented for the two-half-pass algorithm only".to_string(),
-        ))
     } else if case.solver.contact_freeze_after > 0 {
         Some((
             String::new(),

@@ -42,7 +42,18 @@
 //! Augmented Lagrangian (`augmented = { tol, max }`): each control point carries a multiplier
 //! `lambda_A` (a pressure), `p_A = lambda_A - eps_n g_A` where `g_A <= lambda_A / eps_n + touch`;
 //! after a converged solve `lambda_A <- <p_A>` until every `|g_A|` of a pressed control point (and
-//! every penetration) is within `tol`. With `lambda = 0` it is the plain penalty.
+//! every weighted penetration `-g_A` of an open one) is within `tol`; the points' own gaps may
+//! still vary about their control points' `g_A`. With `lambda = 0` it is the plain penalty.
+//!
+//! One-pass (`algorithm = "one_pass"`): the slave surface's control points carry the pressure,
+//! and each slave point's traction goes with the opposite sign to its master element at the
+//! projection (the kernel's master rows). Those rows vary with the control points' pressures
+//! too: `-c N^l_b t` of each point of the element, times `eps_n / W_A D_A`, whose columns are those
+//! of other blocks of the element (own-surface elements and other partner elements), so they go
+//! as cross blocks (rows of the partner's block, columns of another block of the same region,
+//! [`crate::assembly::MatrixSink::add_cross`]). Without segmentation of the slave's elements at
+//! the master's element boundaries, the master's forces of a uniform pressure are not exact on
+//! non-matching meshes (as for the one-pass pointwise gap).
 //!
 //! `g_A` needs every point of `A`'s support, also those of elements another rank integrates:
 //! each rank keeps a halo of the elements that share a control point with its own ones and

@@ -24,14 +24,24 @@ fn mortar_mean_tangent_matches_central_differences() {
 }
 
 #[test]
-fn mortar_gaps_tangent_with_multipliers_matches_central_differences() {
+fn tangents_with_multipliers_match_central_differences() {
     // augmented Lagrangian: the multipliers of a round taken at one state (lambda_A <- p_A), the
     // tangent checked at another, less pressed one, where control points with a small positive
     // weighted gap stay pressed through their multipliers
-    for gap in ["mortar", "mortar_linear"] {
+    // (the pointwise gap too, each point its multiplier; and one-pass, whose master rows carry
+    // the slave's multipliers)
+    for (gap, algorithm) in [
+        ("mortar", "two_half_pass"),
+        ("mortar_linear", "two_half_pass"),
+        ("pointwise", "two_half_pass"),
+        ("mortar", "one_pass"),
+        ("pointwise", "one_pass"),
+    ] {
         let law = format!(
-            "law = \"penalty\"\neps_n = 100.0\ngap = \"{gap}\"\naugmented = {{ tol = 1e-12, max = 100 }}"
+            "law = \"penalty\"\neps_n = 100.0\ngap = \"{gap}\"\nalgorithm = \"{algorithm}\"\n\
+             augmented = {{ tol = 1e-12, max = 100 }}"
         );
+        let gap = format!("{gap} {algorithm}");
         let cases = [
             (case_2d("Q1N2", "Q1N2", &law), false),
             (case_2d("Q1C1", "Q1N2.1", &law), false),
@@ -41,7 +51,11 @@ fn mortar_gaps_tangent_with_multipliers_matches_central_differences() {
             let mut h = Harness::new(&case);
             let (u0, u1) = if three_d {
                 // a corner's weight spans four coarse elements: pressed deeper
-                let d = if gap == "mortar_linear" { 0.22 } else { 0.08 };
+                let d = if gap.starts_with("mortar_linear") {
+                    0.22
+                } else {
+                    0.08
+                };
                 (
                     pressed_3d(&h, d, [0.05, 0.08], 2e-3, 23),
                     pressed_3d(&h, d - 0.02, [0.06, 0.07], 2e-3, 29),
