@@ -172,6 +172,51 @@ fn one_pass_mortar_passes_the_contact_patch_test_on_matching_meshes_alike_on_1_a
 }
 
 #[test]
+fn one_pass_mortar_slides_without_the_cylinders_sawtooth() {
+    // ironing at 8 block elements per unit length, two block elements of sliding in 20 steps
+    // (the frictionless sliding state is periodic in the block element): the cylinder's
+    // horizontal force, max - min (measured, BENCHMARKS.md "One-pass mortar gap": 1.06e-4 with the
+    // mortar gap, 2.10e-3 with the pointwise one-pass, 7.49e-3 for the two-half-pass cylinder pass
+    // and 1.90e-3 for its block pass)
+    let mut amp = Vec::new();
+    for gap in ["mortar", "pointwise"] {
+        let d = run_case(
+            &format!("mortar/ironing-sawtooth-one-pass-{gap}"),
+            "ironing_2d.toml",
+            1,
+            &[
+                "meshes.block.divisions=[80,16]",
+                "meshes.cylinder.n_arc=24",
+                "meshes.cylinder.n_radial=6",
+                "bcs.1.value=[[0.0,-0.6666666666666666],[0.25,-0.6666666666666666]]",
+                "stages.1.steps=20",
+                "contact.0.algorithm=one_pass",
+                &format!("contact.0.gap={gap}"),
+                "output.plots=false",
+            ],
+        );
+        let stage = history_col(&d, "stage");
+        let px: Vec<f64> = history_col(&d, "P_ironing_cylinder_arc_x")
+            .into_iter()
+            .zip(&stage)
+            .filter(|(_, &s)| s == 1.0)
+            .map(|(v, _)| v)
+            .collect();
+        assert!(px.len() >= 20, "{gap}: {} sliding steps", px.len());
+        let (lo, hi) = px
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+        amp.push(hi - lo);
+    }
+    assert!(
+        amp[0] < 3e-4 && amp[0] < amp[1] / 5.0,
+        "sawtooth: mortar {:e}, pointwise {:e}",
+        amp[0],
+        amp[1]
+    );
+}
+
+#[test]
 fn mortar_gap_hertz_at_eight_elements_across_the_contact_on_1_and_2_ranks() {
     // measured (BENCHMARKS.md, "Mortar gap"): nominal peak +0.54 % (Q1C1) and +2.07 % (Q1N2) from
     // Hertz at n_arc 128; the pointwise gap gives +0.77 % and +1.95 %

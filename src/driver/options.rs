@@ -158,6 +158,7 @@ pub(super) fn set_up_solver<'p>(
         easy_iterations: case.steps.easy_iterations as usize,
         pseudo_steps: case.steps.pseudo_steps as usize,
         translation_probes: probes,
+        secant_predictor: case.solver.predictor == crate::scene::Predictor::Secant,
     };
     Ok(Solver {
         suspects,

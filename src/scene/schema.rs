@@ -614,6 +614,35 @@ pub struct SolverOptions {
     /// scene", session 17).
     #[serde(default = "default_krylov_accept")]
     pub krylov_accept: f64,
+    /// Where Newton starts a load step: `"none"` (the last converged state; its first iteration
+    /// lifts the new boundary values into the interior through the tangent) or `"secant"` (the
+    /// last converged state extrapolated along the last step of the same stage, `u_n + r (u_n -
+    /// u_{n-1})`, `r` the ratio of the increments; a predicted start that fails is retried from
+    /// the converged state at the same increment, not cut back). Steady sliding, where each step
+    /// moves the deformed state along: ironing at mesh 16, one-pass mortar, 22 % fewer Newton
+    /// iterations; a pressure that oscillates from step to step (two-half-pass pointwise Q1N2 at
+    /// mesh 4) fails a predicted start every few steps and takes longer (BENCHMARKS.md, "A secant
+    /// predictor"). The first step of a stage, and the first after a restart, start from the
+    /// converged state. Default: `"none"`.
+    #[serde(default, skip_serializing_if = "Predictor::is_none")]
+    pub predictor: Predictor,
+}
+
+/// `[solver] predictor`: where Newton starts a load step.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Predictor {
+    /// The last converged state.
+    #[default]
+    None,
+    /// The last converged state extrapolated along the last step of the stage.
+    Secant,
+}
+
+impl Predictor {
+    fn is_none(&self) -> bool {
+        *self == Predictor::None
+    }
 }
 
 /// `[solver] partition`: what METIS balances and keeps together.
@@ -705,6 +734,7 @@ impl Default for SolverOptions {
             partition: PartitionKind::default(),
             max_penetration: None,
             krylov_accept: default_krylov_accept(),
+            predictor: Predictor::None,
         }
     }
 }

@@ -37,6 +37,10 @@ pub struct StepControl {
     /// Rigid translations that no Dirichlet condition holds, checked on the tangent of every step
     /// that Newton converges: a translation the tangent does not resist stops the run.
     pub translation_probes: Vec<TranslationProbe>,
+    /// Newton starts a step from the last converged state extrapolated along the last step of
+    /// the same stage (`[solver] predictor = "secant"`); a predicted start that fails is retried
+    /// from the converged state at the same increment.
+    pub secant_predictor: bool,
 }
 
 /// A rigid translation that only contact may hold (a body pressed onto a frictionless plane is
@@ -286,6 +290,14 @@ pub fn run_load_steps_from<'p>(
 ) -> Result<Vec<StepRecord>, SolverError> {
     let mut x_conv = x.duplicate()?;
     x.copy_to(&mut x_conv)?;
+    // secant predictor: the converged state before the last one, and the last step's stage and
+    // increment (none yet: the first step, also after a restart, starts from the converged state)
+    let mut x_before = if control.secant_predictor {
+        Some(x.duplicate()?)
+    } else {
+        None
+    };
+    let mut last_step: Option<(usize, f64)> = None;
     let mut records = Vec::new();
     let mut sizer = StepSizer::new(control);
     let mut step = 0usize;
@@ -310,8 +322,16 @@ pub fn run_load_steps_from<'p>(
         let mut linear_accepted = 0;
         // the last attempt of this step that converged to a folded state: (load, where)
         let mut tangled: Option<(f64, String)> = None;
+        let mut predicted_failed = false;
         let (out, target) = loop {
             let target = sizer.target();
+            let lam = sizer.position(step).lambda;
+            let predictor = match (last_step, &x_before) {
+                (Some((s, dl)), Some(xb)) if s == stage && !predicted_failed && dl > 0.0 => {
+                    Some(((target - lam) / dl, xb))
+                }
+                _ => None,
+            };
             let values = prescribed_values(bcs, &asm.dofs, coords, target)?;
             asm.set_prescribed(&values);
             asm.set_load(target);
@@ -321,6 +341,12 @@ pub fn run_load_steps_from<'p>(
             // sparsity pattern it resumes from the iterate it reached.
             if !resume {
                 x_conv.copy_to(x)?;
+                // the secant predictor: u_n + r (u_n - u_{n-1}) (prescribed values included,
+                // linear in the load within a stage)
+                if let Some((r, xb)) = predictor {
+                    x.axpy(r, &x_conv)?;
+                    x.axpy(-r, xb)?;
+                }
             }
             asm.refresh_pattern(x, jac, snes)?;
             let out = super::settle::solve_settled(asm, snes, x, jac)?;
@@ -418,6 +444,22 @@ pub fn run_load_steps_from<'p>(
             failed_iterations += out.iterations + resumed_iterations;
             resumed_iterations = 0;
             asm.rollback();
+            if predictor.is_some() {
+                // the predicted start failed: the same increment again from the converged state
+                // (its iterations count as failed ones, the attempt is no cutback)
+                if std::env::var_os("NURBS_CONTACT_DEBUG_PREDICTOR").is_some() {
+                    eprintln!(
+                        "predicted start failed: step {} load {target}: {} iterations, {}",
+                        step + 1,
+                        out.iterations,
+                        out.domain_error.as_ref().unwrap_or(&out.reason)
+                    );
+                }
+                predicted_failed = true;
+                tangled = None;
+                pattern_retries = 0;
+                continue;
+            }
             let why = match (&tangled, just_tangled) {
                 (Some((_, fold)), true) => format!("converged to a tangled state: {fold}"),
                 _ if asm.pattern_outdated() => format!(
@@ -485,10 +527,14 @@ pub fn run_load_steps_from<'p>(
             snes.use_options()?;
         }
         let iterations = out.iterations + resumed_iterations;
+        last_step = Some((stage, target - sizer.position(step).lambda));
         sizer.accept(target, iterations, cutbacks);
         step += 1;
         let augmentation_rounds = asm.augmentation_rounds();
         asm.commit();
+        if let Some(xb) = &mut x_before {
+            x_conv.copy_to(xb)?;
+        }
         x.copy_to(&mut x_conv)?;
         let rec = StepRecord {
             step,
@@ -861,6 +907,7 @@ mod tests {
             growth: 2.0,
             easy_iterations: 4,
             pseudo_steps: 0,
+            secant_predictor: false,
         }
     }
 
