@@ -268,6 +268,59 @@ fn cattaneo_mindlin_stick_zone_of_the_hertz_half_disk() {
 }
 
 #[test]
+fn one_pass_frictional_sliding_slips_at_mu_n_alike_on_1_and_2_ranks() {
+    // cases/sliding_flat_2d.toml with mu = 0.3 from the start and `algorithm = "one_pass"` (the
+    // upper block's surface the slave, the lower one taking the opposite force): every slave point
+    // slips on the cone while sliding, the pass's tangential force is -mu times its normal one,
+    // and 2 ranks (the master's rows on the other rank) give the 1-rank displacement
+    for gap in ["pointwise", "mortar"] {
+        let sets = [
+            "contact.0.mu=0.3",
+            "contact.0.algorithm=one_pass",
+            &format!("contact.0.gap={gap}"),
+            "bodies.upper.element=Q1N2",
+            "bodies.lower.element=Q1N2",
+            "output.plots=false",
+        ];
+        let mut dirs = Vec::new();
+        for np in [1, 2] {
+            let d = run_case(
+                &format!("friction-one-pass-{gap}-np{np}"),
+                "sliding_flat_2d.toml",
+                np,
+                &sets,
+            );
+            let stage = history_col(&d, "stage");
+            let pt = history_col(&d, "Pt_slide_upper_bottom_x");
+            let py = history_col(&d, "P_slide_upper_bottom_y");
+            let slip = history_col(&d, "slip_slide_upper_bottom");
+            let active = history_col(&d, "active_slide_upper_bottom");
+            assert_eq!(summary(&d)["status"], "converged");
+            for i in 3..stage.len() {
+                assert!(
+                    active[i] > 0.0 && slip[i] == active[i],
+                    "{gap} step {}",
+                    i + 1
+                );
+                assert!(
+                    (pt[i] + 0.3 * py[i]).abs() < 1e-9 * py[i],
+                    "{gap} step {}: P_t {} vs -mu P_n {}",
+                    i + 1,
+                    pt[i],
+                    -0.3 * py[i]
+                );
+            }
+            dirs.push(d);
+        }
+        let e = rel_diff(
+            &h5_last(&dirs[0], "bulk", "displacement"),
+            &h5_last(&dirs[1], "bulk", "displacement"),
+        );
+        assert!(e < 1e-10, "{gap}: 1 vs 2 ranks differ by {e:e}");
+    }
+}
+
+#[test]
 fn bad_friction_keys_are_named() {
     let c = case("friction_block_2d.toml");
     for (set, want) in [

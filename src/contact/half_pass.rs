@@ -20,7 +20,8 @@ pub(crate) mod mortar;
 
 use crate::assembly::MatrixSink;
 use crate::contact::kernel::{
-    contact_point_pass, Area, OwnPoint, PartnerPoint, PointIn, PointResult, Scratch, SlipState,
+    contact_point_pass, gap_and_normal, Area, OwnPoint, PartnerPoint, PointIn, PointResult,
+    Scratch, SlipState,
 };
 use crate::contact::law::{self, Traction};
 use crate::contact::pair::{
@@ -560,7 +561,14 @@ impl HalfPass<'_> {
         }
         if let Some(a) = &at {
             if self.jacobian {
-                friction::anchor_block(self, own, a, &pr.friction, work);
+                // one-pass: the master element's basis at the projection, for its rows
+                let nl_at = if master {
+                    gap_and_normal(dim, &pr.x, &pp).map(|pg| (pg.basis, pg.n_nodes))
+                } else {
+                    None
+                };
+                let m = nl_at.as_ref().map(|(b, n)| (le, &b[..*n]));
+                friction::anchor_block(self, own, a, &pr.friction, m, work);
             }
         }
         if self.pair.has_friction && !cohesive && pr.active {

@@ -442,13 +442,6 @@ fn friction(
             "friction goes with the `penalty` law and the `cohesive` law's penalty, not with `van_der_waals`",
         ));
     }
-    if spec.algorithm == Algorithm::OnePass {
-        return Err(err(
-            case,
-            key("mu"),
-            "friction is implemented for the two-half-pass algorithm only (drop `algorithm = \"one_pass\"`)",
-        ));
-    }
     let n_stages = case.stages.len();
     if !spec.friction_stages.is_empty() && spec.friction_stages.len() != n_stages {
         return Err(err(

@@ -122,7 +122,8 @@ pub struct ContactSpec {
     /// Coulomb friction coefficient (> 0) of `penalty`, and of the penalty against penetration of
     /// `cohesive` (Sauer & De Lorenzis 2015: each quadrature point sticks to an anchor on the
     /// partner until its tangential traction reaches `mu` times its normal pressure, then slips).
-    /// Default: frictionless. Not with `algorithm = "one_pass"`.
+    /// Default: frictionless. With `algorithm = "one_pass"` the slave's points stick and slip and
+    /// the master takes the opposite traction.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mu: Option<f64>,
     /// Tangential penalty (> 0, units of `eps_n`) of the stick law `t_T = -eps_t g_T`. Default:

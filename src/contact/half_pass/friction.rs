@@ -62,12 +62,16 @@ pub(super) fn anchor_at(hp: &HalfPass, f: &Friction, a: Anchor) -> Option<Anchor
 }
 
 /// The block of the own element's rows and the anchor element's columns, `-N_a w J dt_dxa N_b`
-/// (see [`FrictionOut`]), when the point has tangential traction.
+/// (see [`FrictionOut`]), when the point has tangential traction. One-pass (`master`: the
+/// point's partner element and its basis at the projection): the master rows carry the opposite,
+/// `+N^l_c w J dt_dxa N_b`, a cross block of the partner's rows and the anchor element's columns
+/// (the anchor block's own rows are then followed by the anchor element's, zero here).
 pub(super) fn anchor_block(
     hp: &HalfPass,
     own: &OwnPoint,
     at: &AnchorAt,
     fo: &FrictionOut,
+    master: Option<(u32, &[f64])>,
     work: &mut Work,
 ) {
     let Some((la, Na, na)) = at.el else {
@@ -79,7 +83,9 @@ pub(super) fn anchor_block(
     let dim = hp.geo.dim;
     let nk = own.N.len();
     let nca = (nk + na) * dim;
-    let ib = work.block(la, nk * dim * nca);
+    let one_pass = hp.pair.one_pass && hp.l.is_some();
+    let nrows = if one_pass { nca } else { nk * dim };
+    let ib = work.block(la, nrows * nca);
     let kb = &mut work.blocks[ib].1;
     let Jw = point_area(dim, own) * own.w;
     for a in 0..nk {
@@ -88,6 +94,23 @@ pub(super) fn anchor_block(
             for b in 0..na {
                 for j in 0..dim {
                     kb[row + (nk + b) * dim + j] -= own.N[a] * Jw * fo.dt_dxa[3 * i + j] * Na[b];
+                }
+            }
+        }
+    }
+    let Some((le, Nl)) = master else {
+        return;
+    };
+    let nl = Nl.len();
+    let ncols = na * dim;
+    let ic = super::mortar::cross_slot(work, le, la, nl * dim * ncols);
+    let kc = &mut work.cross[ic].2;
+    for c in 0..nl {
+        for i in 0..dim {
+            let row = (c * dim + i) * ncols;
+            for b in 0..na {
+                for j in 0..dim {
+                    kc[row + b * dim + j] += Nl[c] * Jw * fo.dt_dxa[3 * i + j] * Na[b];
                 }
             }
         }

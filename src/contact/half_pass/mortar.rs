@@ -553,7 +553,7 @@ impl MortarNet {
 
 /// The slot of the one-pass cross block of master element `le`'s rows and block key `key`'s
 /// columns, zeroed to `len` entries when it is new for this element.
-fn cross_slot(work: &mut Work, le: u32, key: u32, len: usize) -> usize {
+pub(super) fn cross_slot(work: &mut Work, le: u32, key: u32, len: usize) -> usize {
     let n = work.n_cross;
     if let Some(i) = work.cross[..n]
         .iter()

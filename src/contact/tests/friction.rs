@@ -89,6 +89,23 @@ fn shifted(h: &Harness, u: &[f64], f: &dyn Fn(usize) -> Vec<f64>) -> Vec<f64> {
 }
 
 #[test]
+fn one_pass_friction_tangent_matches_central_differences_in_stick_and_slip() {
+    // one-pass: the master rows carry the opposite of the slave point's frictional traction,
+    // which varies with the anchor element's unknowns too (a cross block: the master's rows, the
+    // anchor element's columns); pointwise and mortar gaps, 2D and the hemisphere
+    for gap in ["pointwise", "mortar"] {
+        let law = format!(
+            "law = \"penalty\"\neps_n = 100.0\nmu = 0.3\neps_t = 80.0\ngap = \"{gap}\"\n\
+             algorithm = \"one_pass\""
+        );
+        for (block, disk) in [("Q1N2", "Q1N2"), ("Q1C1", "Q1N2"), ("Q1N2", "Q1C1")] {
+            friction_fd_2d(block, disk, &law);
+        }
+        friction_fd_hemisphere("Q1N2", "Q1N2", &law);
+    }
+}
+
+#[test]
 fn friction_tangent_matches_central_differences_in_stick_and_slip_2d() {
     for (block, disk) in [
         ("Q1C1", "Q1C1"),
