@@ -618,7 +618,9 @@ pub struct SolverOptions {
     /// lifts the new boundary values into the interior through the tangent) or `"secant"` (the
     /// last converged state extrapolated along the last step of the same stage, `u_n + r (u_n -
     /// u_{n-1})`, `r` the ratio of the increments; a predicted start that fails is retried from
-    /// the converged state at the same increment, not cut back). It pays in steady sliding,
+    /// the converged state at the same increment, not cut back; once more than a fifth of at
+    /// least 8 predicted starts of a stage have failed, the rest of the stage starts from the
+    /// converged state). It pays in steady sliding,
     /// where each step moves the deformed state along (ironing at mesh 16, one-pass mortar: 16 %
     /// less time); where the pressure oscillates from step to step (two-half-pass pointwise Q1N2
     /// at mesh 4) a predicted start fails every few steps and the run takes longer

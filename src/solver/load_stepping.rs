@@ -43,6 +43,18 @@ pub struct StepControl {
     pub secant_predictor: bool,
 }
 
+/// The secant predictor is given up for the rest of a stage once at least
+/// [`PREDICTION_TRIALS`] predicted starts were tried and more than [`PREDICTION_FAILURES`] of
+/// them failed: a failed start costs its iterations and a second solve (BENCHMARKS.md, "A secant
+/// predictor": two-half-pass pointwise ironing at mesh 4 fails one in three).
+const PREDICTION_TRIALS: usize = 8;
+const PREDICTION_FAILURES: f64 = 0.2;
+
+/// Whether `failed` of `tried` predicted starts of a stage give the predictor up.
+fn predictions_fail(tried: usize, failed: usize) -> bool {
+    tried >= PREDICTION_TRIALS && failed as f64 > PREDICTION_FAILURES * tried as f64
+}
+
 /// A rigid translation that only contact may hold (a body pressed onto a frictionless plane is
 /// free along it): `rows` are this rank's owned unknowns that move with it.
 ///
@@ -298,6 +310,8 @@ pub fn run_load_steps_from<'p>(
         None
     };
     let mut last_step: Option<(usize, f64)> = None;
+    // predicted starts in the current stage: (stage, tried, failed, given up)
+    let mut predictions = (usize::MAX, 0usize, 0usize, false);
     let mut records = Vec::new();
     let mut sizer = StepSizer::new(control);
     let mut step = 0usize;
@@ -326,12 +340,33 @@ pub fn run_load_steps_from<'p>(
         let (out, target) = loop {
             let target = sizer.target();
             let lam = sizer.position(step).lambda;
+            if predictions.0 != stage {
+                predictions = (stage, 0, 0, false);
+            }
+            if x_before.is_some()
+                && !predictions.3
+                && predictions_fail(predictions.1, predictions.2)
+            {
+                predictions.3 = true;
+                eprintln!(
+                    "note: step {}: {} of {} predicted starts of stage {stage} failed; Newton \
+                     starts from the converged state for the rest of the stage",
+                    step + 1,
+                    predictions.2,
+                    predictions.1
+                );
+            }
             let predictor = match (last_step, &x_before) {
-                (Some((s, dl)), Some(xb)) if s == stage && !predicted_failed && dl > 0.0 => {
+                (Some((s, dl)), Some(xb))
+                    if s == stage && !predicted_failed && dl > 0.0 && !predictions.3 =>
+                {
                     Some(((target - lam) / dl, xb))
                 }
                 _ => None,
             };
+            if predictor.is_some() && !resume {
+                predictions.1 += 1;
+            }
             let values = prescribed_values(bcs, &asm.dofs, coords, target)?;
             asm.set_prescribed(&values);
             asm.set_load(target);
@@ -456,6 +491,7 @@ pub fn run_load_steps_from<'p>(
                     );
                 }
                 predicted_failed = true;
+                predictions.2 += 1;
                 tangled = None;
                 pattern_retries = 0;
                 continue;
@@ -897,6 +933,15 @@ mod tests {
         assert_eq!(tries(&creep), vec![3]);
         // a single pseudo-step is the last one
         assert_eq!(tries(&[1e-3]), vec![0]);
+    }
+
+    #[test]
+    fn the_predictor_is_given_up_when_more_than_a_fifth_of_eight_or_more_starts_fail() {
+        assert!(!predictions_fail(7, 7), "too few tries to judge");
+        assert!(!predictions_fail(8, 1));
+        assert!(predictions_fail(8, 2));
+        assert!(!predictions_fail(100, 20));
+        assert!(predictions_fail(100, 21));
     }
 
     fn control(steps: Vec<usize>, max_cutbacks: usize) -> StepControl {
