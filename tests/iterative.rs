@@ -158,11 +158,17 @@ fn the_contact_default_solves_the_indefinite_press_tangent_without_falling_back(
         &h5_last(&after, "bulk", "displacement"),
     );
     assert!(e < 1e-7, "Krylov and MUMPS displacements differ by {e:e}");
-    let er = rel_diff(
-        &history_col(&before, "R_shell_rim_z"),
-        &history_col(&after, "R_shell_rim_z"),
+    // the final reactions: the two routes may reach the load in different steps (on one machine
+    // the Krylov press needed more pattern rebuilds than an attempt allows and was cut back once)
+    let (rb, ra) = (
+        last(&before, "R_shell_rim_z"),
+        last(&after, "R_shell_rim_z"),
     );
-    assert!(er < 1e-7, "rim reactions differ by {er:e}");
+    let er = (rb - ra).abs() / rb.abs();
+    assert!(
+        er < 1e-7,
+        "rim reactions differ by {er:e} ({rb} against {ra})"
+    );
 }
 
 /// `[solver] krylov_accept`: the GMRES(100) solve of the indefinite press tangent stops at 400

@@ -5,6 +5,9 @@ use crate::mesh::Mesh;
 /// Fixed METIS seed, so that the same mesh always gives the same partition.
 const METIS_SEED: metis::Idx = 4242;
 
+/// Serialises the calls into METIS (see [`partition_cells`]).
+static METIS_LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 /// Failures of the partitioner.
 #[derive(Debug, thiserror::Error)]
 pub enum PartitionError {
@@ -113,10 +116,16 @@ pub fn partition_cells(
     } else {
         graph.set_adjwgt(&adjwgt)
     };
-    graph
-        .set_option(metis::option::Seed(METIS_SEED))
-        .part_kway(&mut part)
-        .map_err(|e| metis_err(&e))?;
+    {
+        // METIS keeps its random generator in a process-wide static (GKlib), so two partitions
+        // computed at once in one process (threads: the test harness) interleave their draws and
+        // a seeded call is no longer reproducible: one call at a time
+        let _one_at_a_time = METIS_LOCK.lock().unwrap_or_else(|e| e.into_inner());
+        graph
+            .set_option(metis::option::Seed(METIS_SEED))
+            .part_kway(&mut part)
+            .map_err(|e| metis_err(&e))?;
+    }
     part.into_iter()
         .map(|p| {
             u32::try_from(p).map_err(|_| PartitionError::Metis {
