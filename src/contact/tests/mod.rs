@@ -385,3 +385,29 @@ steps = 1
 "#
     )
 }
+
+/// Per component: the sum of the contact residual over the bodies' nodes (Hermite tangent
+/// pseudo-nodes left out: they carry no force component) and its largest entry.
+pub(super) fn net_force(h: &Harness, f: &[f64]) -> ([f64; 3], [f64; 3]) {
+    let (mut sum, mut scale) = ([0.0; 3], [0.0f64; 3]);
+    for node in 0..h.model.n_nodes() as u32 {
+        let pseudo = h.model.bodies.iter().any(|b| {
+            b.enrichment.as_ref().is_some_and(|e| {
+                node >= b.node_offset
+                    && e.pseudo_nodes
+                        .binary_search(&(node - b.node_offset))
+                        .is_ok()
+            })
+        });
+        if pseudo {
+            continue;
+        }
+        for c in 0..h.model.dim {
+            if let Some(g) = h.dofs.global(node, c) {
+                sum[c] += f[g.0 as usize];
+                scale[c] = scale[c].max(f[g.0 as usize].abs());
+            }
+        }
+    }
+    (sum, scale)
+}

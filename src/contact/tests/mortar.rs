@@ -162,32 +162,6 @@ fn one_pass_mortar_tangent_matches_central_differences_and_balances_momentum() {
     }
 }
 
-/// Per component: the sum of the contact residual over the bodies' nodes (Hermite tangent
-/// pseudo-nodes left out: they carry no force component) and its largest entry.
-fn net_force(h: &Harness, f: &[f64]) -> ([f64; 3], [f64; 3]) {
-    let (mut sum, mut scale) = ([0.0; 3], [0.0f64; 3]);
-    for node in 0..h.model.n_nodes() as u32 {
-        let pseudo = h.model.bodies.iter().any(|b| {
-            b.enrichment.as_ref().is_some_and(|e| {
-                node >= b.node_offset
-                    && e.pseudo_nodes
-                        .binary_search(&(node - b.node_offset))
-                        .is_ok()
-            })
-        });
-        if pseudo {
-            continue;
-        }
-        for c in 0..h.model.dim {
-            if let Some(g) = h.dofs.global(node, c) {
-                sum[c] += f[g.0 as usize];
-                scale[c] = scale[c].max(f[g.0 as usize].abs());
-            }
-        }
-    }
-    (sum, scale)
-}
-
 /// FD checks of `law` on 2D pairs (three, then `extra_2d`), 3D blocks, the hemisphere (pressed
 /// by `hemisphere_depth`) and rigid partners.
 fn mortar_tangents(law: &str, extra_2d: &[(&str, &str)], hemisphere_depth: f64) {
