@@ -5,7 +5,8 @@
 //! `step-NNNNNN.partial/` and renamed when complete (the previous checkpoint is removed only then,
 //! so a valid one exists at every moment):
 //! - `state.h5`: the resolved case (TOML text) and its hash, the load-step position and step-size
-//!   state, the displacement per node (global node numbering, so the rank count may change), the
+//!   state (with the secant predictor's), the displacement per node (global node numbering, so
+//!   the rank count may change) and, for the secant predictor, the one of the step before, the
 //!   element history per cell (Q1E4 enhanced parameters; global cell numbering), the committed
 //!   contact state per quadrature point (keyed by pair, half-pass, surface element and point), and
 //!   the run's log so far (Newton statistics, steps of summary.json);
@@ -13,7 +14,7 @@
 //!   continues (so a restarted run's files equal an uninterrupted run's).
 
 use crate::io::{IoError, NewtonStats, StepLog};
-use crate::solver::LoadPosition;
+use crate::solver::{LoadPosition, PredictorState};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -100,6 +101,9 @@ pub struct State {
     pub position: LoadPosition,
     /// Displacement per node and component [n_nodes][dim] (0 at nodes without unknowns).
     pub displacement: Vec<f64>,
+    /// The converged displacement of the step before, as `displacement`, when the secant
+    /// predictor extrapolates from it (`position.predictor.last` is set); empty otherwise.
+    pub displacement_before: Vec<f64>,
     /// Element history per cell of the model [n_cells][width] (empty: width 0).
     pub element_history: Vec<f64>,
     /// Values per cell in `element_history`.
@@ -156,7 +160,8 @@ fn write_state(path: &Path, s: &State) -> Result<(), IoError> {
         message: e.to_string(),
     })?;
     let p = &s.position;
-    let position = [p.step as f64, p.stage as f64, p.lambda, p.dl];
+    let mut position = vec![p.step as f64, p.stage as f64, p.lambda, p.dl];
+    position.extend(p.predictor.values());
     let bytes: [(&str, &[u8]); 2] = [
         ("case_toml", s.case_toml.as_bytes()),
         ("meta", json.as_bytes()),
@@ -168,10 +173,11 @@ fn write_state(path: &Path, s: &State) -> Result<(), IoError> {
             .and_then(|d| d.write_raw(b))
             .map_err(h5err(path, name))?;
     }
-    let floats: [(&str, &[f64]); 5] = [
+    let floats: [(&str, &[f64]); 6] = [
         ("contact_pattern", &s.contact_pattern),
         ("position", &position),
         ("displacement", &s.displacement),
+        ("displacement_before", &s.displacement_before),
         ("element_history", &s.element_history),
         ("contact_points", &s.contact_points),
     ];
@@ -225,18 +231,29 @@ pub fn read_state(checkpoint: &Path) -> Result<State, IoError> {
         return Err(invalid("the stored case does not match its hash".into()));
     }
     let p = floats("position")?;
-    if p.len() != 4 {
-        return Err(invalid(format!("position has {} values, not 4", p.len())));
+    // 4 values: written before the secant predictor's state was kept (its first step after the
+    // restart is not predicted)
+    let predictor = match p.len() {
+        4 => PredictorState::default(),
+        10 => PredictorState::from_values(&[p[4], p[5], p[6], p[7], p[8], p[9]]),
+        n => return Err(invalid(format!("position has {n} values, not 10 (or 4)"))),
+    };
+    let mut position = LoadPosition {
+        step: p[0] as usize,
+        stage: p[1] as usize,
+        lambda: p[2],
+        dl: p[3],
+        predictor,
+    };
+    let displacement_before = floats("displacement_before")?;
+    if displacement_before.is_empty() {
+        position.predictor.last = None;
     }
     Ok(State {
         case_toml,
-        position: LoadPosition {
-            step: p[0] as usize,
-            stage: p[1] as usize,
-            lambda: p[2],
-            dl: p[3],
-        },
+        position,
         displacement: floats("displacement")?,
+        displacement_before,
         element_history: floats("element_history")?,
         element_history_width: meta.element_history_width,
         contact_points: floats("contact_points")?,
@@ -560,6 +577,7 @@ every = 1
             stage,
             lambda,
             dl: 0.25,
+            predictor: Default::default(),
         };
         assert_eq!(stages_started(&p(0, 0.25)), 1);
         assert_eq!(stages_started(&p(1, 1.0)), 1);
@@ -580,8 +598,16 @@ every = 1
                 stage: 0,
                 lambda: 0.1 + 0.2,
                 dl: 1.0 / 3.0,
+                predictor: PredictorState {
+                    last: Some((0, 0.1 / 3.0)),
+                    stage: Some(0),
+                    tried: 9,
+                    failed: 2,
+                    given_up: true,
+                },
             },
             displacement: vec![0.1, -2.5e-17, 3.0],
+            displacement_before: vec![0.05, 1e-300, 2.0],
             element_history: Vec::new(),
             element_history_width: 0,
             contact_points: vec![1.0; 16],
@@ -601,6 +627,13 @@ every = 1
         let back = read_state(&latest_dir).unwrap();
         assert_eq!(back.position, s.position);
         assert_eq!(back.displacement, s.displacement);
+        assert_eq!(back.displacement_before, s.displacement_before);
+        // without the state before, the predictor has nothing to extrapolate from
+        s.displacement_before.clear();
+        let again = write(&dir, &s, None, &history).unwrap().0;
+        let back = read_state(&again).unwrap();
+        assert_eq!(back.position.predictor.last, None);
+        assert_eq!(back.position.predictor.tried, 9);
         assert_eq!(back.contact_points, s.contact_points);
         assert_eq!(back.contact_pattern, s.contact_pattern);
         assert!(back.element_history.is_empty());

@@ -533,3 +533,43 @@ fn mortar_multipliers_killed_and_restarted_equal_an_uninterrupted_run() {
     );
     assert!(d <= 1e-12, "difference {d:e}");
 }
+
+/// The secant predictor extrapolates from the two last converged states: a checkpoint keeps the
+/// one before the last (`displacement_before`) and the predictor's counters, so that the first
+/// step after a restart starts where the uninterrupted run's did (the friction path makes a
+/// different start visible: a restart that lost them takes other Newton counts).
+#[test]
+fn secant_predictor_killed_and_restarted_equals_an_uninterrupted_run() {
+    let mut sets = FRICTION.to_vec();
+    sets.push("solver.predictor=\"secant\"");
+    let (killed, d) = kill_and_restart(
+        "predictor-np1",
+        None,
+        "friction_block_2d.toml",
+        &sets,
+        1,
+        1,
+        "8",
+        true,
+    );
+    assert!(d <= 1e-12, "difference {d:e}");
+    let ckpt = killed.join("checkpoints").join(&checkpoints(&killed)[0]);
+    let f = hdf5::File::open(ckpt.join("state.h5")).unwrap();
+    let position = f.dataset("position").unwrap().read_raw::<f64>().unwrap();
+    assert_eq!(position.len(), 10, "{position:?}");
+    // within the sliding stage: the last step's stage and increment are kept
+    assert_eq!(position[4], 1.0, "{position:?}");
+    assert!(position[5] > 0.0, "{position:?}");
+    let before = f
+        .dataset("displacement_before")
+        .unwrap()
+        .read_raw::<f64>()
+        .unwrap();
+    let now = f
+        .dataset("displacement")
+        .unwrap()
+        .read_raw::<f64>()
+        .unwrap();
+    assert_eq!(before.len(), now.len());
+    assert!(before != now);
+}

@@ -97,6 +97,7 @@ impl<'c, 'p> StepObserver<'c, 'p> {
         model: &Model,
         rec: &StepRecord,
         x: &Vector,
+        before: Option<&Vector>,
         asm: &mut Assembler,
     ) -> Result<AfterStep, String> {
         let t0 = Instant::now();
@@ -166,7 +167,7 @@ impl<'c, 'p> StepObserver<'c, 'p> {
                 // before the interrupt's extra output step below: the checkpoint's copy of the
                 // results holds the scheduled steps only, so a restart from it writes what an
                 // uninterrupted run writes
-                self.checkpoint(model, rec, x, asm)
+                self.checkpoint(model, rec, x, before, asm)
                     .map_err(|e| format!("checkpoint: {e}"))?;
             }
         }
@@ -185,22 +186,36 @@ impl<'c, 'p> StepObserver<'c, 'p> {
     }
 
     /// Writes a checkpoint of the converged step `rec`: the state gathered to rank 0 in global
-    /// numbering, written there with copies of the output so far. Collective.
+    /// numbering, written there with copies of the output so far; `before` is the converged state
+    /// before it (kept when the secant predictor will extrapolate from it). Collective.
     pub(super) fn checkpoint(
         &mut self,
         model: &Model,
         rec: &StepRecord,
         x: &Vector,
+        before: Option<&Vector>,
         asm: &mut Assembler,
     ) -> Result<(), Error> {
         let t0 = Instant::now();
         let root = self.rank == 0;
         let out = &mut self.output;
-        out.gather.gather(x, &mut out.u_root)?;
-        let displacement = if root {
-            out.u_root.read()?.to_vec()
-        } else {
-            Vec::new()
+        let mut gathered = |v: &Vector| -> Result<Vec<f64>, Error> {
+            out.gather.gather(v, &mut out.u_root)?;
+            Ok(if root {
+                out.u_root.read()?.to_vec()
+            } else {
+                Vec::new()
+            })
+        };
+        let displacement = gathered(x)?;
+        // the same on every rank: the position is the load stepping's, `before` its vector
+        let mut position = rec.position;
+        let displacement_before = match before {
+            Some(b) if position.predictor.last.is_some() => gathered(b)?,
+            _ => {
+                position.predictor.last = None;
+                Vec::new()
+            }
         };
         let comm = asm.comm();
         // element history per cell, each rank filling its own cells, summed on rank 0
@@ -256,8 +271,9 @@ impl<'c, 'p> StepObserver<'c, 'p> {
         let local = if root {
             let state = crate::checkpoint::State {
                 case_toml: out.case_toml.clone(),
-                position: rec.position,
+                position,
                 displacement,
+                displacement_before,
                 element_history,
                 element_history_width: width,
                 contact_points,

@@ -21,6 +21,8 @@ pub(super) struct Solver<'p> {
     /// Bodies that the conditions may leave free.
     pub(super) suspects: Vec<String>,
     pub(super) x: Vector<'p>,
+    /// The converged state before `x`'s, from a checkpoint (the secant predictor's `u_{n-1}`).
+    pub(super) x_before: Option<Vector<'p>>,
     pub(super) asm: Assembler<'p>,
     pub(super) jac: Matrix<'p>,
     pub(super) snes: Snes<'p>,
@@ -163,6 +165,7 @@ pub(super) fn set_up_solver<'p>(
     Ok(Solver {
         suspects,
         x,
+        x_before: None,
         asm,
         jac,
         snes,
@@ -513,7 +516,8 @@ impl<'p> Solver<'p> {
             &model.coords,
             &self.control,
             start,
-            &mut |rec, x, asm| observer.observe(model, rec, x, asm),
+            self.x_before.as_ref(),
+            &mut |rec, x, before, asm| observer.observe(model, rec, x, before, asm),
         );
         if let Some(b) = &observer.bar {
             b.finish_and_clear();

@@ -91,17 +91,36 @@ pub(super) fn restore(
             model.n_cells() * w,
         );
     }
+    if !state.displacement_before.is_empty()
+        && state.displacement_before.len() != state.displacement.len()
+    {
+        return mismatch(
+            "displacement before the last step",
+            state.displacement_before.len(),
+            state.displacement.len(),
+        );
+    }
     let dofs = &solver.asm.dofs;
     let (lo, hi) = dofs.owned_range();
-    {
-        let mut xw = solver.x.write()?;
+    // node values into the owned unknowns of `v`
+    let scatter = |v: &mut crate::petsc::Vector, nodal: &[f64]| -> Result<(), Error> {
+        let mut w = v.write()?;
         for n in 0..model.n_nodes() {
             for c in 0..dim {
                 if let Some(g) = dofs.global(n as u32, c).filter(|g| (lo..hi).contains(&g.0)) {
-                    xw[(g.0 - lo) as usize] = state.displacement[n * dim + c];
+                    w[(g.0 - lo) as usize] = nodal[n * dim + c];
                 }
             }
         }
+        Ok(())
+    };
+    scatter(&mut solver.x, &state.displacement)?;
+    solver.x_before = None;
+    if !state.displacement_before.is_empty() {
+        let mut b = solver.x.duplicate()?;
+        b.set(0.0)?;
+        scatter(&mut b, &state.displacement_before)?;
+        solver.x_before = Some(b);
     }
     let cell_offset: Vec<usize> = model.bodies.iter().map(|b| b.cell_offset).collect();
     let mut local = Ok(());

@@ -161,6 +161,51 @@ pub struct LoadPosition {
     pub lambda: f64,
     /// Increment of the next attempt before clipping to the stage end.
     pub dl: f64,
+    /// The secant predictor's state (a restart continues it exactly).
+    pub predictor: PredictorState,
+}
+
+/// What the secant predictor carries from one step to the next (`[solver] predictor =
+/// "secant"`), kept in checkpoints with the converged state before the last one.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct PredictorState {
+    /// Stage and increment of the last converged step (none before the first step).
+    pub last: Option<(usize, f64)>,
+    /// The stage whose predicted starts `tried`, `failed` and `given_up` count (none yet).
+    pub stage: Option<usize>,
+    /// Predicted starts tried in `stage`.
+    pub tried: usize,
+    /// Predicted starts of `stage` that failed and were retried from the converged state.
+    pub failed: usize,
+    /// The predictor was given up for the rest of `stage` ([`predictions_fail`]).
+    pub given_up: bool,
+}
+
+impl PredictorState {
+    /// The values a checkpoint keeps ([`PredictorState::from_values`] reads them back).
+    pub fn values(&self) -> [f64; 6] {
+        let (ls, ldl) = self.last.map_or((-1.0, 0.0), |(s, dl)| (s as f64, dl));
+        [
+            ls,
+            ldl,
+            self.stage.map_or(-1.0, |s| s as f64),
+            self.tried as f64,
+            self.failed as f64,
+            f64::from(u8::from(self.given_up)),
+        ]
+    }
+
+    /// The state of [`values`](Self::values).
+    pub fn from_values(v: &[f64; 6]) -> Self {
+        let index = |x: f64| (x >= 0.0).then_some(x as usize);
+        PredictorState {
+            last: index(v[0]).map(|s| (s, v[1])),
+            stage: index(v[2]),
+            tried: v[3] as usize,
+            failed: v[4] as usize,
+            given_up: v[5] != 0.0,
+        }
+    }
 }
 
 impl LoadPosition {
@@ -258,6 +303,16 @@ pub enum SolverError {
     },
 }
 
+/// What the load stepping hands its observer after every converged step: the step, the converged
+/// state, the one before it (with the secant predictor on) and the assembler; it may stop the run.
+pub type StepObserverFn<'a, 'p> = dyn FnMut(
+        &StepRecord,
+        &Vector<'p>,
+        Option<&Vector<'p>>,
+        &mut Assembler<'p>,
+    ) -> Result<AfterStep, String>
+    + 'a;
+
 /// Runs all stages. `x` holds the initial displacement and ends with the last converged one.
 /// `observer` is called after every converged step (output, history) and may stop the run there.
 ///
@@ -277,11 +332,25 @@ pub fn run_load_steps<'p>(
         &mut Assembler<'p>,
     ) -> Result<AfterStep, String>,
 ) -> Result<Vec<StepRecord>, SolverError> {
-    run_load_steps_from(asm, snes, x, jac, bcs, coords, control, None, observer)
+    run_load_steps_from(
+        asm,
+        snes,
+        x,
+        jac,
+        bcs,
+        coords,
+        control,
+        None,
+        None,
+        &mut |rec, x, _before, asm| observer(rec, x, asm),
+    )
 }
 
 /// [`run_load_steps`] continued from `start` (a restart: `x` and the element and contact history
-/// already hold that step's converged state), or from load 0 without it.
+/// already hold that step's converged state), or from load 0 without it. `before` is the converged
+/// state before `start`'s (the secant predictor's `u_{n-1}`); without it the first step is not
+/// predicted. The observer gets each converged state and the one before it (with the predictor
+/// on), which a checkpoint keeps.
 ///
 /// Collective.
 #[allow(clippy::too_many_arguments)]
@@ -294,31 +363,40 @@ pub fn run_load_steps_from<'p>(
     coords: &[f64],
     control: &StepControl,
     start: Option<LoadPosition>,
-    observer: &mut dyn FnMut(
-        &StepRecord,
-        &Vector<'p>,
-        &mut Assembler<'p>,
-    ) -> Result<AfterStep, String>,
+    before: Option<&Vector<'p>>,
+    observer: &mut StepObserverFn<'_, 'p>,
 ) -> Result<Vec<StepRecord>, SolverError> {
     let mut x_conv = x.duplicate()?;
     x.copy_to(&mut x_conv)?;
     // secant predictor: the converged state before the last one, and the last step's stage and
-    // increment (none yet: the first step, also after a restart, starts from the converged state)
+    // increment (none yet: the first step starts from the converged state, and so does the first
+    // after a restart whose checkpoint has no state before its own)
     let mut x_before = if control.secant_predictor {
         Some(x.duplicate()?)
     } else {
         None
     };
-    let mut last_step: Option<(usize, f64)> = None;
-    // predicted starts in the current stage: (stage, tried, failed, given up)
-    let mut predictions = (usize::MAX, 0usize, 0usize, false);
     let mut records = Vec::new();
     let mut sizer = StepSizer::new(control);
     let mut step = 0usize;
+    let mut carried = PredictorState::default();
     if let Some(p) = start {
         sizer.resume(&p);
         step = p.step;
+        carried = p.predictor;
+        match (&mut x_before, before) {
+            (Some(xb), Some(b)) => b.copy_to(xb)?,
+            _ => carried.last = None,
+        }
     }
+    let mut last_step: Option<(usize, f64)> = carried.last;
+    // predicted starts in the current stage: (stage, tried, failed, given up)
+    let mut predictions = (
+        carried.stage.unwrap_or(usize::MAX),
+        carried.tried,
+        carried.failed,
+        carried.given_up,
+    );
     while let Some(stage) = sizer.stage() {
         let t_step = Instant::now();
         let mut cutbacks = 0;
@@ -572,7 +650,7 @@ pub fn run_load_steps_from<'p>(
             x_conv.copy_to(xb)?;
         }
         x.copy_to(&mut x_conv)?;
-        let rec = StepRecord {
+        let mut rec = StepRecord {
             step,
             stage,
             load: target,
@@ -590,7 +668,14 @@ pub fn run_load_steps_from<'p>(
             linear_iterations,
             linear_accepted,
         };
-        let after = observer(&rec, x, asm).map_err(SolverError::Observer)?;
+        rec.position.predictor = PredictorState {
+            last: last_step,
+            stage: (predictions.0 != usize::MAX).then_some(predictions.0),
+            tried: predictions.1,
+            failed: predictions.2,
+            given_up: predictions.3,
+        };
+        let after = observer(&rec, x, x_before.as_ref(), asm).map_err(SolverError::Observer)?;
         let load = rec.load;
         records.push(rec);
         if after == AfterStep::Stop {
@@ -813,6 +898,7 @@ impl StepSizer {
             stage: self.stage,
             lambda: self.lambda,
             dl: self.dl,
+            predictor: PredictorState::default(),
         }
     }
 
@@ -903,6 +989,7 @@ mod tests {
             stage: 1,
             lambda: 1.1,
             dl: 0.05,
+            predictor: PredictorState::default(),
         });
         assert!((mid.target() - 1.15).abs() < 1e-12, "{}", mid.target());
     }

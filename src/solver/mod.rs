@@ -7,5 +7,6 @@ mod settle;
 
 pub use load_stepping::{
     run_load_steps, run_load_steps_from, translation_resistance, AfterStep, LoadPosition,
-    SolverError, StepControl, StepRecord, StepSizer, TranslationProbe, FREE_TRANSLATION_TOL,
+    PredictorState, SolverError, StepControl, StepRecord, StepSizer, TranslationProbe,
+    FREE_TRANSLATION_TOL,
 };
