@@ -17,6 +17,9 @@ fn kink_sets(freeze_after: usize) -> Vec<String> {
         "bcs.1.value=[[0.0, -0.26666666666666666], [0.0, -0.26666666666666666]]".into(),
         "stages.0.steps=8".into(),
         "stages.1.steps=1".into(),
+        // the cycling is that of Newton started from the converged state (the secant predictor
+        // starts the kink's step elsewhere, and plain Newton gets through it)
+        "solver.predictor=none".into(),
         format!("solver.contact_freeze_after={freeze_after}"),
     ]
 }

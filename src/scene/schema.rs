@@ -622,11 +622,12 @@ pub struct SolverOptions {
     /// least 8 predicted starts of a stage have failed, the rest of the stage starts from the
     /// converged state). It pays in steady sliding,
     /// where each step moves the deformed state along (ironing at mesh 16, one-pass mortar: 16 %
-    /// less time); where the pressure oscillates from step to step (two-half-pass pointwise Q1N2
-    /// at mesh 4) a predicted start fails every few steps and the run takes longer
-    /// (BENCHMARKS.md, "A secant predictor"). The first step of a stage, and the first after a restart, start from the
-    /// converged state. Default: `"none"`.
-    #[serde(default, skip_serializing_if = "Predictor::is_none")]
+    /// less time; peeling 36 %); where the pressure oscillates from step to step (two-half-pass
+    /// pointwise Q1N2 at mesh 4) predicted starts fail every few steps and the stage gives it up
+    /// (BENCHMARKS.md, "A secant predictor", "The secant predictor as the default"). The first
+    /// step of a stage starts from the converged state; a restart continues the predictor
+    /// exactly (checkpoints keep the state before the last). Default: `"secant"`.
+    #[serde(default, skip_serializing_if = "Predictor::is_default")]
     pub predictor: Predictor,
 }
 
@@ -635,15 +636,15 @@ pub struct SolverOptions {
 #[serde(rename_all = "lowercase")]
 pub enum Predictor {
     /// The last converged state.
-    #[default]
     None,
     /// The last converged state extrapolated along the last step of the stage.
+    #[default]
     Secant,
 }
 
 impl Predictor {
-    fn is_none(&self) -> bool {
-        *self == Predictor::None
+    fn is_default(&self) -> bool {
+        *self == Predictor::default()
     }
 }
 
@@ -736,7 +737,7 @@ impl Default for SolverOptions {
             partition: PartitionKind::default(),
             max_penetration: None,
             krylov_accept: default_krylov_accept(),
-            predictor: Predictor::None,
+            predictor: Predictor::default(),
         }
     }
 }
