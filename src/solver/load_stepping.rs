@@ -622,7 +622,12 @@ pub fn run_load_steps_from<'p>(
                     load: target,
                     cutbacks,
                     reason: format!(
-                        "the minimum increment {min:.3e} was reached{}; last attempt: {}",
+                        "the minimum increment {min:.3e} was reached{}{}; last attempt: {}",
+                        if cutbacks == 0 && control.max_cutbacks > 0 {
+                            " (earlier steps had cut the increment down to it)"
+                        } else {
+                            ""
+                        },
                         if control.pseudo_steps > 0 {
                             " and the pseudo-transient rescue found no equilibrium"
                         } else {
