@@ -45,7 +45,7 @@ def main():
         binary, args = args[1], args[2:]
     cases = args or sorted(os.path.join(ROOT, "cases", c) for c in os.listdir(os.path.join(ROOT, "cases"))
                            if c.endswith(".toml"))
-    print("| case | none | secant | wall secant / none | final reactions, max rel. diff |")
+    print("| case | none | secant | wall secant / none | final forces, max diff / largest force of the run |")
     print("|---|---|---|---|---|")
     for case in cases:
         (a, ra, wa), (b, rb, wb) = run(binary, case, "none"), run(binary, case, "secant")

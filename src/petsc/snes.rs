@@ -74,6 +74,9 @@ pub struct Snes<'p> {
     /// Stop a solve whose best residual norm has not fallen by [`STAGNATION_FACTOR`] within this
     /// many iterations (0: never).
     stagnation_window: usize,
+    /// The next solve starts from a guess (the secant predictor's): it is stopped when its first
+    /// Newton iteration raises the residual norm ([`Snes::watch_start`]; one solve only).
+    watch_start: bool,
     /// The rigid-body modes attached to the Jacobian before every solve (for GAMG).
     near_null: Option<NullSpace<'p>>,
     /// The options choose an iterative linear solver: a PETSc error in a solve is a linear
@@ -117,6 +120,10 @@ struct Context<'a> {
     stagnation_window: usize,
     /// The solve was stopped because it stagnated.
     stagnated: bool,
+    /// Stop the solve if its first iteration raises the residual norm (a guessed start).
+    watch_start: bool,
+    /// The solve was stopped for that: the norms before and after the first iteration.
+    rose: Option<(f64, f64)>,
     /// A residual evaluation since the last Jacobian (i.e. in this iteration's line search) raised
     /// a domain error: the line search's final step is checked ([`post_check_trampoline`]).
     line_search_domain: bool,
@@ -308,8 +315,10 @@ unsafe extern "C" fn post_check_trampoline(
 }
 
 /// SNES's default convergence test, then a stop (`SNES_DIVERGED_JACOBIAN_DOMAIN`) when a Jacobian
-/// evaluation failed or the problem asks for one ([`NonlinearProblem::stop_requested`]), and a stop
-/// (`SNES_DIVERGED_MAX_IT`, reported as `DIVERGED_STAGNATION`) when the solve [`stagnated`].
+/// evaluation failed or the problem asks for one ([`NonlinearProblem::stop_requested`]), a stop
+/// (`SNES_DIVERGED_MAX_IT`, reported as `DIVERGED_STAGNATION`) when the solve [`stagnated`], and
+/// one (reported as `DIVERGED_PREDICTED_START`) when a watched start's first iteration raised the
+/// residual norm.
 unsafe extern "C" fn converged_trampoline(
     snes: sys::SNES,
     it: PetscInt,
@@ -333,9 +342,12 @@ unsafe extern "C" fn converged_trampoline(
     if r.0 == 0 && (ctx.jacobian_failed || ctx.problem.stop_requested()) {
         *r = sys::SNESConvergedReason::SNES_DIVERGED_JACOBIAN_DOMAIN;
     }
-    if r.0 == 0 && ctx.stagnation_window > 0 && fnorm.is_finite() {
+    if r.0 == 0 && (ctx.stagnation_window > 0 || ctx.watch_start) && fnorm.is_finite() {
         ctx.norms.push(fnorm);
-        if stagnated(&ctx.norms, ctx.stagnation_window) {
+        if ctx.watch_start && ctx.norms.len() == 2 && ctx.norms[1] > ctx.norms[0] {
+            ctx.rose = Some((ctx.norms[0], ctx.norms[1]));
+            *r = sys::SNESConvergedReason::SNES_DIVERGED_MAX_IT;
+        } else if ctx.stagnation_window > 0 && stagnated(&ctx.norms, ctx.stagnation_window) {
             ctx.stagnated = true;
             *r = sys::SNESConvergedReason::SNES_DIVERGED_MAX_IT;
         }
@@ -383,6 +395,7 @@ impl<'p> Snes<'p> {
             history,
             history_its,
             stagnation_window: 0,
+            watch_start: false,
             near_null: None,
             iterative: false,
             on_direct: false,
@@ -458,6 +471,14 @@ impl<'p> Snes<'p> {
     /// is cut back without spending the rest of the iteration limit.
     pub fn set_stagnation_window(&mut self, window: usize) {
         self.stagnation_window = window;
+    }
+
+    /// The next [`solve`](Self::solve) starts from a guess, not from an equilibrium: it stops
+    /// (not converged, `DIVERGED_PREDICTED_START`) when its first Newton iteration raises the
+    /// residual norm, so that the caller can start again from the equilibrium. Applies to the
+    /// next solve only.
+    pub fn watch_start(&mut self) {
+        self.watch_start = true;
     }
 
     /// Attaches `space` (rigid-body modes) as the near-null space of the Jacobian before every
@@ -557,6 +578,8 @@ impl<'p> Snes<'p> {
             norms: Vec::new(),
             stagnation_window: self.stagnation_window,
             stagnated: false,
+            watch_start: std::mem::take(&mut self.watch_start),
+            rose: None,
             line_search_domain: false,
         };
         let ctx_ptr = &mut ctx as *mut Context as *mut c_void;
@@ -648,7 +671,12 @@ impl<'p> Snes<'p> {
                 &mut n_hist
             ))?;
         }
-        let reason_text = if ctx.stagnated && reason.0 < 0 {
+        let reason_text = if let Some((before, after)) = ctx.rose.filter(|_| reason.0 < 0) {
+            format!(
+                "DIVERGED_PREDICTED_START (the first Newton iteration from the predicted start \
+                 raised the residual norm from {before:.3e} to {after:.3e})"
+            )
+        } else if ctx.stagnated && reason.0 < 0 {
             format!(
                 "DIVERGED_STAGNATION (the residual norm fell by less than {:.0} % in {} iterations)",
                 100.0 * (1.0 - STAGNATION_FACTOR),

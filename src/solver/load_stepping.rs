@@ -462,6 +462,13 @@ pub fn run_load_steps_from<'p>(
                 }
             }
             asm.refresh_pattern(x, jac, snes)?;
+            if predictor.is_some() && !resume {
+                // a predicted start whose first Newton iteration raises the residual norm is
+                // outside the region where Newton converges fast (two-half-pass pointwise
+                // ironing: 14 iterations where the converged start takes 5-6): it is given up
+                // at once, as a failed predicted start
+                snes.watch_start();
+            }
             let out = super::settle::solve_settled(asm, snes, x, jac)?;
             linear_iterations += out.linear_iterations;
             linear_accepted += out.linear_accepted;
