@@ -334,6 +334,65 @@ fn a_checkpoint_written_on_2_ranks_restarts_on_1() {
     assert!(d <= TWO_RANK_CONTACT, "difference {d:e}");
 }
 
+/// A 3D contact case with the distributed contact surface (issue 21): a checkpoint written on 2
+/// ranks continues on 4 (oversubscribed). Each rank rebuilds its own surface pieces and ghost
+/// layer from the global state, and the answer agrees with the uninterrupted 2-rank run to the
+/// Newton tolerance, as for 2 -> 1 above.
+#[test]
+fn a_3d_contact_checkpoint_written_on_2_ranks_restarts_on_4() {
+    let dir = scratch("restart/np2-to-np4-3d");
+    let case = case_file(&dir, None, "hemisphere_block_3d.toml");
+    let (whole, killed) = (dir.join("whole"), dir.join("killed"));
+    let sets = [
+        "stages.0.steps=24",
+        "output.fields=[\"displacement\"]",
+        "output.plots=false",
+    ];
+    run_ok(2, &args(&case, &sets, &["--out", whole.to_str().unwrap()]));
+    run_and_kill(2, &case, &sets, &killed, "2");
+    let out = run_ok(
+        4,
+        &args(&case, &sets, &["--restart", killed.to_str().unwrap()]),
+    );
+    assert_eq!(summary(&killed)["status"], "converged", "{}", stderr(&out));
+    assert_eq!(summary(&killed)["ranks"], 4);
+    assert!(summary(&killed)["restarts"].as_u64().unwrap_or(0) >= 1);
+    // forces and moments against the largest of the run (the ones that vanish by symmetry are
+    // round-off, 1e-16, on either rank count), the displacement against its own largest
+    let (a, b) = (history(&whole), history(&killed));
+    assert_eq!(a.len(), b.len(), "history columns");
+    let forces = |h: &[(String, Vec<f64>)]| -> Vec<(String, Vec<f64>)> {
+        h.iter()
+            .filter(|(n, _)| ["R_", "P_", "M_"].iter().any(|p| n.starts_with(p)))
+            .cloned()
+            .collect()
+    };
+    let (fa, fb) = (forces(&a), forces(&b));
+    assert!(fa.len() >= 6, "{fa:?}");
+    let scale = fa
+        .iter()
+        .flat_map(|(_, v)| v.iter())
+        .fold(0.0f64, |m, x| m.max(x.abs()));
+    assert!(scale > 0.1, "the press carries load: {scale}");
+    let mut worst = 0.0f64;
+    for ((name, x), (_, y)) in fa.iter().zip(&fb) {
+        assert_eq!(x.len(), y.len(), "rows of {name}");
+        let d = x
+            .iter()
+            .zip(y)
+            .fold(0.0f64, |m, (p, q)| m.max((p - q).abs()))
+            / scale;
+        worst = worst.max(d);
+    }
+    let u = rel_diff(
+        &h5_last(&whole, "bulk", "displacement"),
+        &h5_last(&killed, "bulk", "displacement"),
+    );
+    eprintln!("3D np2 -> np4: forces {worst:.3e}, displacement {u:.3e}");
+    assert!(worst <= TWO_RANK_CONTACT, "forces differ by {worst:e}");
+    assert!(u <= TWO_RANK_CONTACT, "displacement differs by {u:e}");
+}
+
 /// A restart with a changed material value is refused, naming the key; the run directory is left
 /// as it was. Output and solver settings may change.
 #[test]
