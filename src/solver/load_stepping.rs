@@ -379,24 +379,17 @@ pub fn run_load_steps_from<'p>(
     let mut records = Vec::new();
     let mut sizer = StepSizer::new(control);
     let mut step = 0usize;
-    let mut carried = PredictorState::default();
+    // the last step's stage and increment, and the predicted starts of the current stage
+    let mut predictions = PredictorState::default();
     if let Some(p) = start {
         sizer.resume(&p);
         step = p.step;
-        carried = p.predictor;
+        predictions = p.predictor;
         match (&mut x_before, before) {
             (Some(xb), Some(b)) => b.copy_to(xb)?,
-            _ => carried.last = None,
+            _ => predictions.last = None,
         }
     }
-    let mut last_step: Option<(usize, f64)> = carried.last;
-    // predicted starts in the current stage: (stage, tried, failed, given up)
-    let mut predictions = (
-        carried.stage.unwrap_or(usize::MAX),
-        carried.tried,
-        carried.failed,
-        carried.given_up,
-    );
     while let Some(stage) = sizer.stage() {
         let t_step = Instant::now();
         let mut cutbacks = 0;
@@ -418,32 +411,36 @@ pub fn run_load_steps_from<'p>(
         let (out, target) = loop {
             let target = sizer.target();
             let lam = sizer.position(step).lambda;
-            if predictions.0 != stage {
-                predictions = (stage, 0, 0, false);
+            if predictions.stage != Some(stage) {
+                predictions = PredictorState {
+                    last: predictions.last,
+                    stage: Some(stage),
+                    ..PredictorState::default()
+                };
             }
             if x_before.is_some()
-                && !predictions.3
-                && predictions_fail(predictions.1, predictions.2)
+                && !predictions.given_up
+                && predictions_fail(predictions.tried, predictions.failed)
             {
-                predictions.3 = true;
+                predictions.given_up = true;
                 eprintln!(
                     "note: step {}: {} of {} predicted starts of stage {stage} failed; Newton \
                      starts from the converged state for the rest of the stage",
                     step + 1,
-                    predictions.2,
-                    predictions.1
+                    predictions.failed,
+                    predictions.tried
                 );
             }
-            let predictor = match (last_step, &x_before) {
+            let predictor = match (predictions.last, &x_before) {
                 (Some((s, dl)), Some(xb))
-                    if s == stage && !predicted_failed && dl > 0.0 && !predictions.3 =>
+                    if s == stage && !predicted_failed && dl > 0.0 && !predictions.given_up =>
                 {
                     Some(((target - lam) / dl, xb))
                 }
                 _ => None,
             };
             if predictor.is_some() && !resume {
-                predictions.1 += 1;
+                predictions.tried += 1;
             }
             let values = prescribed_values(bcs, &asm.dofs, coords, target)?;
             asm.set_prescribed(&values);
@@ -576,7 +573,7 @@ pub fn run_load_steps_from<'p>(
                     );
                 }
                 predicted_failed = true;
-                predictions.2 += 1;
+                predictions.failed += 1;
                 tangled = None;
                 pattern_retries = 0;
                 continue;
@@ -653,7 +650,7 @@ pub fn run_load_steps_from<'p>(
             snes.use_options()?;
         }
         let iterations = out.iterations + resumed_iterations;
-        last_step = Some((stage, target - sizer.position(step).lambda));
+        predictions.last = Some((stage, target - sizer.position(step).lambda));
         sizer.accept(target, iterations, cutbacks);
         step += 1;
         let augmentation_rounds = asm.augmentation_rounds();
@@ -662,7 +659,7 @@ pub fn run_load_steps_from<'p>(
             x_conv.copy_to(xb)?;
         }
         x.copy_to(&mut x_conv)?;
-        let mut rec = StepRecord {
+        let rec = StepRecord {
             step,
             stage,
             load: target,
@@ -675,17 +672,13 @@ pub fn run_load_steps_from<'p>(
             pseudo_steps: pseudo,
             failed_iterations,
             augmentation_rounds,
-            position: sizer.position(step),
+            position: LoadPosition {
+                predictor: predictions,
+                ..sizer.position(step)
+            },
             linear_fallbacks,
             linear_iterations,
             linear_accepted,
-        };
-        rec.position.predictor = PredictorState {
-            last: last_step,
-            stage: (predictions.0 != usize::MAX).then_some(predictions.0),
-            tried: predictions.1,
-            failed: predictions.2,
-            given_up: predictions.3,
         };
         let after = observer(&rec, x, x_before.as_ref(), asm).map_err(SolverError::Observer)?;
         let load = rec.load;
