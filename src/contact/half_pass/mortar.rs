@@ -184,7 +184,11 @@ impl MortarNet {
         net.lambda_committed = vec![0.0; n_cp];
         for (i, (oe, cps)) in elems.iter().chain(halo).zip(&net.elem_cps).enumerate() {
             for (b, &a) in cps.iter().enumerate() {
-                net.support[a as usize].push(i as u32);
+                // a collapsed control point (the NURBS hemisphere's two rim poles) appears more
+                // than once in an element's list: the element is once in its support
+                if net.support[a as usize].last() != Some(&(i as u32)) {
+                    net.support[a as usize].push(i as u32);
+                }
                 for q in oe.first..oe.first + oe.n {
                     let phi = net.weights(i, q - oe.first);
                     net.w[a as usize] += phi[b] * points[q].w * points[q].J0;
@@ -498,17 +502,16 @@ impl MortarNet {
         for &j in &self.support[a] {
             let oe = all[j as usize];
             let cps = &self.elem_cps[j as usize];
-            let bj = cps
-                .iter()
-                .position(|&c| c as usize == a)
-                .expect("in support");
+            // every entry of the element's list that is `a` (a collapsed control point repeats)
+            let at: Vec<usize> = (0..cps.len()).filter(|&b| cps[b] as usize == a).collect();
             let own_key = OWN_COLUMNS | oe.e;
             let nk = oe.N.len() / oe.n;
             let io = piece(&mut out, own_key, nk * dim);
             let m = dim - 1;
             for q in oe.first..oe.first + oe.n {
                 let (N, dN) = oe.basis(q);
-                let fw = self.weights(j as usize, q - oe.first)[bj] * points[q].w;
+                let phi = self.weights(j as usize, q - oe.first);
+                let fw = at.iter().map(|&b| phi[b]).sum::<f64>() * points[q].w;
                 let (J, t) = &self.area[q];
                 // the area's variation, dJ = sum_b dJ/dx_b . du_b
                 let dj = dj_dx(dim, t, *J);
