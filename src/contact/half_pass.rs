@@ -48,6 +48,10 @@ pub(crate) struct QPoint {
     pub(crate) committed: Option<(u32, [f64; 2])>,
     /// Projection of the current evaluation: partner element, coordinates, free flags.
     pub(crate) current: Option<Projection>,
+    /// Mortar gaps: the closest point of the partner surface when it lies beyond the surface's
+    /// end (no partner, `current` is `None`), within the search distance. The point carries no
+    /// traction, but its distance is its gap in the weighted gaps.
+    pub(crate) edge: Option<Projection>,
     /// Cohesive material pairing (partner element, coordinates), if bonded.
     pub(crate) pairing: Option<(u32, [f64; 2])>,
     /// Contact force of the point at the last evaluation, `t J w` summed over its contributions.

@@ -53,6 +53,10 @@ pub struct Projection {
     pub dist: f64,
 }
 
+/// A surface coordinate at least this close to `+-1` counts as on the element's boundary when the
+/// projection decides which coordinates the boundary holds.
+const ON_BOUND: f64 = 1.0 - 1e-12;
+
 /// Newton iterations allowed on one element.
 const MAX_NEWTON: usize = 50;
 /// Element transfers allowed in one walk.
@@ -254,9 +258,16 @@ pub fn project_on_element_from(
         if moved < 1e-13 {
             let (p, a, _) = cur;
             let g = [x[0] - p[0], x[1] - p[1], x[2] - p[2]];
-            // recompute which coordinates the boundary holds at the final point
+            // recompute which coordinates the boundary holds at the final point; one that
+            // stalled within round-off of the boundary (`1 - ulp`, where the backtracking finds no
+            // decrease) with the distance still falling outwards is on it, not free
             for i in 0..m {
                 let gi = -(0..dim).map(|k| g[k] * a[i][k]).sum::<f64>();
+                if xi[i] >= ON_BOUND && gi < -tol {
+                    xi[i] = 1.0;
+                } else if xi[i] <= -ON_BOUND && gi > tol {
+                    xi[i] = -1.0;
+                }
                 free[i] = !((xi[i] >= 1.0 && gi < -tol) || (xi[i] <= -1.0 && gi > tol));
             }
             let dist = (2.0 * f_of(&p)).sqrt();
@@ -336,7 +347,7 @@ fn exit_sides(dim: usize, p: &Projection) -> impl Iterator<Item = usize> + '_ {
 /// True when the projection is held on a side of the surface's boundary (no neighbour there): the
 /// point lies beyond the end of the partner surface and has no partner. (Held on a side that has a
 /// neighbour, it is an edge or corner projection of a faceted surface.)
-fn off_the_edge(s: &ContactSurface, p: &Projection) -> bool {
+pub(crate) fn off_the_edge(s: &ContactSurface, p: &Projection) -> bool {
     exit_sides(s.dim, p).any(|side| s.elements[p.elem as usize].neighbours[side].is_none())
 }
 
@@ -584,6 +595,23 @@ pub(crate) fn hull_distance_bound_to(
     bound.max(0.0)
 }
 
+/// [`global_search_from`] that keeps the closest point when it lies beyond the end of the surface
+/// (an edge or corner projection with [`off_the_edge`]), and that starts from `seed` (a point of
+/// the surface already known, as a walk's) as its best point: candidates farther than it are
+/// skipped, and it is the answer unless a candidate holds a closer one (with a seed there is
+/// always an answer).
+pub fn global_closest_from(
+    s: &ContactSurface,
+    pos: &Positions,
+    grid: &BinGrid,
+    x: &[f64; 3],
+    scratch: &mut Vec<u32>,
+    centres: Option<&[Vec<f64>]>,
+    seed: Option<Projection>,
+) -> Result<Option<Projection>, ProjectionFailed> {
+    closest(s, pos, grid, x, scratch, centres, true, seed)
+}
+
 /// The global search; `hull`: skip candidates by [`hull_distance_bound`].
 fn search(
     s: &ContactSurface,
@@ -594,6 +622,23 @@ fn search(
     centres: Option<&[Vec<f64>]>,
     hull: bool,
 ) -> Result<Option<Projection>, ProjectionFailed> {
+    let best = closest(s, pos, grid, x, scratch, centres, hull, None)?;
+    // the closest point of the whole surface decides: beyond its end, no partner
+    Ok(best.filter(|b| !off_the_edge(s, b)))
+}
+
+/// The closest point of the surface among the candidates (beyond its end too), from `seed`.
+#[allow(clippy::too_many_arguments)]
+fn closest(
+    s: &ContactSurface,
+    pos: &Positions,
+    grid: &BinGrid,
+    x: &[f64; 3],
+    scratch: &mut Vec<u32>,
+    centres: Option<&[Vec<f64>]>,
+    hull: bool,
+    seed: Option<Projection>,
+) -> Result<Option<Projection>, ProjectionFailed> {
     grid.candidates(&x[..s.dim], scratch);
     // nearest boxes first: once an element's box is farther than the best point found, so are the
     // rest (branch and bound), which skips most Newton projections of a global search
@@ -602,7 +647,7 @@ fn search(
         .map(|&e| (grid.distance_lower_bound(e, &x[..s.dim]), e))
         .collect();
     order.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let mut best: Option<Projection> = None;
+    let mut best: Option<Projection> = seed;
     let mut tried = 0;
     for &(lb, e) in &order {
         if best.is_some_and(|b| lb > b.dist * (1.0 + 1e-10) + 1e-14 * s.h) {
@@ -637,6 +682,5 @@ fn search(
     if best.is_none() && tried > 0 {
         return Err(ProjectionFailed);
     }
-    // the closest point of the whole surface decides: beyond its end, no partner
-    Ok(best.filter(|b| !off_the_edge(s, b)))
+    Ok(best)
 }

@@ -19,8 +19,8 @@
 use crate::assembly::{DofMap, MatrixSink};
 use crate::contact::half_pass::{self, Pass, PassResult};
 use crate::contact::kernel::SlipState;
-use crate::contact::pair::{Anchor, PairDef, Partner, SlotOf};
-use crate::contact::projection::{surface_grid, walk_from, Absent, Positions};
+use crate::contact::pair::{Anchor, GapKind, PairDef, Partner, SlotOf};
+use crate::contact::projection::{off_the_edge, surface_grid, walk_from, Absent, Positions};
 use crate::contact::search::BinGrid;
 use crate::contact::surface::ContactSurface;
 use partner_points::PartnerPoint;
@@ -191,16 +191,36 @@ impl ContactSystem {
                     }
                     None => None,
                 };
-                if p.is_none_or(|p| p.dist > dist) {
-                    let found = sys.search_partner(l, &x, dist).map_err(|_| {
-                        format!(
-                            "contact `{}`: the projection of a point of `{}` (element {e}) at {:?} onto `{}` failed on every candidate element",
-                            sys.pairs[pair].def.name,
-                            sys.surfaces[k].name,
-                            &x[..dim],
-                            sys.surfaces[l].name
-                        )
-                    })?;
+                let failed = |sys: &Self| {
+                    format!(
+                        "contact `{}`: the projection of a point of `{}` (element {e}) at {:?} onto `{}` failed on every candidate element",
+                        sys.pairs[pair].def.name,
+                        sys.surfaces[k].name,
+                        &x[..dim],
+                        sys.surfaces[l].name
+                    )
+                };
+                // The mortar gaps weigh every point's gap, open ones too, so that a point's gap
+                // must be its distance to the closest point of the whole surface: a walk from a
+                // warm start may hold an orthogonal projection that a closer point beyond the
+                // surface's end beats (the gaps would then depend on the states evaluated
+                // before), and a point beyond the end keeps that distance (`edge`) so that its
+                // gap does not jump as it passes the end. The walk's point seeds the search.
+                let mortar = matches!(
+                    sys.pairs[pair].def.gap,
+                    GapKind::Mortar | GapKind::MortarLinear | GapKind::MortarMean
+                );
+                let mut edge = None;
+                if mortar {
+                    let seed = p.filter(|p| p.dist <= dist);
+                    let best = sys
+                        .closest_partner(l, &x, dist, seed)
+                        .map_err(|_| failed(sys))?
+                        .filter(|b| b.dist <= dist);
+                    let beyond = best.is_some_and(|b| off_the_edge(&sys.surfaces[l], &b));
+                    (p, edge) = if beyond { (None, best) } else { (best, None) };
+                } else if p.is_none_or(|p| p.dist > dist) {
+                    let found = sys.search_partner(l, &x, dist).map_err(|_| failed(sys))?;
                     // the global search sees every element in reach: its answer wins (None: no
                     // partner in reach, or beyond the surface's end)
                     p = match found {
@@ -213,6 +233,7 @@ impl ContactSystem {
                 let ps = &mut sys.pairs[pair].passes[pass];
                 let point = &mut ps.points[q];
                 point.current = p;
+                point.edge = edge;
                 if let Some(p) = p {
                     point.warm = Some((p.elem, p.xi));
                     // the partner basis at the projection, for the evaluations (and the next
@@ -359,6 +380,13 @@ impl ContactSystem {
 
     /// Per own element of half-pass `pass` of pair `pair`, per point: its normal pressure, its
     /// normal gap (NaN without a partner) and its reference weight `w J0`, at the last evaluation.
+    /// The mortar gap's weighted gaps of a pass at the last evaluation (empty without it).
+    #[cfg(test)]
+    pub(crate) fn weighted_gaps(&self, pair: usize, pass: usize) -> Vec<f64> {
+        let ps = &self.pairs[pair].passes[pass];
+        ps.mortar.as_ref().map_or(Vec::new(), |m| m.gaps().to_vec())
+    }
+
     #[cfg(test)]
     pub(crate) fn points_per_element(&self, pair: usize, pass: usize) -> Vec<Vec<(f64, f64, f64)>> {
         let ps = &self.pairs[pair].passes[pass];

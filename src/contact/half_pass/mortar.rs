@@ -85,13 +85,22 @@ type Columns = Vec<(u32, Vec<f64>)>;
 struct MPoint {
     /// Partner element (`u32::MAX`: rigid).
     le: u32,
-    /// Normal [3].
+    /// Normal [3] (the traction's direction).
     n: [f64; 3],
+    /// The gap's direction [3]: `g_n` is the distance along it, `d g_n = m . (dx - dy)`. It is
+    /// `n` where the projection is orthogonal; where round-off leaves a projection held at an
+    /// element's end "free" though the point lies beyond it, the distance keeps the gap
+    /// continuous where `n . g` would not be.
+    m: [f64; 3],
     /// Partner basis at the projection [nl], and its size (0: rigid).
     nl_vals: [f64; MAX_FACE_NODES],
     nl: usize,
     /// Normal gap.
     g_n: f64,
+    /// The point carries the interpolated pressure (it has a partner); `false`: its closest
+    /// point lies beyond the partner's end, and only its distance (`g_n`, along `n`) enters the
+    /// weighted gaps.
+    traction: bool,
 }
 
 /// The control points of one half-pass's surface near this rank's elements, and the state of an
@@ -220,18 +229,47 @@ impl MortarNet {
             let x = hp.geo.pos[hp.k].of(oe.e as usize);
             for q in oe.first..oe.first + oe.n {
                 let xk = oe.position(q, x, dim);
-                let Some((le, pp)) = hp.partner(points[q].current, &xk, None) else {
+                if let Some((le, pp)) = hp.partner(points[q].current, &xk, None) {
+                    if let Some(pg) = gap_and_normal(dim, &xk, &pp) {
+                        // the signed distance to the projection: `n . g` where it is orthogonal
+                        let gn = pg.g[0] * pg.n[0] + pg.g[1] * pg.n[1] + pg.g[2] * pg.n[2];
+                        let d = (pg.g[0] * pg.g[0] + pg.g[1] * pg.g[1] + pg.g[2] * pg.g[2]).sqrt();
+                        let (g_n, m) = if d > 0.0 {
+                            let s = if gn < 0.0 { -1.0 } else { 1.0 };
+                            (s * d, pg.g.map(|c| s * c / d))
+                        } else {
+                            (0.0, pg.n)
+                        };
+                        self.pts[q] = Some(MPoint {
+                            le,
+                            n: pg.n,
+                            m,
+                            nl_vals: pg.basis,
+                            nl: pg.n_nodes,
+                            g_n,
+                            traction: true,
+                        });
+                    }
                     continue;
-                };
-                if let Some(pg) = gap_and_normal(dim, &xk, &pp) {
-                    let g_n = pg.g[0] * pg.n[0] + pg.g[1] * pg.n[1] + pg.g[2] * pg.n[2];
-                    self.pts[q] = Some(MPoint {
-                        le,
-                        n: pg.n,
-                        nl_vals: pg.basis,
-                        nl: pg.n_nodes,
-                        g_n,
-                    });
+                }
+                // beyond the partner's end: open by the distance to its closest point there, so
+                // that the gap does not jump where the point passes the end
+                let edge = if hp.l.is_some() { points[q].edge } else { None };
+                if let Some((le, pp)) = hp.partner(edge, &xk, None) {
+                    if let Some(pg) = gap_and_normal(dim, &xk, &pp) {
+                        let d = (pg.g[0] * pg.g[0] + pg.g[1] * pg.g[1] + pg.g[2] * pg.g[2]).sqrt();
+                        if d > 0.0 {
+                            self.pts[q] = Some(MPoint {
+                                le,
+                                n: pg.g.map(|c| c / d),
+                                m: pg.g.map(|c| c / d),
+                                nl_vals: pg.basis,
+                                nl: pg.n_nodes,
+                                g_n: d,
+                                traction: false,
+                            });
+                        }
+                    }
                 }
             }
         }
@@ -273,7 +311,7 @@ impl MortarNet {
                 let (cps, phi) = (&self.elem_cps[i], &self.phi[i]);
                 for q in oe.first..oe.first + oe.n {
                     let Some(mp) = &self.pts[q] else { continue };
-                    if mp.g_n > hp.touch {
+                    if mp.g_n > hp.touch || !mp.traction {
                         continue;
                     }
                     self.pq[q] = -eps_n * mp.g_n;
@@ -356,7 +394,9 @@ impl MortarNet {
             work.g_master.clear();
             let mut any = false;
             for q in oe.first..oe.first + oe.n {
-                let Some(mp) = &self.pts[q] else { continue };
+                let Some(mp) = self.pts[q].as_ref().filter(|mp| mp.traction) else {
+                    continue;
+                };
                 let N = oe.basis(q).0;
                 let c = self.weights(i, q - oe.first)[b] * points[q].w * self.area[q].0;
                 // d t / d p: the normal, plus the slip direction where the point slips (its
@@ -459,6 +499,12 @@ impl MortarNet {
             + self.area.len() * size_of::<(f64, [[f64; 3]; 2])>()
     }
 
+    /// The weighted gaps `g_A` of the last evaluation (`INFINITY` where `W_A` is 0).
+    #[cfg(test)]
+    pub(crate) fn gaps(&self) -> &[f64] {
+        &self.g
+    }
+
     /// Whether control point `a` belongs to an element this rank integrates.
     pub(crate) fn is_own(&self, a: usize) -> bool {
         self.own[a]
@@ -536,7 +582,7 @@ impl MortarNet {
                 let c = fw * J;
                 for b in 0..nk {
                     for k in 0..dim {
-                        own[b * dim + k] += c * mp.n[k] * N[b];
+                        own[b * dim + k] += c * mp.m[k] * N[b];
                     }
                 }
                 if mp.nl > 0 {
@@ -544,7 +590,7 @@ impl MortarNet {
                     let part = &mut out[ip].1;
                     for b in 0..mp.nl {
                         for k in 0..dim {
-                            part[b * dim + k] -= c * mp.n[k] * mp.nl_vals[b];
+                            part[b * dim + k] -= c * mp.m[k] * mp.nl_vals[b];
                         }
                     }
                 }

@@ -93,4 +93,27 @@ impl ContactSystem {
             centres,
         )
     }
+
+    /// The closest point of surface `l` to `x` (beyond the surface's end too), from `seed`:
+    /// [`crate::contact::projection::global_closest_from`].
+    pub(super) fn closest_partner(
+        &mut self,
+        l: usize,
+        x: &[f64; 3],
+        dist: f64,
+        seed: Option<Projection>,
+    ) -> Result<Option<Projection>, ProjectionFailed> {
+        self.ensure_grid(l, dist);
+        let grid = self.grids[l].as_ref().expect("built above");
+        let centres = self.centres.get(l).map(|c| &c[..]);
+        crate::contact::projection::global_closest_from(
+            &self.surfaces[l],
+            &self.pos[l],
+            grid,
+            x,
+            &mut self.cand,
+            centres,
+            seed,
+        )
+    }
 }

@@ -26,7 +26,8 @@ impl ContactSystem {
                     }
                     for q in sources.iter().flat_map(|s| s.first..s.first + s.n) {
                         let qp = &pass.points[q];
-                        if let Some(p) = qp.current {
+                        // (mortar gaps: a point beyond the partner's end weighs its distance)
+                        for p in qp.current.iter().chain(&qp.edge) {
                             out.push((pass_id, oe.e, p.elem));
                         }
                         if let Some((l, _)) = qp.pairing {
@@ -81,6 +82,7 @@ impl ContactSystem {
                             .current
                             .map(|p| p.elem)
                             .into_iter()
+                            .chain(qp.edge.map(|p| p.elem))
                             .chain(qp.pairing.map(|p| p.0))
                             .chain(anchor)
                         {

@@ -327,3 +327,91 @@ fn mortar_tangents_hold_at_the_hemispheres_collapsed_control_points() {
         }
     }
 }
+
+/// The hemisphere over a block narrower than it (`half` its half-width), whose top is dented into
+/// a bowl by `bowl` (a curved master, as a pressed one), the shell pressed by `depth` and moved
+/// sideways by `shift`: its points pass the block's end.
+fn over_the_end(law: &str, half: f64) -> Harness {
+    let case = case_3d_hemisphere("Q1N2", "Q1N2", law).replace(
+        "origin = [-1.0, -1.0, -1.0]\nsize = [2.0, 2.0, 1.0]",
+        &format!(
+            "origin = [{}, {}, -1.0]\nsize = [{}, {}, 1.0]",
+            -half,
+            -half,
+            2.0 * half,
+            2.0 * half
+        ),
+    );
+    Harness::new(&case)
+}
+
+fn over_the_end_state(h: &Harness, bowl: f64, depth: f64, shift: f64) -> Vec<f64> {
+    let mut s = 5u64;
+    let u = h.displacement(&|b, x| {
+        if h.model.bodies[b].name == "lower" {
+            let r2 = x[0] * x[0] + x[1] * x[1];
+            vec![0.0, 0.0, -bowl * (1.0 - 0.5 * r2) * (1.0 + x[2])]
+        } else {
+            vec![shift, 0.0, -depth]
+        }
+    });
+    u.iter().map(|v| v + 2e-3 * rnd(&mut s)).collect()
+}
+
+#[test]
+fn weighted_gaps_stay_continuous_where_points_pass_the_partners_end() {
+    // The weighted gaps weigh open points too. A point whose closest point on the partner lies
+    // beyond the partner's end has no partner and carries no traction, but its distance to that
+    // closest point stays its gap; it once counted as open by the search distance, so the
+    // weighted gaps jumped where an open point passed the end. The block (half-width 0.7 against
+    // the shell's 1) is dented into a bowl, so that some open points have an orthogonal
+    // projection inside it while their closest point lies beyond its end. (The residual itself
+    // still steps where such a point passes the end while its control points carry pressure:
+    // its interpolated pressure's traction comes and goes with its partner.)
+    for gap in ["mortar", "mortar_linear", "mortar_mean"] {
+        for algorithm in ["two_half_pass", "one_pass"] {
+            let law = format!(
+                "law = \"penalty\"\neps_n = 100.0\ngap = \"{gap}\"\nalgorithm = \"{algorithm}\""
+            );
+            let mut h = over_the_end(&law, 0.7);
+            let mut steps = Vec::new();
+            let mut prev: Option<Vec<f64>> = None;
+            let n = 150;
+            for i in 0..=n {
+                let u = over_the_end_state(&h, 0.2, 0.3, 0.15 * i as f64 / n as f64);
+                h.eval(&u, false);
+                let g = h.sys.weighted_gaps(0, 0);
+                if let Some(p) = &prev {
+                    let step = g
+                        .iter()
+                        .zip(p)
+                        .filter(|(a, b)| a.is_finite() && b.is_finite())
+                        .map(|(a, b)| (a - b).abs())
+                        .fold(0.0, f64::max);
+                    steps.push(step);
+                }
+                prev = Some(g);
+            }
+            let mut sorted = steps.clone();
+            sorted.sort_by(|a, b| a.total_cmp(b));
+            let median = sorted[sorted.len() / 2];
+            let largest = sorted[sorted.len() - 1];
+            assert!(
+                median > 1e-5,
+                "{gap} {algorithm}: the gaps do not move ({median:e})"
+            );
+            assert!(
+                largest < 5.0 * median,
+                "{gap} {algorithm}: a weighted gap jumps by {largest:e} (median step {median:e})"
+            );
+            // and the tangent holds with points beyond the end
+            let u = over_the_end_state(&h, 0.2, 0.3, 0.05);
+            let (err, kmax) = tangent_error(&mut h, &u);
+            assert!(
+                kmax > 1.0,
+                "{gap} {algorithm}: no contact stiffness ({kmax})"
+            );
+            assert!(err < 1e-6, "{gap} {algorithm}: tangent error {err:e}");
+        }
+    }
+}
