@@ -210,8 +210,15 @@ impl ContactSystem {
                     sys.pairs[pair].def.gap,
                     GapKind::Mortar | GapKind::MortarLinear | GapKind::MortarMean
                 );
+                // (a penetrating point keeps its walk's projection, as the pointwise gap does: the
+                // closest point of a deep one may lie elsewhere, even beyond the end)
+                let penetrating = p.filter(|p| p.dist <= dist).is_some_and(|p| {
+                    let el = &sys.surfaces[l].elements[p.elem as usize];
+                    let (y, _, nr) = crate::contact::surface::frame(el, dim, sys.pos[l].of(p.elem as usize), &p.xi);
+                    el.sign * (0..dim).map(|c| (x[c] - y[c]) * nr[c]).sum::<f64>() <= 0.0
+                });
                 let mut edge = None;
-                if mortar {
+                if mortar && !penetrating {
                     let seed = p.filter(|p| p.dist <= dist);
                     let best = sys
                         .closest_partner(l, &x, dist, seed)
