@@ -200,12 +200,11 @@ impl ContactSystem {
                         sys.surfaces[l].name
                     )
                 };
-                // The mortar gaps weigh every point's gap, open ones too, so that a point's gap
-                // must be its distance to the closest point of the whole surface: a walk from a
-                // warm start may hold an orthogonal projection that a closer point beyond the
-                // surface's end beats (the gaps would then depend on the states evaluated
-                // before), and a point beyond the end keeps that distance (`edge`) so that its
-                // gap does not jump as it passes the end. The walk's point seeds the search.
+                // The mortar gaps weigh every point's gap, open ones too: a walk from a warm start
+                // may hold an orthogonal projection where the closest point of the whole surface
+                // lies beyond its end (the gaps then depended on the states evaluated before),
+                // and a point beyond the end keeps its distance there (`edge`) so that its gap
+                // does not jump as it passes the end. The walk's point seeds the search.
                 let mortar = matches!(
                     sys.pairs[pair].def.gap,
                     GapKind::Mortar | GapKind::MortarLinear | GapKind::MortarMean
@@ -225,7 +224,15 @@ impl ContactSystem {
                         .map_err(|_| failed(sys))?
                         .filter(|b| b.dist <= dist);
                     let beyond = best.is_some_and(|b| off_the_edge(&sys.surfaces[l], &b));
-                    (p, edge) = if beyond { (None, best) } else { (best, None) };
+                    let walked = p.filter(|p| p.dist <= dist);
+                    // an interior projection the walk found stays (as for the pointwise gap; a
+                    // closer interior point elsewhere took partners from converging runs of the
+                    // 3D twist, BENCHMARKS.md "Mortar gaps at the partner's end")
+                    (p, edge) = match (beyond, walked) {
+                        (true, _) => (None, best),
+                        (false, Some(w)) => (Some(w), None),
+                        (false, None) => (best, None),
+                    };
                 } else if p.is_none_or(|p| p.dist > dist) {
                     let found = sys.search_partner(l, &x, dist).map_err(|_| failed(sys))?;
                     // the global search sees every element in reach: its answer wins (None: no

@@ -5,11 +5,11 @@
 //! corner of the linear parent) gets the weighted gap `g_A = sum_q R_A(xi_q) c_q g_N,q / W_A`,
 //! `W_A = sum_q R_A(xi_q) c_q`, over the quadrature points `q` of the elements in `A`'s support
 //! (`c_q = w_q J_q`, current area as the paper's penalty law; `R_A` non-negative, so `g_A` is a
-//! convex average of the point gaps). A point's gap is its signed distance to its projection; an
-//! open point takes the closest point of the whole partner surface (a walk from a warm start may
-//! hold a farther local one: the gaps would depend on the states evaluated before), and where
-//! that closest point lies beyond the partner's end the point carries no traction but keeps its
-//! distance as its gap (continuous as it passes the end). A point with no partner point within
+//! convex average of the point gaps). A point's gap is its signed distance to its projection;
+//! where the closest point of the whole partner surface to an open point lies beyond the
+//! partner's end (a walk from a warm start may hold an interior projection there: the gaps would
+//! depend on the states evaluated before), the point carries no traction but keeps its distance
+//! to that closest point as its gap (continuous as it passes the end). A point with no partner point within
 //! the search distance counts as open by that distance. The pressure lives on the weight nodes, `p_A = -eps_n g_A` where
 //! `g_A <= touch` (else 0), and every point carries the traction `t_q = p_q n_q` on its current
 //! area, `p_q = sum_A R_A(xi_q) p_A`: one pressure field interpolated by the weight functions,
