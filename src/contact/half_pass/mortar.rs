@@ -552,8 +552,6 @@ impl MortarNet {
         for &j in &self.support[a] {
             let oe = all[j as usize];
             let cps = &self.elem_cps[j as usize];
-            // every entry of the element's list that is `a` (a collapsed control point repeats)
-            let at: Vec<usize> = (0..cps.len()).filter(|&b| cps[b] as usize == a).collect();
             let own_key = OWN_COLUMNS | oe.e;
             let nk = oe.N.len() / oe.n;
             let io = piece(&mut out, own_key, nk * dim);
@@ -561,7 +559,14 @@ impl MortarNet {
             for q in oe.first..oe.first + oe.n {
                 let (N, dN) = oe.basis(q);
                 let phi = self.weights(j as usize, q - oe.first);
-                let fw = at.iter().map(|&b| phi[b]).sum::<f64>() * points[q].w;
+                // every entry of the element's list that is `a` (a collapsed control point repeats)
+                let fw = cps
+                    .iter()
+                    .zip(phi)
+                    .filter(|(&c, _)| c as usize == a)
+                    .map(|(_, &f)| f)
+                    .sum::<f64>()
+                    * points[q].w;
                 let (J, t) = &self.area[q];
                 // the area's variation, dJ = sum_b dJ/dx_b . du_b
                 let dj = dj_dx(dim, t, *J);

@@ -4,7 +4,7 @@
 
 use super::ContactSystem;
 use crate::contact::pair::{PairDef, Partner};
-use crate::contact::projection::{global_search_from, Projection, ProjectionFailed};
+use crate::contact::projection::{off_the_edge, Projection, ProjectionFailed};
 
 /// A point of a pass against a surface partner, as [`ContactSystem::for_each_partner_point`]
 /// hands it out.
@@ -81,17 +81,9 @@ impl ContactSystem {
         x: &[f64; 3],
         dist: f64,
     ) -> Result<Option<Projection>, ProjectionFailed> {
-        self.ensure_grid(l, dist);
-        let grid = self.grids[l].as_ref().expect("built above");
-        let centres = self.centres.get(l).map(|c| &c[..]);
-        global_search_from(
-            &self.surfaces[l],
-            &self.pos[l],
-            grid,
-            x,
-            &mut self.cand,
-            centres,
-        )
+        // the closest point of the whole surface decides: beyond its end, no partner
+        let best = self.closest_partner(l, x, dist, None)?;
+        Ok(best.filter(|b| !off_the_edge(&self.surfaces[l], b)))
     }
 
     /// The closest point of surface `l` to `x` (beyond the surface's end too), from `seed`:
