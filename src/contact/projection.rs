@@ -242,6 +242,13 @@ pub fn project_on_element_from(
             let mut trial = xi;
             for i in 0..m {
                 trial[i] = (xi[i] + t * step[i]).clamp(-1.0, 1.0);
+                // within round-off of the boundary is on it: a step that lands at `1 - ulp`
+                // leaves the coordinate free, and the next Newton step, pushing it out, is clamped
+                // into a direction that need not descend (the line search then finds no decrease
+                // and the projection stalls there, not stationary in the other coordinate)
+                if trial[i].abs() >= ON_BOUND {
+                    trial[i] = trial[i].signum();
+                }
             }
             let geom = eval(&trial, &mut N, &mut dN, &mut ddN);
             if f_of(&geom.0) <= f0 + 1e-15 * scale2 {

@@ -248,6 +248,20 @@ pub fn run_case_output(name: &str, case_file: &str, np: usize, sets: &[&str]) ->
     (d, out)
 }
 
+/// [`run_case_output`] with further command-line arguments after the `--set`s (e.g. PETSc
+/// options whose report the test reads from the output).
+pub fn run_case_output_with(
+    name: &str,
+    case_file: &str,
+    np: usize,
+    sets: &[&str],
+    extra: &[&str],
+) -> (PathBuf, Output) {
+    let (d, c) = (scratch(name), case(case_file));
+    let out = run(np, &case_args(&c, &d, sets, extra));
+    (d, out)
+}
+
 /// `run CASE --out DIR -q --overwrite --set S ... EXTRA...`
 fn case_args<'a>(c: &'a Path, d: &'a Path, sets: &[&'a str], extra: &[&'a str]) -> Vec<&'a str> {
     let mut args = vec![
