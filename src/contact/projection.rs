@@ -233,30 +233,41 @@ pub fn project_on_element_from(
                 dist,
             });
         };
-        let len = step[0].abs().max(step[1].abs());
-        let damp = if len > 0.5 { 0.5 / len } else { 1.0 };
-        // backtracking on f keeps far-off starts from oscillating
-        let mut t = damp;
+        // backtracking on f keeps far-off starts from oscillating; where the Newton direction,
+        // clamped to the box, does not descend (a free coordinate just inside the boundary that
+        // the step pushes out), the scaled gradient direction, clamped alike, does
+        let gradient_step = [0, 1].map(|i| {
+            if i < m && free[i] && M[i][i] > 0.0 {
+                -grad[i] / M[i][i]
+            } else {
+                0.0
+            }
+        });
         let mut accepted = xi;
-        for _ in 0..20 {
-            let mut trial = xi;
-            for i in 0..m {
-                trial[i] = (xi[i] + t * step[i]).clamp(-1.0, 1.0);
-                // within round-off of the boundary is on it: a step that lands at `1 - ulp`
-                // leaves the coordinate free, and the next Newton step, pushing it out, is clamped
-                // into a direction that need not descend (the line search then finds no decrease
-                // and the projection stalls there, not stationary in the other coordinate)
-                if trial[i].abs() >= ON_BOUND {
-                    trial[i] = trial[i].signum();
+        'directions: for step in [step, gradient_step] {
+            let len = step[0].abs().max(step[1].abs());
+            let damp = if len > 0.5 { 0.5 / len } else { 1.0 };
+            let mut t = damp;
+            for _ in 0..20 {
+                let mut trial = xi;
+                for i in 0..m {
+                    trial[i] = (xi[i] + t * step[i]).clamp(-1.0, 1.0);
+                    // within round-off of the boundary is on it: a step that lands at `1 - ulp`
+                    // leaves the coordinate free, and the next Newton step, pushing it out, is clamped
+                    // into a direction that need not descend (the line search then finds no decrease
+                    // and the projection stalls there, not stationary in the other coordinate)
+                    if trial[i].abs() >= ON_BOUND {
+                        trial[i] = trial[i].signum();
+                    }
                 }
+                let geom = eval(&trial, &mut N, &mut dN, &mut ddN);
+                if f_of(&geom.0) <= f0 + 1e-15 * scale2 {
+                    accepted = trial;
+                    cur = geom;
+                    break 'directions;
+                }
+                t *= 0.5;
             }
-            let geom = eval(&trial, &mut N, &mut dN, &mut ddN);
-            if f_of(&geom.0) <= f0 + 1e-15 * scale2 {
-                accepted = trial;
-                cur = geom;
-                break;
-            }
-            t *= 0.5;
         }
         let moved = (0..m)
             .map(|i| (accepted[i] - xi[i]).abs())

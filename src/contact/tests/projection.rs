@@ -367,7 +367,7 @@ fn the_hull_bound_reaches_the_distance_to_a_long_element_from_beyond_its_corner(
 /// the mortar gaps that weigh such points jumped and PETSc's Jacobian check differed by up to 2.2).
 #[test]
 fn a_point_beyond_the_rim_projects_to_its_closest_point_on_the_rim() {
-    use crate::contact::projection::{global_closest_from, off_the_edge};
+    use crate::contact::projection::{global_closest_from, off_the_edge, project_on_element};
     // the exact NURBS hemisphere, centre (0, 0, 1), radius 1, rim the circle in the plane z = 1:
     // the closest point of a point above that plane is the rim point at its azimuth
     let h = Harness::new(&case_3d_hemisphere(
@@ -402,6 +402,25 @@ fn a_point_beyond_the_rim_projects_to_its_closest_point_on_the_rim() {
             "x = {x:?}: distance {} against {exact} ({p:?})",
             p.dist
         );
+        // from a start just inside the rim side (not within round-off of it) and off along it
+        for gap in [1e-9, 1e-7, 1e-4] {
+            let mut xi0 = p.xi;
+            for i in 0..2 {
+                if !p.free[i] {
+                    xi0[i] = p.xi[i] * (1.0 - gap);
+                } else {
+                    xi0[i] = (p.xi[i] + 0.05).clamp(-1.0, 1.0) * (1.0 - 1e-3);
+                }
+            }
+            let q = project_on_element(surf, &pos, p.elem as usize, &x, xi0)
+                .expect("an element projection");
+            worst = worst.max((q.dist - exact).abs());
+            assert!(
+                (q.dist - exact).abs() < 1e-12,
+                "x = {x:?} from {xi0:?}: distance {} against {exact} ({q:?})",
+                q.dist
+            );
+        }
     }
     eprintln!("largest distance error {worst:e}");
 }
