@@ -210,6 +210,7 @@ fn projection_across_a_joint_of_the_deformed_block_is_continuous() {
             xi: p.xi,
             free: p.free,
             basis: None,
+            beyond: false,
         };
         let pg = gap_and_normal(2, &x, &pp).expect("gap");
         let g_n = pg.g[0] * pg.n[0] + pg.g[1] * pg.n[1];

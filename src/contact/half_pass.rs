@@ -49,8 +49,8 @@ pub(crate) struct QPoint {
     /// Projection of the current evaluation: partner element, coordinates, free flags.
     pub(crate) current: Option<Projection>,
     /// Mortar gaps: the closest point of the partner surface when it lies beyond the surface's
-    /// end (no partner, `current` is `None`), within the search distance. The point carries no
-    /// traction, but its distance is its gap in the weighted gaps.
+    /// end (no partner, `current` is `None`), within the search distance. Its distance is the
+    /// point's gap in the weighted gaps, and the point's interpolated pressure acts along it.
     pub(crate) edge: Option<Projection>,
     /// Cohesive material pairing (partner element, coordinates), if bonded.
     pub(crate) pairing: Option<(u32, [f64; 2])>,
@@ -411,8 +411,11 @@ impl HalfPass<'_> {
             }
         }
         let area = area_of(&self.pair.law);
+        // (mortar gaps: a point beyond the partner's end carries its interpolated pressure along
+        // its distance to the end, as its gap weighs in: no jump where it passes the end)
         let first = self
             .partner(qp.current, &xk, known)
+            .or_else(|| self.beyond_partner(qp.edge))
             .map(|(le, pp)| (le, pp, area, false));
         let second = match (self.shape, self.l, qp.pairing) {
             (None, Some(l), Some((le, xi0))) => Some((
@@ -458,11 +461,30 @@ impl HalfPass<'_> {
                         xi: p.xi,
                         free: p.free,
                         basis,
+                        beyond: false,
                     },
                 )
             }),
             (None, None) => None,
         }
+    }
+
+    /// The closest point `edge` of the partner surface beyond its end (mortar gaps, see
+    /// [`QPoint::edge`]), as a partner whose normal is the gap's direction.
+    fn beyond_partner(&self, edge: Option<Projection>) -> Option<(u32, PartnerPoint<'_>)> {
+        let (l, p) = (self.l?, edge?);
+        let le = p.elem as usize;
+        Some((
+            p.elem,
+            PartnerPoint::Projected {
+                el: &self.geo.surfaces[l].elements[le],
+                y: self.geo.pos[l].of(le),
+                xi: p.xi,
+                free: p.free,
+                basis: None,
+                beyond: true,
+            },
+        ))
     }
 
     /// The traction of one contribution: the cohesive law on a material pairing; else the

@@ -50,6 +50,10 @@ pub enum PartnerPoint<'a> {
         y: &'a [f64],
         xi: [f64; 2],
         free: [bool; 2],
+        /// The closest point of the whole surface, held on its end (the mortar gaps' points
+        /// beyond a partner's end): the normal is the gap's own direction `g / |g|`, the gap its
+        /// distance, whichever side of the surface's tangent plane the point lies on.
+        beyond: bool,
         /// The element's basis at `xi` if known
         /// ([`crate::contact::projection::basis_values`] there): read instead of evaluated.
         basis: Option<&'a [f64]>,
@@ -232,10 +236,11 @@ pub fn gap_and_normal(dim: usize, xk: &[f64; 3], partner: &PartnerPoint) -> Opti
             xi,
             free,
             basis,
+            beyond,
         } => {
             let ge = partner_geom(el, dim, y, xi, *basis);
             let g = [0, 1, 2].map(|k| xk[k] - ge.p[k]);
-            let (n, _) = projected_normal(dim, &ge, el.sign, &g, &free[..m]);
+            let (n, _) = projected_normal(dim, &ge, el.sign, &g, &free[..m], *beyond);
             Some(PartnerGap {
                 g,
                 n,
@@ -248,13 +253,16 @@ pub fn gap_and_normal(dim: usize, xk: &[f64; 3], partner: &PartnerPoint) -> Opti
 
 /// The normal at a projection onto a deformable partner: the partner surface's (signed) normal
 /// where the projection is orthogonal (every coordinate `free`, or a zero gap), else the normal
-/// along the gap (an edge or corner of a faceted partner). Returns it and whether it is orthogonal.
+/// along the gap (an edge or corner of a faceted partner), signed to the surface's side unless
+/// the point lies `beyond` the surface's end (then `g / |g|`). Returns it and whether it is
+/// orthogonal.
 fn projected_normal(
     dim: usize,
     ge: &PartnerGeom,
     sign: f64,
     g: &[f64; 3],
     free: &[bool],
+    beyond: bool,
 ) -> ([f64; 3], bool) {
     let nr = raw_normal(dim, &ge.a);
     let l = dot(&nr, &nr).sqrt();
@@ -262,6 +270,8 @@ fn projected_normal(
     let gl = dot(g, g).sqrt();
     if free.iter().all(|&f| f) || gl == 0.0 {
         (ns, true)
+    } else if beyond {
+        (g.map(|c| c / gl), false)
     } else {
         let sgn = if dot(g, &ns) >= 0.0 { 1.0 } else { -1.0 };
         (g.map(|c| sgn * c / gl), false)
@@ -337,9 +347,9 @@ pub fn contact_point_pass(
         (PartnerPoint::Material { .. }, Some(ge)) => {
             ([0, 1, 2].map(|k| xk[k] - ge.p[k]), [0.0; 3], true)
         }
-        (PartnerPoint::Projected { free, .. }, Some(ge)) => {
+        (PartnerPoint::Projected { free, beyond, .. }, Some(ge)) => {
             let g = [0, 1, 2].map(|k| xk[k] - ge.p[k]);
-            let (n, orthogonal) = projected_normal(dim, ge, el_sign, &g, &free[..m]);
+            let (n, orthogonal) = projected_normal(dim, ge, el_sign, &g, &free[..m], *beyond);
             (g, n, orthogonal)
         }
         _ => unreachable!("a deformable partner always has its geometry"),

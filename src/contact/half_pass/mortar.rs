@@ -8,9 +8,11 @@
 //! convex average of the point gaps). A point's gap is its signed distance to its projection;
 //! where the closest point of the whole partner surface to an open point lies beyond the
 //! partner's end (a walk from a warm start may hold an interior projection there: the gaps would
-//! depend on the states evaluated before), the point carries no traction but keeps its distance
-//! to that closest point as its gap (continuous as it passes the end). A point with no partner point within
-//! the search distance counts as open by that distance. The pressure lives on the weight nodes, `p_A = -eps_n g_A` where
+//! depend on the states evaluated before), the point keeps its distance to that closest point as
+//! its gap, and its traction acts along that distance's direction `g / |g|` (both continuous as
+//! it passes the end: at the end the orthogonal projection becomes that closest point, and its
+//! normal the gap's direction). A point with no partner point within the search distance counts
+//! as open by that distance. The pressure lives on the weight nodes, `p_A = -eps_n g_A` where
 //! `g_A <= touch` (else 0), and every point carries the traction `t_q = p_q n_q` on its current
 //! area, `p_q = sum_A R_A(xi_q) p_A`: one pressure field interpolated by the weight functions,
 //! instead of one pressure per quadrature point.
@@ -101,10 +103,6 @@ struct MPoint {
     nl: usize,
     /// Normal gap.
     g_n: f64,
-    /// The point carries the interpolated pressure (it has a partner); `false`: its closest
-    /// point lies beyond the partner's end, and only its distance (`g_n`, along `n`) enters the
-    /// weighted gaps.
-    traction: bool,
 }
 
 /// The control points of one half-pass's surface near this rank's elements, and the state of an
@@ -251,15 +249,13 @@ impl MortarNet {
                             nl_vals: pg.basis,
                             nl: pg.n_nodes,
                             g_n,
-                            traction: true,
                         });
                     }
                     continue;
                 }
                 // beyond the partner's end: open by the distance to its closest point there, so
                 // that the gap does not jump where the point passes the end
-                let edge = if hp.l.is_some() { points[q].edge } else { None };
-                if let Some((le, pp)) = hp.partner(edge, &xk, None) {
+                if let Some((le, pp)) = hp.beyond_partner(points[q].edge) {
                     if let Some(pg) = gap_and_normal(dim, &xk, &pp) {
                         let d = (pg.g[0] * pg.g[0] + pg.g[1] * pg.g[1] + pg.g[2] * pg.g[2]).sqrt();
                         if d > 0.0 {
@@ -270,7 +266,6 @@ impl MortarNet {
                                 nl_vals: pg.basis,
                                 nl: pg.n_nodes,
                                 g_n: d,
-                                traction: false,
                             });
                         }
                     }
@@ -315,7 +310,7 @@ impl MortarNet {
                 let (cps, phi) = (&self.elem_cps[i], &self.phi[i]);
                 for q in oe.first..oe.first + oe.n {
                     let Some(mp) = &self.pts[q] else { continue };
-                    if mp.g_n > hp.touch || !mp.traction {
+                    if mp.g_n > hp.touch {
                         continue;
                     }
                     self.pq[q] = -eps_n * mp.g_n;
@@ -398,7 +393,7 @@ impl MortarNet {
             work.g_master.clear();
             let mut any = false;
             for q in oe.first..oe.first + oe.n {
-                let Some(mp) = self.pts[q].as_ref().filter(|mp| mp.traction) else {
+                let Some(mp) = self.pts[q].as_ref() else {
                     continue;
                 };
                 let N = oe.basis(q).0;

@@ -275,6 +275,7 @@ fn a_stored_basis_gives_the_same_projections_and_gaps_bit_for_bit() {
                     xi: p.xi,
                     free: p.free,
                     basis,
+                    beyond: false,
                 };
                 let g_slow = gap_and_normal(dim, &x, &pp(None)).expect("a projected partner");
                 let g_fast = gap_and_normal(dim, &x, &pp(at.get(p.elem, &p.xi)))
