@@ -260,6 +260,10 @@ pub fn project_on_element_from(
                         trial[i] = trial[i].signum();
                     }
                 }
+                if trial == xi {
+                    // clamped to the start (or below round-off): no move in this direction
+                    break;
+                }
                 let geom = eval(&trial, &mut N, &mut dN, &mut ddN);
                 if f_of(&geom.0) <= f0 + 1e-15 * scale2 {
                     accepted = trial;
