@@ -451,40 +451,38 @@ impl HalfPass<'_> {
                     (rp.g[0] * rp.g[0] + rp.g[1] * rp.g[1] + rp.g[2] * rp.g[2]).sqrt() <= dist
                 })
                 .map(|rp| (u32::MAX, PartnerPoint::Rigid(rp))),
-            (None, Some(l)) => current.map(|p| {
-                let le = p.elem as usize;
-                (
-                    p.elem,
-                    PartnerPoint::Projected {
-                        el: &self.geo.surfaces[l].elements[le],
-                        y: self.geo.pos[l].of(le),
-                        xi: p.xi,
-                        free: p.free,
-                        basis,
-                        beyond: false,
-                    },
-                )
-            }),
+            (None, Some(l)) => current.map(|p| self.projected(l, p, basis, false)),
             (None, None) => None,
         }
+    }
+
+    /// Projection `p` onto partner surface `l` as the kernel's partner point.
+    fn projected<'s>(
+        &'s self,
+        l: usize,
+        p: Projection,
+        basis: Option<&'s [f64]>,
+        beyond: bool,
+    ) -> (u32, PartnerPoint<'s>) {
+        let le = p.elem as usize;
+        let el = &self.geo.surfaces[l].elements[le];
+        let y = self.geo.pos[l].of(le);
+        let (xi, free) = (p.xi, p.free);
+        let pp = PartnerPoint::Projected {
+            el,
+            y,
+            xi,
+            free,
+            basis,
+            beyond,
+        };
+        (p.elem, pp)
     }
 
     /// The closest point `edge` of the partner surface beyond its end (mortar gaps, see
     /// [`QPoint::edge`]), as a partner whose normal is the gap's direction.
     fn beyond_partner(&self, edge: Option<Projection>) -> Option<(u32, PartnerPoint<'_>)> {
-        let (l, p) = (self.l?, edge?);
-        let le = p.elem as usize;
-        Some((
-            p.elem,
-            PartnerPoint::Projected {
-                el: &self.geo.surfaces[l].elements[le],
-                y: self.geo.pos[l].of(le),
-                xi: p.xi,
-                free: p.free,
-                basis: None,
-                beyond: true,
-            },
-        ))
+        Some(self.projected(self.l?, edge?, None, true))
     }
 
     /// The traction of one contribution: the cohesive law on a material pairing; else the

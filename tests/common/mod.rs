@@ -243,9 +243,7 @@ pub fn run_case_with(
 /// A run of `case_file` into a fresh scratch directory `name` that may fail: the directory and
 /// the process's output (for tests of refused or failing runs).
 pub fn run_case_output(name: &str, case_file: &str, np: usize, sets: &[&str]) -> (PathBuf, Output) {
-    let (d, c) = (scratch(name), case(case_file));
-    let out = run(np, &case_args(&c, &d, sets, &[]));
-    (d, out)
+    run_case_output_with(name, case_file, np, sets, &[])
 }
 
 /// [`run_case_output`] with further command-line arguments after the `--set`s (e.g. PETSc
