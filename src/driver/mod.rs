@@ -195,17 +195,22 @@ pub fn check_main(case_path: &Path, sets: &[String], petsc_args: Vec<String>) ->
         let petsc = Petsc::init(&universe.world(), &petsc_args)?;
         let route = case.solver.linear_setting().resolve(dofs.n_global() as f64);
         check_solver_options(&petsc, &case, &model, route, &petsc_args)?;
-        if let Some(size) = crate::scene::size::CaseSize::of(&case) {
-            use crate::scene::size::human_bytes;
-            println!(
-                "estimated memory {} (mesh arrays {} on every rank, matrix {}, {} linear solver {})",
-                human_bytes(size.mesh_bytes + size.matrix_bytes + size.linear_bytes),
-                human_bytes(size.mesh_bytes),
-                human_bytes(size.matrix_bytes),
-                if size.iterative { "iterative" } else { "direct" },
-                human_bytes(size.linear_bytes)
-            );
-        }
+        let est = crate::model::memory::PeakEstimate::of(
+            &model,
+            dofs.n_global() as f64,
+            route == crate::scene::schema::LinearSolver::Iterative,
+        );
+        use crate::scene::size::human_bytes;
+        println!(
+            "estimated peak memory {} on 1 rank (process, mesh and model {} on every rank; \
+             matrix {}, of it contact {}; {} linear solver {})",
+            human_bytes(est.per_rank_peak(1)),
+            human_bytes(est.per_rank),
+            human_bytes(est.matrix),
+            human_bytes(est.contact),
+            if est.iterative { "iterative" } else { "direct" },
+            human_bytes(est.linear)
+        );
     }
     println!(
         "{}: ok ({} bodies, {} elements in {} sets, {} nodes, {} unknowns, {} stages)",

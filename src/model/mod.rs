@@ -15,6 +15,7 @@ pub mod enrich;
 mod enrich_tests;
 mod error;
 mod holds;
+pub mod memory;
 mod sampling;
 
 pub use build::{enriched_tl_element, tied_tl_element};

@@ -1,0 +1,248 @@
+//! The expected peak memory of a run, from the built model: what `check` prints.
+//!
+//! [`crate::scene::size`] bounds a case from its generator parameters alone, before anything is
+//! built, and refuses what cannot fit; it counts the mesh, a structured Jacobian and the linear
+//! solver, and stays below the peak. Once the model is built, its cells, enriched layers and
+//! contact surfaces are known, and the peak can be estimated instead of bounded. The terms (bytes,
+//! whole problem; a run on `R` ranks holds the process, mesh and model terms on every rank and
+//! shares the rest):
+//! - the process: code, MPI, PETSc and HDF5 before any data ([`PROCESS_BYTES`]);
+//! - the mesh arrays ([`crate::scene::size::MeshSize::mesh_bytes`]) and the model's own data:
+//!   element tabulations per cell, and per contact surface element the tangle check's samples,
+//!   the output sampling grid and the contact points ([`CELL_BYTES`], [`SURFACE_ELEMENT_BYTES`]);
+//! - the Jacobian: [`COO_ENTRY_BYTES`] per entry of the COO pattern, the cells' element matrices
+//!   `(n_nodes dim)^2` and the contact band (below), which carries PETSc's matrix, its COO maps and
+//!   the assembler's index and value arrays;
+//! - the linear solver of the route that runs ([`linear_bytes`]);
+//! - the heap terms times [`ALLOCATOR_FACTOR`] (allocator slack and pages freed but kept).
+//!
+//! The contact band assumes every element of a pair's surfaces within reach of its partner (the
+//! pattern reserves the blocks of points that approach): per element of the integrated surface,
+//! its rows times the partner's unknowns in one ring of elements around a partner element (`q + 2`
+//! nodes per surface direction for `q` per element), scaled by the ratio of the two surfaces'
+//! element lengths; the weighted gaps add the columns of the element's own neighbours.
+//!
+//! The constants are fitted to peaks measured on this kind of machine (the performance pages'
+//! memory table, `ci/memory_estimate.py`); the fit's residuals are asserted in the tests below.
+
+use crate::contact::pair::{GapKind, Partner};
+use crate::contact::surface::ContactSurface;
+use crate::model::Model;
+use crate::scene::size::MeshSize;
+
+/// Resident memory of a process before it builds anything: its code, MPI, PETSc and HDF5 (measured
+/// on the smallest cases, 58-62 MB without pictures).
+pub const PROCESS_BYTES: f64 = 60e6;
+
+/// Model data per cell: its element kernel's tabulated basis and the partition's copies.
+pub const CELL_BYTES: f64 = 2.2e3;
+
+/// Model data per contact surface element: the tangle check's samples of its enriched cell, the
+/// output's sampling grid and the contact quadrature points.
+pub const SURFACE_ELEMENT_BYTES: f64 = 50e3;
+
+/// Bytes per entry of the COO pattern: PETSc's matrix and COO maps and the assembler's arrays.
+pub const COO_ENTRY_BYTES: f64 = 24.0;
+
+/// MUMPS's memory at the factorisation per `n^(4/3)` in 3D (factor entries about 42 `n^(4/3)`,
+/// 12.5 bytes each with MUMPS's work arrays).
+pub const MUMPS_3D_BYTES: f64 = 520.0;
+
+/// Heap terms are multiplied by this: the allocator's slack and pages freed but kept resident.
+pub const ALLOCATOR_FACTOR: f64 = 1.2;
+
+/// The expected peak of a run, by term (bytes; see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PeakEstimate {
+    /// Per rank: the process, the mesh arrays and the model's data.
+    pub per_rank: f64,
+    /// Shared by the ranks: the Jacobian's COO pattern (cells and contact band).
+    pub matrix: f64,
+    /// Of which the contact band.
+    pub contact: f64,
+    /// Shared by the ranks: the linear solver.
+    pub linear: f64,
+    /// The route is the iterative one.
+    pub iterative: bool,
+}
+
+impl PeakEstimate {
+    /// The estimate for `model` with `unknowns` unknowns on the route `iterative`.
+    pub fn of(model: &Model, unknowns: f64, iterative: bool) -> PeakEstimate {
+        let dim = model.dim;
+        let cells = model.n_cells();
+        let mesh = MeshSize {
+            dim,
+            nodes: model.n_nodes() as f64,
+            cells: cells as f64,
+        };
+        let surface_elements: usize = model
+            .contact_surfaces
+            .iter()
+            .map(|s| s.elements.len())
+            .sum();
+        let data = CELL_BYTES * cells as f64 + SURFACE_ELEMENT_BYTES * surface_elements as f64;
+        let coo_cells: f64 = model
+            .cell_offsets
+            .windows(2)
+            .map(|w| ((w[1] - w[0]) * dim) as f64)
+            .map(|n| n * n)
+            .sum();
+        let band = contact_band_entries(model);
+        PeakEstimate {
+            per_rank: PROCESS_BYTES + mesh.mesh_bytes() + ALLOCATOR_FACTOR * data,
+            matrix: ALLOCATOR_FACTOR * COO_ENTRY_BYTES * (coo_cells + band),
+            contact: ALLOCATOR_FACTOR * COO_ENTRY_BYTES * band,
+            linear: ALLOCATOR_FACTOR
+                * linear_bytes(dim, unknowns, iterative, !model.contact_pairs.is_empty()),
+            iterative,
+        }
+    }
+
+    /// The peak of one rank of a run on `ranks` ranks (the shared terms split evenly).
+    pub fn per_rank_peak(&self, ranks: usize) -> f64 {
+        self.per_rank + (self.matrix + self.linear) / ranks.max(1) as f64
+    }
+}
+
+/// Bytes of the linear solver (whole problem) for `unknowns` unknowns: MUMPS's factorisation
+/// (3D [`MUMPS_3D_BYTES`] per `n^(4/3)`; 2D `144 n log2 n`, as [`crate::scene::size`]), or GAMG's
+/// hierarchy with the Krylov basis ([`crate::scene::size::linear_solver_bytes`]).
+pub fn linear_bytes(dim: usize, unknowns: f64, iterative: bool, contact: bool) -> f64 {
+    let n = unknowns.max(1.0);
+    if !iterative && dim == 3 {
+        return MUMPS_3D_BYTES * n.powf(4.0 / 3.0);
+    }
+    crate::scene::size::linear_solver_bytes(dim, n, iterative, contact)
+}
+
+/// COO entries of the contact band, every pair's surfaces wholly within reach (module docs).
+fn contact_band_entries(model: &Model) -> f64 {
+    let dim = model.dim;
+    let surfaces = &model.contact_surfaces;
+    let mut entries = 0.0;
+    for pair in &model.contact_pairs {
+        for (k, partner) in &pair.passes {
+            let own = &surfaces[*k];
+            let rows = mean_nodes(own) * dim as f64;
+            let cols = match partner {
+                Partner::Rigid(..) => rows,
+                Partner::Surface(l) => {
+                    let other = &surfaces[*l];
+                    let ratio = (own.h / other.h).max(1.0).powi(dim as i32 - 1);
+                    let ring = (nodes_per_direction(other) + 2.0).powi(dim as i32 - 1);
+                    dim as f64 * ring * ratio
+                }
+            };
+            let weighted = match pair.gap {
+                GapKind::Pointwise | GapKind::ElementMean => 0.0,
+                _ => dim as f64 * (2.0 * nodes_per_direction(own) - 1.0).powi(dim as i32 - 1),
+            };
+            entries += own.elements.len() as f64 * rows * (cols + weighted);
+        }
+    }
+    entries
+}
+
+/// Mean nodes per element of a surface.
+fn mean_nodes(s: &ContactSurface) -> f64 {
+    if s.elements.is_empty() {
+        return 0.0;
+    }
+    s.elements
+        .iter()
+        .map(|e| e.basis.n_nodes() as f64)
+        .sum::<f64>()
+        / s.elements.len() as f64
+}
+
+/// Nodes per surface direction of a surface's elements (`n^(1/(dim-1))` of their mean count).
+fn nodes_per_direction(s: &ContactSurface) -> f64 {
+    mean_nodes(s).powf(1.0 / (s.dim as f64 - 1.0).max(1.0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+
+    /// Peak resident sets measured on this kind of machine (2 cores, 24 GiB, 1 rank, pictures off;
+    /// `ci/memory_estimate.py` and `ci/scale_scene.sh`, /usr/bin/time's %M in KiB): the estimate
+    /// lies within 25 % of each. The scale scene's e4.5 size is cube 24^3, shell 24 x 24 x 3.
+    #[test]
+    fn the_peak_estimate_is_within_a_quarter_of_the_measured_peaks() {
+        let e45 = [
+            "meshes.cube.divisions=[24,24,24]",
+            "meshes.shell.n_surface=24",
+            "meshes.shell.n_thickness=3",
+        ];
+        let rows: [(&str, &[&str], &str, f64); 7] = [
+            ("contact_patch_3d.toml", &[], "direct", 62_464.0),
+            ("twisting_3d.toml", &[], "direct", 63_132.0),
+            ("hemisphere_block_3d.toml", &[], "direct", 126_420.0),
+            ("hemisphere_twist_scale_3d.toml", &[], "direct", 404_796.0),
+            (
+                "hemisphere_twist_scale_3d.toml",
+                &[],
+                "iterative",
+                263_576.0,
+            ),
+            (
+                "hemisphere_twist_scale_3d.toml",
+                &e45,
+                "iterative",
+                885_668.0,
+            ),
+            (
+                "hemisphere_twist_scale_3d.toml",
+                &e45,
+                "direct",
+                1_831_040.0,
+            ),
+        ];
+        for (file, sets, route, peak_kib) in rows {
+            let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("cases")
+                .join(file);
+            let mut sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+            sets.push(format!("solver.linear=\"{route}\""));
+            let case = crate::scene::load_case(&path, &sets).expect("case");
+            let model = Model::build(&case).expect("model");
+            let part = vec![0u32; model.n_cells()];
+            let dofs = crate::assembly::DofMap::new(
+                model.dim,
+                model.n_nodes(),
+                &model.cell_offsets,
+                &model.cell_nodes,
+                &part,
+                &model.ties,
+                1,
+                0,
+            )
+            .expect("numbering");
+            let unknowns = dofs.n_global() as f64;
+            let est = PeakEstimate::of(&model, unknowns, route == "iterative");
+            let peak = peak_kib * 1024.0;
+            let ratio = est.per_rank_peak(1) / peak;
+            assert!(
+                (0.75..=1.25).contains(&ratio),
+                "{file} {sets:?}: estimate {:.1} MB, measured {:.1} MB",
+                est.per_rank_peak(1) / 1e6,
+                peak / 1e6
+            );
+        }
+    }
+
+    /// The contact band of the scale scene's press (two Q1N2 surfaces of 16 x 16 elements, two
+    /// half-passes) against the COO entries its pattern reserved, 0.86e6 to 1.04e6 over the run (the
+    /// pattern's COO entries less the cells' and the diagonal's).
+    #[test]
+    fn the_contact_band_is_the_order_of_the_patterns_reserved_entries() {
+        let path =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/hemisphere_twist_scale_3d.toml");
+        let case = crate::scene::load_case(&path, &[]).expect("case");
+        let model = Model::build(&case).expect("model");
+        let band = contact_band_entries(&model);
+        assert!((0.8e6..1.3e6).contains(&band), "{band:e}");
+    }
+}
