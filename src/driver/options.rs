@@ -12,6 +12,7 @@ use crate::petsc::{
 };
 use crate::scene::schema::LinearSolver;
 use crate::scene::Case;
+use crate::solver::judge::{NEWTON_ATOL, NEWTON_MAX_IT, NEWTON_RTOL, NEWTON_STOL};
 use crate::solver::linear::rigid_body_null_space;
 use crate::solver::{run_load_steps_from, LoadPosition, SolverError, StepControl, StepRecord};
 use mpi::traits::*;
@@ -161,6 +162,7 @@ pub(super) fn set_up_solver<'p>(
         pseudo_steps: case.steps.pseudo_steps as usize,
         translation_probes: probes,
         secant_predictor: case.solver.predictor == crate::scene::Predictor::Secant,
+        newton_overrides: newton_overrides(&snes, case, model, route, &opts.petsc_args)?,
     };
     Ok(Solver {
         suspects,
@@ -306,24 +308,13 @@ pub(super) fn snes_from_options<'p>(
     route: LinearSolver,
     petsc_args: &[String],
 ) -> Result<Snes<'p>, Error> {
-    let cmdline = command_line_options(petsc_args);
-    let in_case = case_petsc_options(case, model, route);
-    let source = |option: &str| {
-        let names = |s: &str| s.split_whitespace().any(|t| t == option);
-        if names(&cmdline) {
-            "set on the command line"
-        } else if names(&in_case) {
-            "set in `solver.petsc_options`"
-        } else {
-            "as the options left it"
-        }
-    };
+    let source = option_source(case, model, route, petsc_args);
     let rejected = |e: PetscError| Error::SolverOptions {
         file: case.file.clone(),
         message: format!("PETSc rejects them ({}): {}", e.function, e.message),
     };
     let mut snes = Snes::new(petsc)?;
-    snes.set_tolerances(1e-11, 1e-10, 1e-14, 30)?;
+    snes.set_tolerances(NEWTON_ATOL, NEWTON_RTOL, NEWTON_STOL, NEWTON_MAX_IT)?;
     snes.set_stagnation_window(case.solver.stagnation_window);
     quiet_errors(|| snes.set_from_options()).map_err(rejected)?;
     let ksp = snes.ksp()?.tolerances()?;
@@ -341,6 +332,64 @@ pub(super) fn snes_from_options<'p>(
         });
     }
     Ok(snes)
+}
+
+/// Where an option in force was set: "set on the command line", "set in
+/// `solver.petsc_options`", or "as the options left it" (an options file, the environment).
+fn option_source(
+    case: &Case,
+    model: &Model,
+    route: LinearSolver,
+    petsc_args: &[String],
+) -> impl Fn(&str) -> &'static str {
+    let cmdline = command_line_options(petsc_args);
+    let in_case = case_petsc_options(case, model, route);
+    move |option: &str| {
+        let names = |s: &str| s.split_whitespace().any(|t| t == option);
+        if names(&cmdline) {
+            "set on the command line"
+        } else if names(&in_case) {
+            "set in `solver.petsc_options`"
+        } else {
+            "as the options left it"
+        }
+    }
+}
+
+/// The options in force that change when SNES calls a solve converged, away from the code's
+/// defaults: the nonlinear solver's type and its tolerances and iteration limit, each with its
+/// value and where it was set, e.g. "`-snes_type ksponly` (set on the command line)". The load
+/// stepping names them when a step fails its own check of the residual.
+pub(super) fn newton_overrides(
+    snes: &Snes,
+    case: &Case,
+    model: &Model,
+    route: LinearSolver,
+    petsc_args: &[String],
+) -> Result<Vec<String>, Error> {
+    let source = option_source(case, model, route, petsc_args);
+    let t = snes.tolerances()?;
+    let kind = snes.type_name()?;
+    let mut out = Vec::new();
+    let mut note = |option: &str, value: String| {
+        out.push(format!("`{option} {value}` ({})", source(option)));
+    };
+    if kind != "newtonls" {
+        note("-snes_type", kind);
+    }
+    for (option, value, default) in [
+        ("-snes_atol", t.atol, NEWTON_ATOL),
+        ("-snes_rtol", t.rtol, NEWTON_RTOL),
+        ("-snes_stol", t.stol, NEWTON_STOL),
+    ] {
+        if value != default {
+            note(option, format!("{value:e}"));
+        }
+    }
+    if t.max_it != NEWTON_MAX_IT as crate::petsc::PetscInt {
+        note("-snes_max_it", t.max_it.to_string());
+    }
+    Ok(out)
 }
 
 /// `check`'s part of the solver: the options inserted and applied as `run` does, and the linear

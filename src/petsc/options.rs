@@ -140,6 +140,21 @@ impl Snes<'_> {
 }
 
 impl Snes<'_> {
+    /// The nonlinear solver's type in force: `newtonls` unless `-snes_type` chose another.
+    pub fn type_name(&self) -> Result<String, PetscError> {
+        let mut t: *const c_char = std::ptr::null();
+        // SAFETY: valid handle; PETSc returns a pointer to its own string (null when unset).
+        unsafe { call!(SNESGetType(self.as_raw(), &mut t))? };
+        Ok(if t.is_null() {
+            String::new()
+        } else {
+            // SAFETY: a NUL-terminated string owned by PETSc, copied at once.
+            unsafe { CStr::from_ptr(t) }.to_string_lossy().into_owned()
+        })
+    }
+}
+
+impl Snes<'_> {
     /// The factor matrix of the linear solver's PC when it is an LU or Cholesky factorisation by
     /// MUMPS that has been factored (or attempted); `None` otherwise.
     fn mumps_factor(&mut self) -> Result<Option<sys::Mat>, PetscError> {

@@ -12,6 +12,7 @@
 //! attempt, refused by the rescue too, and a step whose every converged state is tangled ends the
 //! run with [`SolverError::Tangled`], the last valid step being the last one observed (written).
 
+use super::judge::judge;
 use crate::assembly::{prescribed_values, Assembler, ConflictError, DirichletBc};
 use crate::petsc::{Matrix, PetscError, Snes, SolveOutcome, Vector};
 use std::time::Instant;
@@ -41,6 +42,10 @@ pub struct StepControl {
     /// the same stage (`[solver] predictor = "secant"`); a predicted start that fails is retried
     /// from the converged state at the same increment.
     pub secant_predictor: bool,
+    /// The options in force that change when SNES calls a solve converged (`-snes_type ksponly`,
+    /// `-snes_atol 1e10`, ...), each with where it was set: named when a step fails the run's own
+    /// check of its residual ([`super::judge`]) or fails altogether.
+    pub newton_overrides: Vec<String>,
 }
 
 /// The secant predictor is given up for the rest of a stage once at least
@@ -466,7 +471,16 @@ pub fn run_load_steps_from<'p>(
                 // at once, as a failed predicted start
                 snes.watch_start();
             }
-            let out = super::settle::solve_settled(asm, snes, x, jac)?;
+            let mut out = super::settle::solve_settled(asm, snes, x, jac)?;
+            // the run's own verdict: a solve SNES calls converged whose residual is not (an
+            // option changed SNES's test) is a failed attempt
+            if out.converged {
+                if let Some(why) = judge(asm, x, &mut out, &control.newton_overrides)? {
+                    out.converged = false;
+                    out.reason = why.clone();
+                    out.domain_error = Some(why);
+                }
+            }
             linear_iterations += out.linear_iterations;
             linear_accepted += out.linear_accepted;
             if !out.converged && out.linear_failed && snes.can_fall_back() && !direct_failed {
@@ -598,7 +612,7 @@ pub fn run_load_steps_from<'p>(
             let mut last_attempt = (!just_tangled).then_some(why);
             if let Err(min) = sizer.cut_back() {
                 if control.pseudo_steps > 0 {
-                    match rescue(asm, snes, x, &x_conv, jac, control.pseudo_steps)? {
+                    match rescue(asm, snes, x, &x_conv, jac, control)? {
                         Rescue::Found(out, k) => {
                             pseudo = k;
                             break (out, target);
@@ -637,7 +651,10 @@ pub fn run_load_steps_from<'p>(
                         } else {
                             ""
                         },
-                        out.domain_error.unwrap_or(out.reason)
+                        with_overrides(
+                            out.domain_error.unwrap_or(out.reason),
+                            &control.newton_overrides
+                        )
                     ),
                 });
             }
@@ -690,6 +707,18 @@ pub fn run_load_steps_from<'p>(
     Ok(records)
 }
 
+/// `reason` with the options that changed SNES's convergence test appended, unless it names them
+/// already.
+fn with_overrides(reason: String, overrides: &[String]) -> String {
+    match overrides.first() {
+        Some(first) if !reason.contains(first.as_str()) => format!(
+            "{reason} (the Newton solver ran with {})",
+            overrides.join(", ")
+        ),
+        _ => reason,
+    }
+}
+
 /// One Newton solve from `x` that may stop for a new contact sparsity pattern and resume.
 fn solve_resuming<'p>(
     asm: &mut Assembler<'p>,
@@ -732,8 +761,9 @@ fn rescue<'p>(
     x: &mut Vector<'p>,
     x_conv: &Vector<'p>,
     jac: &mut Matrix<'p>,
-    max_steps: usize,
+    control: &StepControl,
 ) -> Result<Rescue, SolverError> {
+    let max_steps = control.pseudo_steps;
     x_conv.copy_to(x)?;
     if asm.compute_damping_diagonal(x).is_err() {
         return Ok(Rescue::Failed);
@@ -779,6 +809,12 @@ fn rescue<'p>(
         asm.set_damping(0.0, &u_prev)?;
         let mut plain = solve_resuming(asm, snes, x, jac)?;
         total_iterations += plain.iterations;
+        if plain.converged {
+            if let Some(why) = judge(asm, x, &mut plain, &control.newton_overrides)? {
+                plain.converged = false;
+                plain.reason = why;
+            }
+        }
         if debug {
             eprintln!(
                 "  undamped solve: {} after {} iterations",
@@ -1045,6 +1081,7 @@ mod tests {
             easy_iterations: 4,
             pseudo_steps: 0,
             secant_predictor: false,
+            newton_overrides: Vec::new(),
         }
     }
 

@@ -1,6 +1,7 @@
 //! Quasi-static solution: load stepping over the stages of a case, Newton (PETSc SNES) per step, and
 //! automatic cutback when a step diverges or meets a domain error.
 
+pub mod judge;
 pub mod linear;
 pub mod load_stepping;
 mod settle;

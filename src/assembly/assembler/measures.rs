@@ -35,6 +35,21 @@ impl Assembler<'_> {
         global
     }
 
+    /// Euclidean norm of the forces at the last residual evaluation before the Dirichlet and skew
+    /// rows are replaced by their constraints (internal and contact forces less the external
+    /// ones): at an equilibrium, the reactions. The force scale of the state, against which the
+    /// load stepping judges a residual (`crate::solver::judge`).
+    ///
+    /// Collective.
+    pub fn force_norm(&self) -> f64 {
+        let local: f64 = self.raw_residual.iter().map(|r| r * r).sum();
+        let mut global = 0.0f64;
+        self.petsc
+            .comm()
+            .all_reduce_into(&local, &mut global, SystemOperation::sum());
+        global.sqrt()
+    }
+
     /// Moment about `center` [3] of the reaction forces on `nodes` at the last residual evaluation,
     /// taken at the nodes' current positions `X + u` (`coords` [n_nodes][dim] the reference
     /// positions, `x` the current displacement). Tied nodes count once. Returns [3] (2D: only the

@@ -1,0 +1,145 @@
+//! The run's own verdict on a Newton solve that SNES calls converged.
+//!
+//! SNES decides convergence by its options: `-snes_type ksponly` stops after one linear solve,
+//! `-snes_atol 1e10` accepts the starting state, a loose `-snes_rtol` or `-snes_stol` stops early.
+//! None of that may produce a converged step. After every solve SNES calls converged (and after
+//! the active-set and augmented Lagrangian rounds that follow it), the load stepping evaluates
+//! the residual at the solution itself and accepts the step only when its norm is small against
+//! the step's force scale ([`residual_converged`]); a solve that fails this check is a failed
+//! attempt like a diverged one (cut back), and its reason names the options in force that
+//! changed SNES's test.
+
+use crate::assembly::Assembler;
+use crate::petsc::{NonlinearProblem, PetscError, ProblemError, SolveOutcome, Vector};
+use mpi::traits::Communicator;
+
+/// The code's absolute tolerance on the residual norm (`-snes_atol`'s default).
+pub const NEWTON_ATOL: f64 = 1e-11;
+/// The code's tolerance on the residual norm relative to a solve's first one (`-snes_rtol`'s
+/// default).
+pub const NEWTON_RTOL: f64 = 1e-10;
+/// The code's tolerance on the Newton step relative to the solution (`-snes_stol`'s default).
+pub const NEWTON_STOL: f64 = 1e-14;
+/// The code's Newton iteration limit of one solve (`-snes_max_it`'s default).
+pub const NEWTON_MAX_IT: usize = 30;
+
+/// Relative tolerance of the run's own check: a residual norm at most this fraction of the
+/// step's force scale is converged. Four orders above [`NEWTON_RTOL`], so that a solve that SNES
+/// stops by its step test (`CONVERGED_SNORM_RELATIVE`) at the round-off floor of the residual
+/// passes.
+pub const JUDGE_RTOL: f64 = 1e-6;
+/// Absolute tolerance of the run's own check: a residual norm at most this is converged whatever
+/// the scale (ten times [`NEWTON_ATOL`]).
+pub const JUDGE_ATOL: f64 = 1e-10;
+
+/// Whether a residual norm `norm` is converged against the force scale `scale` of its step:
+/// `norm <= max(JUDGE_ATOL, JUDGE_RTOL * scale)`. NaN is never converged.
+pub fn residual_converged(norm: f64, scale: f64) -> bool {
+    let scale = if scale.is_finite() { scale } else { 0.0 };
+    norm <= JUDGE_ATOL.max(JUDGE_RTOL * scale)
+}
+
+/// The run's verdict on a solve `out` that SNES called converged at `x`, evaluating the residual
+/// there: when it is converged ([`residual_converged`]) against the step's force scale (the
+/// largest residual norm of the solve, or the forces at `x` if larger: at an equilibrium, the
+/// reactions), the last entry of `out.residual_history` becomes its norm (the norm SNES computed
+/// last, unless an option kept SNES from computing it at the solution) and the result is `None`;
+/// otherwise why not, naming `overrides` (the options in force that change SNES's test, with
+/// where they were set). The evaluation leaves the assembler's last residual at `x` (the reactions
+/// of the output are those of the state accepted).
+///
+/// Collective.
+pub(super) fn judge<'p>(
+    asm: &mut Assembler<'p>,
+    x: &Vector<'p>,
+    out: &mut SolveOutcome,
+    overrides: &[String],
+) -> Result<Option<String>, PetscError> {
+    let mut f = x.duplicate()?;
+    let claimed = || {
+        format!(
+            "SNES reported {} after {} Newton iteration{}",
+            out.reason,
+            out.iterations,
+            if out.iterations == 1 { "" } else { "s" }
+        )
+    };
+    let blame = || {
+        if overrides.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; SNES's convergence test was changed by {}",
+                overrides.join(", ")
+            )
+        }
+    };
+    match asm.residual(x, &mut f) {
+        Ok(()) => {}
+        Err(ProblemError::Domain(e)) => {
+            return Ok(Some(format!(
+                "{}, but the residual cannot be evaluated at its solution: {e}{}",
+                claimed(),
+                blame()
+            )))
+        }
+        Err(ProblemError::Fatal(message)) => {
+            return Err(PetscError {
+                code: 83,
+                function: "residual evaluation of the convergence check",
+                message,
+            })
+        }
+    }
+    let norm = f.norm2()?;
+    let seen = out
+        .residual_history
+        .iter()
+        .copied()
+        .filter(|r| r.is_finite())
+        .fold(0.0, f64::max);
+    let scale = seen.max(asm.force_norm());
+    if std::env::var_os("NURBS_CONTACT_DEBUG_JUDGE").is_some() && asm.comm().rank() == 0 {
+        eprintln!(
+            "judge: |F| = {norm:.6e} (SNES's last {:.6e}), largest in the solve {seen:.3e}, \
+             forces {:.3e}, ratio {:.3e}",
+            out.residual_history.last().copied().unwrap_or(f64::NAN),
+            asm.force_norm(),
+            norm / scale
+        );
+    }
+    if residual_converged(norm, scale) {
+        match out.residual_history.last_mut() {
+            Some(last) => *last = norm,
+            None => out.residual_history.push(norm),
+        }
+        return Ok(None);
+    }
+    Ok(Some(format!(
+        "{}, but the residual norm at its solution is {norm:.3e}, above the run's tolerance \
+         {:.3e} ({JUDGE_RTOL:e} of the step's force scale {scale:.3e}, at least {JUDGE_ATOL:e}){}",
+        claimed(),
+        JUDGE_ATOL.max(JUDGE_RTOL * scale),
+        blame()
+    )))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_residual_is_judged_against_its_force_scale() {
+        // the default test's outcomes pass: relative 1e-10, absolute 1e-11
+        assert!(residual_converged(NEWTON_RTOL * 3.0, 3.0));
+        assert!(residual_converged(NEWTON_ATOL, 1e-30));
+        // the round-off floor of a stiff case stopped by the step test
+        assert!(residual_converged(2e-9, 1e4));
+        // a start accepted by `-snes_atol 1e10` (the residual is the whole scale), and a linear
+        // step of a nonlinear problem left at a percent of it
+        assert!(!residual_converged(0.0287, 0.0287));
+        assert!(!residual_converged(1e-3, 0.1));
+        assert!(!residual_converged(f64::NAN, 1.0));
+        assert!(!residual_converged(1.0, f64::NAN));
+    }
+}
