@@ -196,31 +196,129 @@ fn write_state(path: &Path, s: &State) -> Result<(), IoError> {
     Ok(())
 }
 
-/// Reads a checkpoint's `state.h5`.
+/// The values of a checkpoint's `position` dataset that no run writes: `p` is the dataset (step,
+/// stage, load, increment, and the secant predictor's six values when there are ten), `n_stages`
+/// the stages of the case the checkpoint was written for. A run's checkpoint stands at a whole
+/// number of steps, at a stage no later than the case's last (its number when all are done), at a
+/// load inside that stage (from its start, up to its end), with a positive increment of at most a
+/// whole stage.
+pub fn position_problem(p: &[f64], n_stages: usize) -> Option<String> {
+    let whole = |x: f64| x.is_finite() && x >= 0.0 && x.fract() == 0.0 && x < 9.0e15;
+    let (step, stage, lambda, dl) = (p[0], p[1], p[2], p[3]);
+    if !whole(step) {
+        return Some(format!("the step count {step} is not a whole number >= 0"));
+    }
+    if !whole(stage) {
+        return Some(format!("the stage {stage} is not a whole number >= 0"));
+    }
+    if stage > n_stages as f64 {
+        return Some(format!(
+            "the stage {stage} is beyond the case's {n_stages} stage{}",
+            if n_stages == 1 { "" } else { "s" }
+        ));
+    }
+    let end = if stage == n_stages as f64 {
+        stage
+    } else {
+        stage + 1.0
+    };
+    let slack = 1e-9 * end.max(1.0);
+    if !lambda.is_finite() || lambda < stage - slack || lambda > end + slack {
+        return Some(format!(
+            "the load {lambda} is outside its stage {stage} (from {stage} to {end})"
+        ));
+    }
+    if !dl.is_finite() || dl <= 0.0 || dl > 1.0 {
+        return Some(format!(
+            "the load increment {dl} is not in (0, 1] (a stage's load runs over 1)"
+        ));
+    }
+    if p.len() == 10 {
+        let (last, last_dl, pstage, tried, failed, given_up) = (p[4], p[5], p[6], p[7], p[8], p[9]);
+        let index = |x: f64| x == -1.0 || (whole(x) && x <= stage);
+        if !index(last) || !index(pstage) {
+            return Some(format!(
+                "the secant predictor's stages ({last}, {pstage}) are not -1 or a stage up to {stage}"
+            ));
+        }
+        if !last_dl.is_finite() || !(0.0..=1.0).contains(&last_dl) {
+            return Some(format!(
+                "the secant predictor's last increment {last_dl} is not in [0, 1]"
+            ));
+        }
+        if !whole(tried) || !whole(failed) || failed > tried {
+            return Some(format!(
+                "the secant predictor's counts ({tried} tried, {failed} failed) are not whole \
+                 numbers with failed <= tried"
+            ));
+        }
+        if given_up != 0.0 && given_up != 1.0 {
+            return Some(format!(
+                "the secant predictor's flag {given_up} is neither 0 nor 1"
+            ));
+        }
+    }
+    None
+}
+
+/// The first value of `v` that is not finite, as "value i is x".
+fn not_finite(v: &[f64]) -> Option<String> {
+    v.iter()
+        .position(|x| !x.is_finite())
+        .map(|i| format!("value {i} is {}", v[i]))
+}
+
+/// Reads a checkpoint's `state.h5` and checks what it holds: every dataset a run writes is there
+/// and readable, the stored case matches its hash, the position is one a run of that case reaches
+/// ([`position_problem`]) and every field value is finite. A bad checkpoint is an error naming the
+/// file and the dataset.
 pub fn read_state(checkpoint: &Path) -> Result<State, IoError> {
     let path = checkpoint.join("state.h5");
-    let f = hdf5::File::open(&path).map_err(h5err(&path, "the file"))?;
+    let invalid = |message: String| IoError::Invalid {
+        what: path.display().to_string(),
+        message,
+    };
+    let bad = |dataset: &str, message: String| {
+        invalid(format!("a bad checkpoint: dataset `{dataset}`: {message}"))
+    };
+    if !path.is_file() {
+        return Err(invalid(format!(
+            "a bad checkpoint: {} has no state.h5 (a run writes it into every checkpoint)",
+            checkpoint.display()
+        )));
+    }
+    let f = hdf5::File::open(&path).map_err(|e| {
+        invalid(format!(
+            "a bad checkpoint: HDF5 error while reading the file: {e}"
+        ))
+    })?;
+    let read_error = |name: &str, e: hdf5::Error| {
+        invalid(format!(
+            "a bad checkpoint: HDF5 error while reading dataset `{name}`: {e}"
+        ))
+    };
     let bytes = |name: &str| -> Result<Vec<u8>, IoError> {
         f.dataset(name)
             .and_then(|d| d.read_raw::<u8>())
-            .map_err(h5err(&path, name))
+            .map_err(|e| read_error(name, e))
     };
     let floats = |name: &str| -> Result<Vec<f64>, IoError> {
         if !f.link_exists(name) {
             return Ok(Vec::new());
         }
-        f.dataset(name)
+        let v = f
+            .dataset(name)
             .and_then(|d| d.read_raw::<f64>())
-            .map_err(h5err(&path, name))
-    };
-    let invalid = |message: String| IoError::Invalid {
-        what: path.display().to_string(),
-        message,
+            .map_err(|e| read_error(name, e))?;
+        match not_finite(&v) {
+            Some(m) => Err(bad(name, m)),
+            None => Ok(v),
+        }
     };
     let case_toml = String::from_utf8(bytes("case_toml")?)
-        .map_err(|_| invalid("the case is not UTF-8".into()))?;
-    let meta: Meta =
-        serde_json::from_slice(&bytes("meta")?).map_err(|e| invalid(format!("meta data: {e}")))?;
+        .map_err(|_| bad("case_toml", "the case is not UTF-8".into()))?;
+    let meta: Meta = serde_json::from_slice(&bytes("meta")?)
+        .map_err(|e| bad("meta", format!("meta data: {e}")))?;
     if meta.format != FORMAT {
         return Err(invalid(format!(
             "checkpoint format {} (this build reads {FORMAT})",
@@ -228,7 +326,10 @@ pub fn read_state(checkpoint: &Path) -> Result<State, IoError> {
         )));
     }
     if meta.case_hash != case_hash(&case_toml) {
-        return Err(invalid("the stored case does not match its hash".into()));
+        return Err(bad(
+            "case_toml",
+            "the stored case does not match its hash in `meta`".into(),
+        ));
     }
     let p = floats("position")?;
     // 4 values: written before the secant predictor's state was kept (its first step after the
@@ -236,8 +337,26 @@ pub fn read_state(checkpoint: &Path) -> Result<State, IoError> {
     let predictor = match p.len() {
         4 => PredictorState::default(),
         10 => PredictorState::from_values(&[p[4], p[5], p[6], p[7], p[8], p[9]]),
-        n => return Err(invalid(format!("position has {n} values, not 10 (or 4)"))),
+        n => return Err(bad("position", format!("{n} values, not 10 (or 4)"))),
     };
+    let n_stages = toml::from_str::<crate::scene::Case>(&case_toml)
+        .map_err(|e| bad("case_toml", format!("the case does not parse: {e}")))?
+        .stages
+        .len();
+    if let Some(m) = position_problem(&p, n_stages) {
+        return Err(bad("position", m));
+    }
+    let contact_pattern = floats("contact_pattern")?;
+    if !contact_pattern.len().is_multiple_of(3)
+        || contact_pattern
+            .iter()
+            .any(|&v| v < 0.0 || v.fract() != 0.0 || v > f64::from(u32::MAX))
+    {
+        return Err(bad(
+            "contact_pattern",
+            "not (pass, element, partner) triples of whole numbers".into(),
+        ));
+    }
     let mut position = LoadPosition {
         step: p[0] as usize,
         stage: p[1] as usize,
@@ -257,7 +376,7 @@ pub fn read_state(checkpoint: &Path) -> Result<State, IoError> {
         element_history: floats("element_history")?,
         element_history_width: meta.element_history_width,
         contact_points: floats("contact_points")?,
-        contact_pattern: floats("contact_pattern")?,
+        contact_pattern,
         ranks: meta.ranks,
         log: meta.log,
     })
@@ -568,6 +687,45 @@ every = 1
         let err = compare_cases(&more, CASE, 3).unwrap_err();
         assert!(err.contains("`bcs.0.value.2`"), "{err}");
         assert!(err.contains("stages after the first 3"), "{err}");
+    }
+
+    #[test]
+    fn positions_no_run_reaches_are_named() {
+        let ok = |p: &[f64]| position_problem(p, 2);
+        // mid-stage, at a stage's start, all done, and with the predictor's values
+        assert_eq!(ok(&[3.0, 0.0, 0.75, 0.25]), None);
+        assert_eq!(ok(&[4.0, 1.0, 1.0, 0.5]), None);
+        assert_eq!(ok(&[6.0, 2.0, 2.0, 0.5]), None);
+        assert_eq!(
+            ok(&[3.0, 0.0, 0.75, 0.25, 0.0, 0.25, 0.0, 2.0, 1.0, 0.0]),
+            None
+        );
+        let says = |p: &[f64], what: &str| {
+            let m = ok(p).unwrap_or_default();
+            assert!(m.contains(what), "{p:?}: {m}");
+        };
+        says(&[1e20, 0.0, 0.5, 0.25], "step count");
+        says(&[2.5, 0.0, 0.5, 0.25], "step count");
+        says(
+            &[3.0, 7.0, 7.5, 0.25],
+            "the stage 7 is beyond the case's 2 stages",
+        );
+        says(
+            &[3.0, 0.0, 1.6, 0.25],
+            "the load 1.6 is outside its stage 0",
+        );
+        says(&[6.0, 2.0, 2.5, 0.25], "outside its stage 2 (from 2 to 2)");
+        says(&[3.0, 0.0, f64::NAN, 0.25], "the load NaN");
+        says(&[3.0, 0.0, 0.5, -0.1], "the load increment -0.1");
+        says(&[3.0, 0.0, 0.5, 0.0], "the load increment 0");
+        says(
+            &[3.0, 0.0, 0.75, 0.25, 1.0, 0.25, 0.0, 2.0, 1.0, 0.0],
+            "predictor's stages",
+        );
+        says(
+            &[3.0, 0.0, 0.75, 0.25, 0.0, 0.25, 0.0, 2.0, 3.0, 0.0],
+            "failed <= tried",
+        );
     }
 
     #[test]

@@ -373,8 +373,8 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
     let mut numbered = number_and_partition(petsc, &case, &model)?;
     let partition_stats = numbered.partition_stats.take();
     let mut solver = set_up_solver(petsc, opts, &case, &model, numbered)?;
-    if let Some((_, state)) = &restart {
-        restore(petsc, &model, &mut solver, state)?;
+    if let Some((ckpt, state)) = &restart {
+        restore(petsc, &model, &mut solver, ckpt, state)?;
     }
     let points = gather_points(&solver.asm);
     let output = Output::new(

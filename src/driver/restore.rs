@@ -6,7 +6,11 @@ use crate::contact::ContactSystem;
 use crate::model::Model;
 use crate::petsc::Petsc;
 use crate::scene::Case;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+/// How far a restored displacement may miss a prescribed value, relative to the largest
+/// prescribed value (at least 1): Newton leaves the constrained rows exact to round-off.
+const PRESCRIBED_TOL: f64 = 1e-8;
 
 /// With `--restart DIR`: the last checkpoint in DIR and its state, after checking that the case
 /// may continue it. Every rank reads it. Collective.
@@ -62,19 +66,31 @@ pub(super) fn read_checkpoint(
     Ok(Some(r))
 }
 
-/// Puts a checkpoint's state into the solver: displacement (owned unknowns, from the node values),
-/// element history (from the cell values), contact state (from the point rows). Collective.
+/// Puts the state of the checkpoint `ckpt` into the solver: displacement (owned unknowns, from
+/// the node values), element history (from the cell values), contact state (from the point rows).
+/// A state that does not fit the model (sizes), that breaks the boundary conditions at its own
+/// load, or whose displacement folds an element over, is refused as a bad checkpoint naming the
+/// file and the dataset. Collective.
 pub(super) fn restore(
     petsc: &Petsc,
     model: &Model,
     solver: &mut Solver,
+    ckpt: &Path,
     state: &crate::checkpoint::State,
 ) -> Result<(), Error> {
     let dim = model.dim;
-    let mismatch = |what: &str, got: usize, expected: usize| {
-        Err(Error::Restart(format!(
-            "the checkpoint's {what} has {got} values, the model needs {expected}"
-        )))
+    let file = ckpt.join("state.h5");
+    let bad = |dataset: &str, message: String| {
+        Error::Restart(format!(
+            "{}: a bad checkpoint: dataset `{dataset}`: {message}",
+            file.display()
+        ))
+    };
+    let mismatch = |dataset: &str, got: usize, expected: usize| {
+        Err(bad(
+            dataset,
+            format!("{got} values, the model needs {expected}"),
+        ))
     };
     if state.displacement.len() != model.n_nodes() * dim {
         return mismatch(
@@ -86,7 +102,7 @@ pub(super) fn restore(
     let w = state.element_history_width;
     if state.element_history.len() != model.n_cells() * w {
         return mismatch(
-            "element history",
+            "element_history",
             state.element_history.len(),
             model.n_cells() * w,
         );
@@ -95,10 +111,24 @@ pub(super) fn restore(
         && state.displacement_before.len() != state.displacement.len()
     {
         return mismatch(
-            "displacement before the last step",
+            "displacement_before",
             state.displacement_before.len(),
             state.displacement.len(),
         );
+    }
+    if !state
+        .contact_points
+        .len()
+        .is_multiple_of(crate::contact::system::CHECKPOINT_ROW)
+    {
+        return Err(bad(
+            "contact_points",
+            format!(
+                "{} values, not rows of {}",
+                state.contact_points.len(),
+                crate::contact::system::CHECKPOINT_ROW
+            ),
+        ));
     }
     let dofs = &solver.asm.dofs;
     let (lo, hi) = dofs.owned_range();
@@ -115,6 +145,41 @@ pub(super) fn restore(
         Ok(())
     };
     scatter(&mut solver.x, &state.displacement)?;
+    // the displacement of a converged step meets the boundary conditions at its load (Newton
+    // makes the constrained rows exact), and folds no element over
+    let lambda = state.position.lambda;
+    let prescribed = crate::assembly::prescribed_values(&model.bcs, dofs, &model.coords, lambda)
+        .map_err(|e| bad("position", format!("at its load {lambda}: {e}")))?;
+    let mut local = Ok(());
+    {
+        let xa = solver.x.read()?;
+        let scale = prescribed.iter().fold(1.0f64, |m, (_, v)| m.max(v.abs()));
+        for (g, v) in prescribed.iter().filter(|(g, _)| (lo..hi).contains(&g.0)) {
+            let u = xa[(g.0 - lo) as usize];
+            if (u - v).abs() > PRESCRIBED_TOL * scale {
+                let n = (0..model.n_nodes())
+                    .find(|&n| (0..dim).any(|c| dofs.global(n as u32, c) == Some(*g)));
+                let (node, c) = n
+                    .and_then(|n| {
+                        (0..dim)
+                            .find(|&c| dofs.global(n as u32, c) == Some(*g))
+                            .map(|c| (n, c))
+                    })
+                    .unwrap_or((usize::MAX, 0));
+                local = Err(bad(
+                    "displacement",
+                    format!(
+                        "node {node}, component {}: {u:e} where the boundary conditions \
+                         prescribe {v:e} at the checkpoint's load {lambda}",
+                        ["x", "y", "z"][c]
+                    ),
+                ));
+                break;
+            }
+        }
+    }
+    agree(petsc.comm(), local)?;
+    let mut local = Ok(());
     solver.x_before = None;
     if !state.displacement_before.is_empty() {
         let mut b = solver.x.duplicate()?;
@@ -123,14 +188,13 @@ pub(super) fn restore(
         solver.x_before = Some(b);
     }
     let cell_offset: Vec<usize> = model.bodies.iter().map(|b| b.cell_offset).collect();
-    let mut local = Ok(());
     for set in &mut solver.asm.sets {
         let hw = set.history_width();
         if hw == 0 {
             continue;
         }
         if hw > w {
-            local = mismatch("element history per cell", w, hw);
+            local = mismatch("element_history (per cell)", w, hw);
             break;
         }
         for e in 0..set.len() {
@@ -151,8 +215,15 @@ pub(super) fn restore(
         if let Some(c) = solver.asm.coupling_set_mut::<ContactSystem>() {
             local = c
                 .import_points(&state.contact_points)
-                .map_err(|m| Error::Restart(format!("the checkpoint's contact state: {m}")));
+                .map_err(|m| bad("contact_points", m));
         }
     }
-    agree(petsc.comm(), local)
+    agree(petsc.comm(), local)?;
+    if let Some(fold) = solver.asm.find_tangled(&solver.x)? {
+        return Err(bad(
+            "displacement",
+            format!("it folds an element over: {fold}"),
+        ));
+    }
+    Ok(())
 }
