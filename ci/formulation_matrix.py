@@ -116,6 +116,18 @@ for m, t in ((2, 120), (4, 300), (8, 600)):
     ROWS[f"twist{m}"] = dict(case="twisting_3d.toml", fam=both("cube", "shell"),
                              sets=TWIST_MESH[m] + ["output.every=100000"], kind="twist",
                              al_tol=1e-3, timeout=t, families=FAM3)
+TITLES = {
+    "patch2d": "Contact patch test, 2D, non-matching meshes: spread of the contact-point pressure",
+    "patch3d": "Contact patch test, 3D, non-matching meshes: spread of the contact-point pressure",
+    "hertz": "Hertz on the graded Gmsh mesh: peak pressure against Hertz",
+    "cm": "Cattaneo-Mindlin, n_arc 128: stick zone",
+    "ironing4": "Ironing, mesh 4: force oscillation over the slide",
+    "ironing8": "Ironing, mesh 8: force oscillation over the slide",
+    "ironing16": "Ironing, mesh 16: force oscillation over the slide",
+    "twist2": "Table 4's twist, mesh 2: DeltaP_z",
+    "twist4": "Table 4's twist, mesh 4: DeltaP_z",
+    "twist8": "Table 4's twist, mesh 8: DeltaP_z",
+}
 ROW_ORDER = ["patch2d", "patch3d", "hertz", "ironing4", "twist2", "cm", "ironing8", "twist4",
              "ironing16", "twist8"]
 
@@ -446,7 +458,7 @@ def cell(r, kind, w):
     if r["status"] == "failed":
         return f"failed at load {r['load']:.4g}; {cost}"
     if r["status"] == "timeout":
-        return f"stopped at the CPU limit at load {r['load']:.4g}; {cost}"
+        return f"{r['message'].replace(' s limit', ' s CPU limit')}; {cost}"
     if r["status"] != "ok":
         return f"{r['status']}: {r['message'][:160]}; {cost}"
     fmts = {k: f for k, _, f in COLUMNS[kind]}
@@ -455,7 +467,7 @@ def cell(r, kind, w):
         c = fmt(r["metrics"].get(k), fmts[k])
         mark = w.get((r["form"], r["family"], k))
         vals.append(f"**{c}**" if mark == "best" else (f"*{c}*" if mark == "within" else c))
-    return " / ".join(vals) + "; " + cost
+    return " · ".join(vals) + "; " + cost
 
 
 def table(row, recs):
@@ -503,10 +515,19 @@ def report(outdir, rows, forms, families, md_path, csv_path):
         md.append("")
     for row, recs in allrecs.items():
         kind = ROWS[row]["kind"]
-        md.append(f"### {row}\n")
+        md.append(f"### {TITLES[row]} (`{row}`)\n")
+        fams_here = [f for f in ROWS[row]["families"] if any(r["family"] == f for r in recs)]
+        forms_here = [f for f in DEFAULT_FORMS if any(r["form"] == f for r in recs)]
+        cmd = f"nice -n 10 python3 ci/formulation_matrix.py --rows {row}"
+        if fams_here != ROWS[row]["families"]:
+            cmd += f" --families {','.join(fams_here)}"
+        if forms_here != DEFAULT_FORMS:
+            cmd += f" --forms {','.join(forms_here)}"
+        md.append(f"    {cmd}\n")
+        md.append("each run:\n")
         md.append(f"    {template(row)}\n")
         heads = {k: h for k, h, _ in COLUMNS[kind]}
-        md.append("Cells: " + " / ".join(heads[k] for k in DECIDE[kind][0]) +
+        md.append("Cells: " + " · ".join(heads[k] for k in DECIDE[kind][0]) +
                   "; Newton iterations, CPU seconds (user + system) and wall seconds of the run.\n")
         md.append(table(row, recs))
         md.append("")
@@ -535,7 +556,8 @@ def report(outdir, rows, forms, families, md_path, csv_path):
                 "cutbacks", "rescued", "al_rounds", "unknowns", "cpu_s", "wall_s", "load", "command"]
         with open(csv_path, "w", newline="") as f:
             wr = csv.writer(f)
-            wr.writerow(base + keys)
+            # a metric named like a run column (hertz's `load`, the force) is prefixed
+            wr.writerow(base + [f"metric_{k}" if k in base else k for k in keys])
             for recs in allrecs.values():
                 for r in recs:
                     wr.writerow([r.get(k, "") for k in base] +
