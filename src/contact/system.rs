@@ -34,10 +34,12 @@ mod ghost;
 mod partner_points;
 mod pattern;
 mod pressure;
+mod sanity;
 mod setup;
 pub use active_set::{Settle, MAX_ROUNDS as MAX_ACTIVE_SET_ROUNDS};
 pub use checkpoint::ROW as CHECKPOINT_ROW;
 pub use footprint::Footprint;
+pub use sanity::PassDepth;
 
 /// Values per point of [`ContactSystem::point_records`].
 pub const POINT_RECORD: usize = 18;

@@ -42,7 +42,14 @@ pub(super) struct StepObserver<'c, 'p> {
     pub(super) restarts: usize,
     /// The mesh files this run read, hashed when it started (for its checkpoints).
     pub(super) mesh_hashes: Vec<(String, String, String)>,
+    /// Rigid-partner half-passes (in the contact system's order) already warned of a control
+    /// point inside the partner with no active contact point.
+    pub(super) unseen_warned: Vec<usize>,
 }
+
+/// A control point deeper than this fraction of its surface's mean element size inside a rigid
+/// partner, while none of the half-pass's points is active, is warned of.
+const UNSEEN_DEPTH: f64 = 0.01;
 
 impl<'c, 'p> StepObserver<'c, 'p> {
     pub(super) fn new(
@@ -88,6 +95,62 @@ impl<'c, 'p> StepObserver<'c, 'p> {
             } else {
                 Vec::new()
             },
+            unseen_warned: Vec::new(),
+        }
+    }
+
+    /// Rank 0 warns, once per half-pass, of a control point of a contact surface that lies inside
+    /// its rigid partner deeper than [`UNSEEN_DEPTH`] of the surface's element size while none
+    /// of the half-pass's points is active: contact that is silently not there (a smooth surface
+    /// lies inside its control points and may not reach a partner the mesh goes through).
+    /// Collective.
+    fn warn_unseen_contact(&mut self, asm: &Assembler, rec: &StepRecord) {
+        let Some(c) = asm.coupling_set::<ContactSystem>() else {
+            return;
+        };
+        let comm = asm.comm();
+        let rank = comm.rank();
+        for (i, d) in c.unseen_penetrations().into_iter().enumerate() {
+            let mut active = 0u64;
+            comm.all_reduce_into(&(d.n_active as u64), &mut active, SystemOperation::sum());
+            let mut depth = 0.0f64;
+            comm.all_reduce_into(&d.depth, &mut depth, SystemOperation::max());
+            if active > 0 || depth <= UNSEEN_DEPTH * d.h || self.unseen_warned.contains(&i) {
+                continue;
+            }
+            self.unseen_warned.push(i);
+            // the point itself, from the lowest rank that holds it
+            let mine = if d.depth == depth { rank } else { i32::MAX };
+            let mut holder = 0i32;
+            comm.all_reduce_into(&mine, &mut holder, SystemOperation::min());
+            let local = if rank == holder {
+                [d.node as f64, d.position[0], d.position[1], d.position[2]]
+            } else {
+                [0.0; 4]
+            };
+            let mut point = [0.0f64; 4];
+            comm.all_reduce_into(&local[..], &mut point[..], SystemOperation::sum());
+            if rank == 0 {
+                let dim = self.case.case.dim;
+                eprintln!(
+                    "warning: step {} (load {:.6}): contact `{}`: node {} of `{}` at {:?} lies \
+                     {depth:.3e} inside the rigid partner ({:.1} % of the surface's element \
+                     size) while no contact point of the pair is active: the contact surface \
+                     does not reach the partner there and nothing holds the body (a smooth \
+                     surface lies inside its control points; a finer surface mesh brings it \
+                     closer to them)",
+                    rec.step,
+                    rec.load,
+                    d.pair,
+                    point[0] as u64,
+                    d.surface,
+                    point[1..1 + dim]
+                        .iter()
+                        .map(|v| format!("{v:.4e}"))
+                        .collect::<Vec<_>>(),
+                    100.0 * depth / d.h
+                );
+            }
         }
     }
 
@@ -141,6 +204,7 @@ impl<'c, 'p> StepObserver<'c, 'p> {
             }
         }
         extra_columns.extend(contact_history(asm, model.dim));
+        self.warn_unseen_contact(asm, rec);
         if model.contact_pairs.iter().any(|p| p.augmented.is_some()) {
             extra_columns.push(rec.augmentation_rounds as f64);
         }
