@@ -190,6 +190,10 @@ fn main() -> ExitCode {
             };
             return match nurbs_contact::study::study_main(&opts) {
                 Ok(()) => ExitCode::SUCCESS,
+                Err(e @ nurbs_contact::study::StudyError::Interrupted { signal, .. }) => {
+                    eprintln!("error: {e}");
+                    ExitCode::from(nurbs_contact::interrupt::exit_code(signal))
+                }
                 Err(e) => {
                     eprintln!("error: {e}");
                     ExitCode::FAILURE

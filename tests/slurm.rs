@@ -455,7 +455,9 @@ fn a_study_runs_as_a_slurm_job_array_and_is_collected() {
     // the Q1C1 run (task 0) fails: named with the run's own message
     cluster.release_and_wait(&job, 0);
     let o = study_env(&[f, "--out", out_s, "--collect"], &env);
-    assert!(o.status.success(), "{}", stderr(&o));
+    // a failed run: the table is written and the study fails
+    assert!(!o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("1 of 2 runs failed"), "{}", stderr(&o));
     let rows = study_rows(&out);
     let failed = &rows["Q1C1_m16"];
     assert_eq!(failed["status"], "failed", "{failed:?}");
@@ -468,7 +470,7 @@ fn a_study_runs_as_a_slurm_job_array_and_is_collected() {
     // collecting is repeatable: the same table
     let csv = std::fs::read_to_string(out.join("study.csv")).unwrap();
     let o = study_env(&[f, "--out", out_s, "--collect"], &env);
-    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!o.status.success(), "{}", stderr(&o));
     assert_eq!(std::fs::read_to_string(out.join("study.csv")).unwrap(), csv);
 
     // fixed and submitted again (not held): only the failed run is in the new array
@@ -525,7 +527,7 @@ fn a_study_runs_as_a_slurm_job_array_and_is_collected() {
     assert!(script.contains("#SBATCH --signal=TERM@90\n"), "{script}");
     cluster.wait(&job3, 0);
     let o = study_env(&[f, "--out", so, "--collect"], &env);
-    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!o.status.success(), "{}", stderr(&o));
     let r = &study_rows(&slow_out)["Q1C1"];
     assert_eq!(r["status"], "failed", "{r:?}");
     assert!(

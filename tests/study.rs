@@ -205,7 +205,9 @@ fn failed_runs_are_recorded_and_the_others_complete() {
     std::fs::create_dir_all(out.join("Q1C1_m16")).unwrap();
     std::fs::write(out.join("Q1C1_m16/notes.txt"), "mine").unwrap();
     let o = study(&[file.to_str().unwrap(), "--out", out.to_str().unwrap()]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    // the table is written, and the study says that runs failed
+    assert!(!o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("2 of 3 runs failed"), "{}", stderr(&o));
     let rows = study_rows(&out);
     let bad = &rows["Q1Z7_m16"];
     assert_eq!(bad["status"], "failed");
@@ -323,7 +325,8 @@ fn runs_go_through_mpirun_and_a_timeout_stops_a_run() {
     )
     .unwrap();
     let o = study(&[file.to_str().unwrap(), "--out", out.to_str().unwrap()]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("1 of 1 runs failed"), "{}", stderr(&o));
     let r = &study_rows(&out)["Q1N2_m16"];
     assert_eq!(r["status"], "failed", "{r:?}");
     assert!(r["reason"].contains("timeout of 0.01 s"), "{r:?}");

@@ -1,6 +1,7 @@
 //! Running a case end to end: case file -> model -> partition -> numbering -> assembler -> SNES load
 //! stepping -> results. `main.rs` only parses the command line and calls [`run_main`] or [`check_main`].
 
+mod claim;
 mod gather;
 mod observer;
 mod options;
@@ -368,7 +369,7 @@ fn log(rank: i32, v: Verbosity, at: Verbosity, msg: impl FnOnce() -> String) {
 /// output and report.
 pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
     let t_start = Instant::now();
-    let (case, model, out_dir) = build_model(petsc, opts)?;
+    let (case, model, dirs) = build_model(petsc, opts)?;
     let restart = read_checkpoint(petsc, opts, &case)?;
     let mut numbered = number_and_partition(petsc, &case, &model)?;
     let partition_stats = numbered.partition_stats.take();
@@ -382,7 +383,8 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
         &model,
         &case,
         &solver.asm.dofs,
-        &out_dir,
+        &dirs.write,
+        &dirs.out,
         rank0(petsc),
         restart.as_ref().map(|(dir, s)| (dir.as_path(), &s.log)),
         points.as_deref(),
@@ -418,7 +420,7 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
         && !matches!(result, Err(SolverError::Interrupted { .. }))
     {
         let t_plots = Instant::now();
-        match io::plots::write_plots(&out_dir) {
+        match io::plots::write_plots(&dirs.write) {
             Ok(p) => {
                 log(comm_rank(petsc), opts.verbosity, Verbosity::Verbose, || {
                     format!("pictures drawn in {:.2} s", t_plots.elapsed().as_secs_f64())
@@ -432,6 +434,12 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
         }
     } else {
         Vec::new()
+    };
+    // A restart into the directory it continues replaces that run's results only now.
+    let out_dir = if rank0(petsc) {
+        dirs.settle(result.is_ok())?
+    } else {
+        dirs.out.clone()
     };
     // Only a converged run announces its results: a failed one's error must be the last word.
     if result.is_ok() {
@@ -489,10 +497,11 @@ fn rank0(petsc: &Petsc) -> bool {
     comm_rank(petsc) == 0
 }
 
-/// Phase 1: every rank reads and builds the same model; rank 0 claims the output directory.
+/// Phase 1: every rank reads and builds the same model; rank 0 claims (locks) the output
+/// directory, held until the run ends.
 ///
 /// Collective.
-fn build_model(petsc: &Petsc, opts: &RunOptions) -> Result<(Case, Model, PathBuf), Error> {
+fn build_model(petsc: &Petsc, opts: &RunOptions) -> Result<(Case, Model, claim::Dirs), Error> {
     let comm = petsc.comm();
     let rank = comm.rank();
     // A failure is normally the same on all ranks, but a rank that cannot read a file (a node
@@ -507,25 +516,15 @@ fn build_model(petsc: &Petsc, opts: &RunOptions) -> Result<(Case, Model, PathBuf
         log(rank, opts.verbosity, Verbosity::Normal, || n.clone());
     }
     // The case name is a plain name (validated), so the default stays inside out/. Rank 0 claims
-    // the directory before any work: created, or an earlier run's, or refused (unless --overwrite).
+    // the directory before any work: created, or an earlier run's, or refused (unless --overwrite,
+    // or while another process writes into it).
     let out_dir = opts
         .out
         .clone()
         .or_else(|| opts.restart.clone())
         .unwrap_or_else(|| PathBuf::from("out").join(&case.case.name));
-    // a restart without a checkpoint is refused before the directory is claimed
-    if let Some(dir) = &opts.restart {
-        agree(comm, crate::checkpoint::latest(dir).map_err(Error::Restart))?;
-    }
-    agree(
-        comm,
-        if rank == 0 {
-            io::claim_output_dir(&out_dir, opts.overwrite).map_err(Error::from)
-        } else {
-            Ok(())
-        },
-    )?;
-    Ok((case, model, out_dir))
+    let dirs = claim::claim(comm, opts, out_dir)?;
+    Ok((case, model, dirs))
 }
 
 /// What [`number_and_partition`] produces: the cell partition, this rank's numbering and element

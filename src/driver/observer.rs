@@ -360,8 +360,13 @@ impl<'c, 'p> StepObserver<'c, 'p> {
                 None => None,
             };
             let history_file = out.out_dir.join("history.csv");
-            crate::checkpoint::write(&out.out_dir, &state, results.as_deref(), &history_file)
-                .map_err(Error::from)
+            crate::checkpoint::write(
+                &out.checkpoint_dir,
+                &state,
+                results.as_deref(),
+                &history_file,
+            )
+            .map_err(Error::from)
         } else {
             Ok((PathBuf::new(), 0))
         };

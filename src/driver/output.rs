@@ -225,7 +225,10 @@ pub(super) struct Output<'p> {
     pub(super) dim: usize,
     pub(super) n_nodes: usize,
     pub(super) n_cells: usize,
+    /// Where the results, history and summary are written.
     pub(super) out_dir: PathBuf,
+    /// Where the checkpoints go (`checkpoints/` in it): the run directory.
+    pub(super) checkpoint_dir: PathBuf,
     pub(super) fields: Vec<OutputField>,
     pub(super) results: Option<ResultsWriter>,
     pub(super) history: Option<HistoryWriter>,
@@ -255,6 +258,7 @@ impl<'p> Output<'p> {
         case: &Case,
         dofs: &DofMap,
         out_dir: &Path,
+        checkpoint_dir: &Path,
         root: bool,
         resume: Option<(&Path, &crate::checkpoint::RunLog)>,
         points: Option<&[f64]>,
@@ -287,6 +291,7 @@ impl<'p> Output<'p> {
             n_nodes,
             n_cells: model.n_cells(),
             out_dir: out_dir.to_path_buf(),
+            checkpoint_dir: checkpoint_dir.to_path_buf(),
             fields: case.output.fields.clone(),
             results: None,
             history: None,

@@ -32,7 +32,8 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
             source,
         }
     };
-    let mut f = std::fs::File::create(&tmp).map_err(err("create"))?;
+    // not through a symbolic link at the temporary name (the rename replaces one at `path` itself)
+    let mut f = crate::io::create_nofollow(&tmp)?;
     f.write_all(bytes).map_err(err("write"))?;
     // Sync before the rename, or a power cut could leave a complete name over incomplete data.
     f.sync_all().map_err(err("sync"))?;

@@ -17,6 +17,14 @@ pub enum IoError {
     #[error("{}: cannot use as the output directory: {reason}", .path.display())]
     OutputDir { path: PathBuf, reason: String },
 
+    /// Another process writes into the directory (it holds the directory's lock).
+    #[error("{}: in use by {holder}; only one run or study may write into a directory at a time: wait for it to end, or choose another output directory", .path.display())]
+    Locked { path: PathBuf, holder: String },
+
+    /// An output file or folder that is a symbolic link: output is never written through one.
+    #[error("{}: is a symbolic link; nurbs-contact does not write its output through links (remove the link, or choose another output directory)", .path.display())]
+    Symlink { path: PathBuf },
+
     #[error("{}: HDF5 error while writing {what}: {source}", .path.display())]
     Hdf5 {
         path: PathBuf,

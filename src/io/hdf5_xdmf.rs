@@ -191,6 +191,8 @@ impl ResultsWriter {
             }
         }
         let h5_partial = partial_path(&h5_final);
+        // HDF5 follows a symbolic link: the temporary name of an earlier run goes first
+        remove_partial(&h5_partial)?;
         let h5 = hdf5::File::create(&h5_partial).map_err(|source| IoError::Hdf5 {
             path: h5_partial.clone(),
             what: "the file".to_string(),
@@ -479,12 +481,27 @@ impl ResultsWriter {
     }
 
     fn write_xdmf(&self) -> Result<(), IoError> {
-        std::fs::write(&self.xdmf_partial, self.xdmf_text()).map_err(|source| IoError::File {
-            path: self.xdmf_partial.clone(),
-            op: "write",
-            source,
-        })
+        use std::io::Write;
+        crate::io::create_nofollow(&self.xdmf_partial)?
+            .write_all(self.xdmf_text().as_bytes())
+            .map_err(|source| IoError::File {
+                path: self.xdmf_partial.clone(),
+                op: "write",
+                source,
+            })
     }
+}
+
+/// Removes the file (or symbolic link) at a temporary name before it is created again.
+fn remove_partial(path: &Path) -> Result<(), IoError> {
+    if std::fs::symlink_metadata(path).is_ok() {
+        std::fs::remove_file(path).map_err(|source| IoError::File {
+            path: path.to_path_buf(),
+            op: "remove the unfinished file of an earlier run",
+            source,
+        })?;
+    }
+    Ok(())
 }
 
 fn data_item(dims: &[usize], number_type: &str, dataset: &str) -> String {

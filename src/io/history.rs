@@ -58,11 +58,7 @@ impl HistoryWriter {
             });
         }
         let path = dir.join("history.csv");
-        let file = File::create(&path).map_err(|source| IoError::File {
-            path: path.clone(),
-            op: "create",
-            source,
-        })?;
+        let file = crate::io::create_nofollow(&path)?;
         let header = header(dim, reactions, extra);
         let mut w = HistoryWriter {
             path,
@@ -132,14 +128,14 @@ impl HistoryWriter {
         }
         let path = dir.join("history.csv");
         crate::io::write_atomic(&path, text.as_bytes())?;
-        let file = std::fs::OpenOptions::new()
-            .append(true)
-            .open(&path)
-            .map_err(|source| IoError::File {
-                path: path.clone(),
-                op: "open to append",
-                source,
-            })?;
+        let file = {
+            use crate::io::lock::NoFollow;
+            std::fs::OpenOptions::new()
+                .append(true)
+                .custom_flags_nofollow()
+                .open(&path)
+                .map_err(|e| crate::io::lock::nofollow_error(&path, "open to append", e))?
+        };
         Ok(HistoryWriter {
             path,
             out: BufWriter::new(file),

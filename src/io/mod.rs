@@ -7,6 +7,8 @@
 //! - [`history`]: `history.csv`, one row per converged step, flushed per row.
 //! - [`summary`]: `summary.json` (run statistics, status), written atomically.
 //! - [`outdir`]: claiming the output directory ([`claim_output_dir`], marker [`RUN_MARKER`]).
+//! - [`lock`]: one writer per directory ([`DirLock`]); output files created without following
+//!   symbolic links ([`create_nofollow`]).
 //! - [`atomic`]: the shared write-to-temp-then-rename helpers.
 //! - [`error`]: [`IoError`], naming the file and the dataset or field concerned.
 
@@ -14,6 +16,7 @@ pub mod atomic;
 pub mod error;
 pub mod hdf5_xdmf;
 pub mod history;
+pub mod lock;
 pub mod outdir;
 pub mod plots;
 pub mod summary;
@@ -22,6 +25,7 @@ pub use atomic::{commit, partial_path, write_atomic};
 pub use error::IoError;
 pub use hdf5_xdmf::{CellKind, Center, FieldData, GridDef, ResultsWriter};
 pub use history::{HistoryRow, HistoryWriter};
+pub use lock::{create_nofollow, DirLock, LOCK_FILE};
 pub use outdir::{claim_output_dir, RUN_MARKER};
 pub use summary::{
     write_summary, ContactDataStats, ContactPatternStats, NewtonStats, PartitionStats, PhaseTimes,

@@ -6,6 +6,7 @@
 use crate::io::{RunStatus, Summary};
 use crate::study::metrics::Table;
 use crate::study::spec::{RunSpec, Study};
+use crate::study::stop;
 use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -84,6 +85,8 @@ pub struct Launch<'a> {
     /// PETSc options of the study's command line, passed on to every run.
     pub petsc_args: &'a [String],
     pub quiet: bool,
+    /// Signals to the study: passed on to the runs in progress; no run starts after one.
+    pub stop: &'a crate::study::stop::Stop,
 }
 
 /// `f(i)` for `i` in `0..n`, `jobs` at a time; results in order.
@@ -207,6 +210,18 @@ fn execute_one(study: &Study, run: &RunSpec, out: &Path, launch: &Launch<'_>) ->
             dir,
         };
     }
+    if let Some(sig) = launch.stop.requested() {
+        return Outcome {
+            status: Status::Missing(format!(
+                "not started: the study was stopped by {}",
+                crate::interrupt::signal_name(sig)
+            )),
+            skipped: false,
+            summary: None,
+            history: None,
+            dir,
+        };
+    }
     match launch_run(study, run, &dir, out, launch) {
         Err(reason) => failed(reason, &dir),
         Ok(()) => match read_summary(&dir) {
@@ -240,9 +255,8 @@ fn launch_run(
     launch: &Launch<'_>,
 ) -> Result<(), String> {
     let (out_log, err_log) = log_paths(out, run);
-    let open = |p: &Path| {
-        std::fs::File::create(p).map_err(|e| format!("cannot create the log {}: {e}", p.display()))
-    };
+    let open =
+        |p: &Path| crate::io::create_nofollow(p).map_err(|e| format!("cannot create the log: {e}"));
     let (out_file, err_file) = (open(&out_log)?, open(&err_log)?);
     let args = run_args(study, run, dir, launch);
     let mut cmd = if study.spec.ranks == 1 {
@@ -255,6 +269,12 @@ fn launch_run(
     };
     cmd.args(args);
     mpi_env(&mut cmd);
+    // A process group of its own: a terminal's Ctrl-C reaches the study only, which passes it on
+    // (mpirun would otherwise receive it twice and kill its ranks instead of stopping them).
+    {
+        use std::os::unix::process::CommandExt;
+        cmd.process_group(0);
+    }
     cmd.stdin(Stdio::null())
         .stdout(Stdio::from(out_file))
         .stderr(Stdio::from(err_file));
@@ -263,26 +283,51 @@ fn launch_run(
         .map_err(|e| format!("cannot start {:?}: {e}", cmd.get_program()))?;
     let t0 = Instant::now();
     let limit = study.spec.timeout.map(Duration::from_secs_f64);
+    let pid = child.id();
+    // when the study's stop was passed on to the run
+    let mut stopping: Option<Instant> = None;
     let status = loop {
         match child.try_wait() {
             Ok(Some(st)) => break st,
             Ok(None) => {}
             Err(e) => return Err(format!("waiting for the run failed: {e}")),
         }
-        if limit.is_some_and(|l| t0.elapsed() > l) {
-            // SIGTERM first, so that mpirun can take its ranks down with it.
-            let _ = Command::new("kill")
-                .args(["-TERM", &child.id().to_string()])
-                .status();
-            let t1 = Instant::now();
-            while t1.elapsed() < Duration::from_secs(10) {
-                if let Ok(Some(_)) = child.try_wait() {
-                    break;
+        if let Some(sig) = launch.stop.requested() {
+            match stopping {
+                // SIGINT/SIGTERM to the run (or mpirun, which passes it on to its ranks): it stops
+                // after its load step and records its converged steps
+                None => {
+                    stop::signal_process(pid, stop::kill_name(sig));
+                    stopping = Some(Instant::now());
                 }
+                Some(t) if launch.stop.forced() || t.elapsed() > stop::GRACE => {
+                    stop::kill_tree(pid);
+                    let _ = child.kill();
+                    let _ = child.wait();
+                    return Err(format!(
+                        "killed: the study was stopped by {}{}",
+                        crate::interrupt::signal_name(sig),
+                        tail_suffix(&err_log)
+                    ));
+                }
+                Some(_) => {}
+            }
+        }
+        if stopping.is_none() && limit.is_some_and(|l| t0.elapsed() > l) {
+            // SIGTERM first, so that mpirun can take its ranks down with it.
+            stop::signal_process(pid, "TERM");
+            let t1 = Instant::now();
+            let mut ended = false;
+            while !ended && t1.elapsed() < stop::GRACE {
+                ended = matches!(child.try_wait(), Ok(Some(_)));
                 std::thread::sleep(Duration::from_millis(100));
             }
-            let _ = child.kill();
-            let _ = child.wait();
+            if !ended {
+                // not yet reaped, so `pid` is still this run's
+                stop::kill_tree(pid);
+                let _ = child.kill();
+                let _ = child.wait();
+            }
             return Err(format!(
                 "stopped after the study's timeout of {} s{}",
                 study.spec.timeout.unwrap_or(0.0),

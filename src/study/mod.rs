@@ -80,9 +80,12 @@
 //! an interrupted study resumes where it stopped, and a changed study or case reruns exactly what
 //! changed (`ranks` and PETSc options are not part of the comparison). A run that fails (its case
 //! does not resolve, the solver stops, the timeout is reached) is recorded with its reason (the
-//! summary's reason and the tail of its stderr) and the study goes on; `study` itself fails only when
-//! the study file is bad or its outputs cannot be written. A run stopped by the timeout gets SIGTERM
-//! (mpirun passes it to its ranks), then SIGKILL 10 s later.
+//! summary's reason and the tail of its stderr) and the study goes on; `study` exits non-zero when
+//! any run failed, after writing its outputs. A run stopped by the timeout gets SIGTERM (mpirun
+//! passes it to its ranks), then SIGKILL (with every process it started) 10 s later. SIGINT or
+//! SIGTERM to `study` stops the runs in progress the same way and starts no further run ([`stop`]).
+//! Run directory names are plain and distinct by construction (checked by [`spec`]); the study's
+//! folder is locked while `study` writes into it ([`crate::io::DirLock`]).
 //!
 //! # Outputs (in OUT, default `out/study/<name>`)
 //! - `study.csv`: one row per run: `run`, the axis labels, `status` (`converged`, `failed`, and with
@@ -125,6 +128,7 @@ pub mod png;
 pub mod report;
 pub mod slurm;
 pub mod spec;
+pub mod stop;
 pub mod svg;
 
 use crate::io::write_atomic;
@@ -164,6 +168,17 @@ pub enum StudyError {
     /// `--collect` found no run with a result.
     #[error("{}: nothing to collect: {detail}", .out.display())]
     NothingToCollect { out: PathBuf, detail: String },
+    /// Runs failed (each reported above); the study's outputs were written.
+    #[error("{failed} of {total} runs failed (listed above); study.csv, study.md and plots/ in {}", .out.display())]
+    RunsFailed {
+        failed: usize,
+        total: usize,
+        out: PathBuf,
+    },
+    /// A signal stopped the study after the runs in progress were stopped; the process should
+    /// exit with [`crate::interrupt::exit_code`] of `signal`.
+    #[error("stopped by {}: the runs in progress were stopped, no further run started; run the study again to continue (converged runs are not run again); study.csv, study.md and plots/ in {}", crate::interrupt::signal_name(*.signal), .out.display())]
+    Interrupted { signal: i32, out: PathBuf },
     /// `--check` found runs whose case does not pass: one line per run.
     #[error("{}: {count} of {total} runs do not pass check:\n{lines}", .file.display())]
     Check {
@@ -238,10 +253,21 @@ pub fn study_main(opts: &StudyOptions) -> Result<(), StudyError> {
     })?;
     // PETSc options are passed on without the program name that leads the list.
     let petsc: Vec<String> = opts.petsc_args.iter().skip(1).cloned().collect();
+    // Signals reach the study only while it runs its runs locally (see [`stop`]).
+    let stop = if opts.launcher == Launcher::Local && !opts.check && !opts.collect {
+        stop::Stop::install().map_err(|source| StudyError::Io {
+            path: opts.file.clone(),
+            op: "install the signal handlers of the study",
+            source,
+        })?
+    } else {
+        Default::default()
+    };
     let launch = exec::Launch {
         exe,
         petsc_args: &petsc,
         quiet: opts.quiet,
+        stop: &stop,
     };
     if opts.check {
         return check(&study, &launch);
@@ -250,9 +276,20 @@ pub fn study_main(opts: &StudyOptions) -> Result<(), StudyError> {
         .out
         .clone()
         .unwrap_or_else(|| Path::new("out/study").join(&study.name));
+    // one writer of the study's folder at a time, for as long as this command runs
     if opts.collect {
+        let _lock = match out.is_dir() {
+            true => Some(crate::io::DirLock::exclusive(&out)?),
+            false => None,
+        };
         return collect(&study, &out, opts);
     }
+    std::fs::create_dir_all(&out).map_err(|source| StudyError::Io {
+        path: out.clone(),
+        op: "create the study's output folder",
+        source,
+    })?;
+    let _lock = crate::io::DirLock::exclusive(&out)?;
     if opts.launcher == Launcher::Slurm {
         return submit_slurm(&mut study, &out, &launch, opts);
     }
@@ -271,7 +308,23 @@ pub fn study_main(opts: &StudyOptions) -> Result<(), StudyError> {
     let command = format!("nurbs-contact study {}", opts.file.display());
     let rows = write_outputs(&study, &out, &outcomes, &command)?;
     report_rows(&study, &rows, &out, opts.quiet);
-    Ok(())
+    if let Some(signal) = stop.requested() {
+        return Err(StudyError::Interrupted { signal, out });
+    }
+    failed_runs(&rows, &out)
+}
+
+/// The study's verdict: an error when any run failed (its outputs are written by then).
+fn failed_runs(rows: &[Row], out: &Path) -> Result<(), StudyError> {
+    let failed = rows.iter().filter(|r| r.status() == "failed").count();
+    if failed == 0 {
+        return Ok(());
+    }
+    Err(StudyError::RunsFailed {
+        failed,
+        total: rows.len(),
+        out: out.to_path_buf(),
+    })
 }
 
 /// `study.csv`, `study.md` and the plots from the outcomes; the rows.
@@ -533,7 +586,7 @@ fn collect(study: &Study, out: &Path, opts: &StudyOptions) -> Result<(), StudyEr
     let command = format!("nurbs-contact study {} --collect", opts.file.display());
     let rows = write_outputs(study, out, &outcomes, &command)?;
     report_rows(study, &rows, out, opts.quiet);
-    Ok(())
+    failed_runs(&rows, out)
 }
 
 /// `--check`: every run's case resolves and passes `nurbs-contact check`.

@@ -170,10 +170,10 @@ impl Study {
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_else(|| "study".to_string()),
         };
-        if name.is_empty() || !name.chars().all(safe_char) {
+        if !plain_name(&name) {
             return Err(invalid(
                 "name",
-                format!("`{name}`: use letters, digits, `-`, `_` and `.` only"),
+                format!("`{name}` names the study's folder: use letters, digits, `-`, `_` and `.` only, and not `.` or `..`"),
             ));
         }
         if spec.jobs == 0 {
@@ -272,7 +272,7 @@ impl Study {
             }
             let labels = axis_labels(axis);
             for (i, l) in labels.iter().enumerate() {
-                if l.is_empty() || !l.chars().all(safe_char) {
+                if !plain_name(l) {
                     let what = if axis.levels.is_empty() {
                         format!("{key}.values.{i}")
                     } else {
@@ -281,7 +281,7 @@ impl Study {
                     return Err(invalid(
                         &what,
                         format!(
-                            "`{l}` names a run directory: use letters, digits, `-`, `_` and `.` only"
+                            "`{l}` names a run directory: use letters, digits, `-`, `_` and `.` only, and not `.` or `..`"
                         ),
                     ));
                 }
@@ -357,6 +357,7 @@ impl Study {
             ));
         }
         let runs = resolve_runs(&spec, level);
+        check_run_names(&spec, &runs).map_err(|(key, m)| invalid(&key, m))?;
         Ok(Study {
             file: file.to_path_buf(),
             name,
@@ -368,6 +369,89 @@ impl Study {
             spec,
         })
     }
+}
+
+/// Entries of a study's output folder besides its run directories.
+const STUDY_ENTRIES: &[&str] = &[
+    "logs",
+    "plots",
+    "study.csv",
+    "study.md",
+    "study.sbatch",
+    "slurm-jobs.json",
+    crate::io::LOCK_FILE,
+];
+
+/// A name that is one plain path component: not empty, `.` or `..`, and of [`safe_char`]s only.
+fn plain_name(name: &str) -> bool {
+    !name.is_empty() && name != "." && name != ".." && name.chars().all(safe_char)
+}
+
+/// Each run directory is one plain name, different from every other run's (also in letter case:
+/// one folder on a case-insensitive file system) and from the study's own outputs; a clash names
+/// the axis values of both runs.
+fn check_run_names(spec: &StudySpec, runs: &[RunSpec]) -> Result<(), (String, String)> {
+    let values = |r: &RunSpec| {
+        let labels: Vec<String> = r.labels.iter().map(|l| format!("`{l}`")).collect();
+        let keys: Vec<String> = r
+            .index
+            .iter()
+            .enumerate()
+            .map(|(a, &i)| {
+                if spec.axes[a].levels.is_empty() {
+                    format!("axes.{a}.values.{i}")
+                } else {
+                    format!("axes.{a}.levels.{i}.name")
+                }
+            })
+            .collect();
+        format!("{} ({})", labels.join(" + "), keys.join(", "))
+    };
+    for (i, r) in runs.iter().enumerate() {
+        if !plain_name(&r.name) {
+            return Err((
+                "axes".into(),
+                format!(
+                    "the run of {} would write into `{}`, which is not a plain folder name",
+                    values(r),
+                    r.name
+                ),
+            ));
+        }
+        if let Some(e) = STUDY_ENTRIES
+            .iter()
+            .find(|e| e.eq_ignore_ascii_case(&r.name))
+        {
+            return Err((
+                "axes".into(),
+                format!(
+                    "the run of {} would be named `{}`, as the study's own `{e}`; rename a value",
+                    values(r),
+                    r.name
+                ),
+            ));
+        }
+        if let Some(o) = runs[..i]
+            .iter()
+            .find(|o| o.name.eq_ignore_ascii_case(&r.name))
+        {
+            return Err((
+                "axes".into(),
+                format!(
+                    "the runs of {} and of {} would share the run directory `{}`{}; rename a value so that the joined names differ",
+                    values(o),
+                    values(r),
+                    r.name,
+                    if o.name == r.name {
+                        String::new()
+                    } else {
+                        format!(" (`{}` on a file system that ignores letter case)", o.name)
+                    }
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 fn safe_char(c: char) -> bool {
@@ -517,9 +601,57 @@ levels = [ { name = "coarse", value = 16, set = ["meshes.disk.n_arc=16"] },
             .unwrap_err()
             .to_string();
         assert!(e.contains("`axes.0.keys`"), "{e}");
+        for (name, want) in [("..", "`name`"), (".", "`name`")] {
+            let e = parse(&format!("name = \"{name}\"\n{BASE}"))
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(want) && e.contains("not `.` or `..`"), "{e}");
+        }
+        let e = parse(&BASE.replace("\"fine\"", "\"..\""))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("`axes.1.levels.1.name`"), "{e}");
         let e = parse(&BASE.replace("\"fine\"", "\"coarse\""))
             .unwrap_err()
             .to_string();
         assert!(e.contains("`coarse` twice"), "{e}");
+    }
+
+    #[test]
+    fn run_directories_that_would_collide_are_refused_naming_both_runs() {
+        let text = r#"
+case = "hertz_2d.toml"
+[[axes]]
+name = "x"
+keys = ["meshes.disk.n_arc"]
+values = ["a_b", "a"]
+[[axes]]
+name = "y"
+keys = ["meshes.disk.n_radial"]
+values = ["c", "b_c"]
+"#;
+        let e = parse(text).unwrap_err().to_string();
+        assert!(
+            e.contains("`axes`")
+                && e.contains("`a_b` + `c` (axes.0.values.0, axes.1.values.0)")
+                && e.contains("`a` + `b_c` (axes.0.values.1, axes.1.values.1)")
+                && e.contains("`a_b_c`"),
+            "{e}"
+        );
+        let e = parse(
+            &text
+                .replace("\"a\"]", "\"A\"]")
+                .replace("\"b_c\"", "\"B_c\""),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("letter case"), "{e}");
+        let e = parse(&BASE.replace("\"fine\"", "\"logs\"").replace(
+            "[[axes]]\nname = \"family\"\nkeys = [\"bodies.disk.element\"]\nvalues = [\"Q1N2\", \"Q1C1\"]\n",
+            "",
+        ))
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("the study's own `logs`"), "{e}");
     }
 }

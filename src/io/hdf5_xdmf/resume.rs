@@ -56,6 +56,7 @@ impl ResultsWriter {
             }
         }
         let h5_partial = partial_path(&h5_final);
+        super::remove_partial(&h5_partial)?;
         std::fs::copy(copy, &h5_partial).map_err(|source| IoError::File {
             path: copy.to_path_buf(),
             op: "copy the checkpoint's results to results.h5.partial",
