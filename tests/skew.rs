@@ -285,3 +285,175 @@ fn a_skew_condition_on_a_prescribed_component_is_refused_with_the_node_and_condi
         assert!(err.contains(key), "{bad}: {err}");
     }
 }
+
+/// `cases/hertz_3d.toml` (a quarter sphere on a rigid flat, Q1C1, coarse) with its two symmetry
+/// planes' rollers replaced by `rollers` (the `[[bcs]]` tables after the top's), written to a
+/// scratch case beside a copy of nothing else (the case needs no files).
+fn quarter_case(name: &str, rollers: &str) -> PathBuf {
+    let text = std::fs::read_to_string(case("hertz_3d.toml")).expect("read hertz_3d.toml");
+    let start = text
+        .find("[[bcs]]\nbody = \"ball\"\nset = \"xmin\"")
+        .expect("xmin rollers");
+    let end = text.find("[[contact]]").expect("contact table");
+    let text = format!("{}{rollers}\n\n{}", &text[..start], &text[end..]);
+    write_case(name, &text)
+}
+
+fn roller(set: &str, kind: &str) -> String {
+    let c = if set == "xmin" { "x" } else { "y" };
+    let normal = if set == "xmin" {
+        "[1.0, 0.0, 0.0]"
+    } else {
+        "[0.0, 1.0, 0.0]"
+    };
+    match kind {
+        "sliding" => format!(
+            "[[bcs]]\nbody = \"ball\"\nset = \"{set}\"\nkind = \"sliding\"\nnormal = {normal}\n"
+        ),
+        _ => format!(
+            "[[bcs]]\nbody = \"ball\"\nset = \"{set}\"\nkind = \"fixed\"\ncomponents = [\"{c}\"]\n"
+        ),
+    }
+}
+
+/// Runs a case file on 1 rank (coarse Q1C1 quarter sphere) and returns the directory and stderr.
+fn run_quarter(file: &Path, name: &str) -> (PathBuf, String) {
+    let d = scratch(name);
+    let out = run_ok(
+        1,
+        &[
+            "run",
+            file.to_str().unwrap(),
+            "--out",
+            d.to_str().unwrap(),
+            "-q",
+            "--overwrite",
+            "--set",
+            "bodies.ball.element=Q1C1",
+            "--set",
+            "meshes.ball.divisions=[4,4,3]",
+        ],
+    );
+    (d, stderr(&out))
+}
+
+#[test]
+fn symmetry_rollers_meeting_at_an_edge_as_sliding_equal_fixed_components_without_warnings() {
+    let cases = [
+        ("sliding", "sliding"), // both planes sliding: nodes on x = y = 0 lie on both
+        ("sliding", "fixed"),   // one plane sliding: no free translation left to warn about
+        ("fixed", "fixed"),
+    ];
+    let mut runs = Vec::new();
+    for (kx, ky) in cases {
+        let name = format!("quarter-rollers-{kx}-{ky}");
+        let file = quarter_case(
+            &name,
+            &format!("{}\n{}", roller("xmin", kx), roller("ymin", ky)),
+        );
+        let (d, err) = run_quarter(&file, &name);
+        assert!(!err.contains("warning"), "{kx}/{ky}: {err}");
+        runs.push(d);
+    }
+    let fixed = &runs[2];
+    let load = last(fixed, "P_flat_ball_sphere_z");
+    assert!(load > 3e-4, "the quarter's load {load}");
+    for d in &runs[..2] {
+        // the history (forces, reactions) and the displacement agree to round-off
+        for col in [
+            "P_flat_ball_sphere_z",
+            "R_ball_top_z",
+            "R_ball_top_x",
+            "R_ball_top_y",
+        ] {
+            let (a, b) = (history_col(d, col), history_col(fixed, col));
+            let diff = rel_diff(&b, &a);
+            assert!(diff < 1e-10, "{}: {col} differs by {diff:e}", d.display());
+        }
+        let diff = rel_diff(&bulk(fixed).1, &bulk(d).1);
+        assert!(
+            diff < 1e-10,
+            "{}: displacement differs by {diff:e}",
+            d.display()
+        );
+    }
+}
+
+/// The node tags of a Gmsh 4.1 file with their coordinates.
+fn gmsh_nodes(text: &str) -> Vec<(i64, [f64; 3])> {
+    let body = &text[text.find("$Nodes").unwrap() + 6..text.find("$EndNodes").unwrap()];
+    let mut lines = body.lines().filter(|l| !l.trim().is_empty());
+    let n_blocks: usize = lines
+        .next()
+        .unwrap()
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    let mut out = Vec::new();
+    for _ in 0..n_blocks {
+        let head: Vec<usize> = lines
+            .next()
+            .unwrap()
+            .split_whitespace()
+            .map(|v| v.parse().unwrap())
+            .collect();
+        let n = head[3];
+        let tags: Vec<i64> = (0..n)
+            .map(|_| lines.next().unwrap().trim().parse().unwrap())
+            .collect();
+        for t in tags {
+            let x: Vec<f64> = lines
+                .next()
+                .unwrap()
+                .split_whitespace()
+                .map(|v| v.parse().unwrap())
+                .collect();
+            out.push((t, [x[0], x[1], x[2]]));
+        }
+    }
+    out
+}
+
+#[test]
+fn a_refused_skew_condition_names_the_gmsh_node_by_its_tag() {
+    let text = std::fs::read_to_string(case("block_compression_gmsh_3d.toml")).unwrap();
+    let mesh = case("meshes/box_4x4x4.msh");
+    let text = text.replace("meshes/box_4x4x4.msh", mesh.to_str().unwrap())
+        + "\n[[bcs]]\nbody = \"block\"\nset = \"zmin\"\nkind = \"sliding\"\nnormal = [0.0, 0.0, 1.0]\n";
+    let file = write_case("skew-gmsh-tag", &text);
+    let out = run(1, &["check", file.to_str().unwrap()]);
+    assert!(
+        !out.status.success(),
+        "check accepted a sliding z on a fixed base"
+    );
+    let err = stderr(&out);
+    // "Gmsh node <tag> of body `block` at (x, y, z) of bcs.2 (block/zmin) is also prescribed..."
+    let rest = &err[err
+        .find("Gmsh node ")
+        .unwrap_or_else(|| panic!("no Gmsh tag: {err}"))
+        + 10..];
+    let tag: i64 = rest.split_whitespace().next().unwrap().parse().unwrap();
+    let at = &rest[rest.find(" at (").expect("a position") + 5..];
+    let x: Vec<f64> = at[..at.find(')').unwrap()]
+        .split(", ")
+        .map(|v| v.parse().unwrap())
+        .collect();
+    let nodes = gmsh_nodes(&std::fs::read_to_string(&mesh).unwrap());
+    let (_, y) = nodes
+        .iter()
+        .find(|(t, _)| *t == tag)
+        .expect("the tag is in the file");
+    assert!(
+        (0..3).all(|i| (x[i] - y[i]).abs() < 1e-12),
+        "tag {tag} is at {y:?}, the message says {x:?}"
+    );
+    // the tag is not the solver's index of the node
+    let index = nodes.iter().position(|(t, _)| *t == tag).unwrap();
+    assert_ne!(tag, index as i64, "{err}");
+    assert!(
+        err.contains("of body `block`") && err.contains("bcs.2 (block/zmin)"),
+        "{err}"
+    );
+}

@@ -99,22 +99,91 @@ pub struct SkewRow {
     pub others: Vec<(PetscInt, f64)>,
 }
 
-/// Why skew conditions cannot be imposed.
+/// Why skew conditions cannot be imposed. `node` names the node as the user knows it (its body,
+/// mesh number or Gmsh tag and position).
 #[derive(Debug, Clone, thiserror::Error)]
 pub enum SkewError {
     /// A component the condition involves is also prescribed by a Dirichlet condition.
-    #[error("node {node} of {label} is also prescribed in component {component} by another condition; a skew condition needs the components it involves free")]
+    #[error("{node} of {label} is also prescribed in component {component} by another condition; a skew condition needs the components it involves free")]
     Prescribed {
         label: String,
-        node: u32,
+        node: String,
         component: usize,
     },
     /// The node shares its unknowns with other nodes (a periodic tie or a rigid coupling).
-    #[error("node {node} of {label} is tied to other nodes (a periodic tie or a free-translation rotation); a skew condition needs a node of its own")]
-    Tied { label: String, node: u32 },
-    /// Two skew conditions on one node.
-    #[error("node {node} has two skew conditions, {a} and {b}")]
-    Twice { node: u32, a: String, b: String },
+    #[error("{node} of {label} is tied to other nodes (a periodic tie or a free-translation rotation); a skew condition needs a node of its own")]
+    Tied { label: String, node: String },
+}
+
+/// Relative length below which a held direction of a node lies in the span of its other held
+/// directions (the same condition twice, or a plane held twice): it adds nothing and is dropped.
+const DEPENDENT_DIRECTION: f64 = 1e-8;
+
+/// Weights below this magnitude are zero (an axis-aligned direction leaves exact zeros, a
+/// direction along a coordinate axis after elimination round-off of this size).
+const ZERO_WEIGHT: f64 = 1e-14;
+
+/// The rows that hold the unit directions `dirs` [k][3] of one node (the first `dim` entries):
+/// the directions are orthogonalised (Gram-Schmidt; one in the span of the earlier ones is
+/// dropped), then eliminated Gauss-Jordan, each pivot the largest remaining entry of its row, so
+/// that every dependent component `d` is `u_d = sum_o a_o u_o` over the components `o` that are
+/// not dependent. Returns `(d, [(o, a_o)])` per independent held direction.
+#[allow(clippy::needless_range_loop)] // index loops mirror the elimination
+fn node_rows(dirs: &[[f64; 3]], dim: usize) -> Vec<(usize, Vec<(usize, f64)>)> {
+    let mut rows: Vec<[f64; 3]> = Vec::new();
+    let mut units: Vec<[f64; 3]> = Vec::new();
+    for t in dirs {
+        let mut v = *t;
+        for b in &units {
+            let p: f64 = (0..dim).map(|i| v[i] * b[i]).sum();
+            for i in 0..dim {
+                v[i] -= p * b[i];
+            }
+        }
+        let n = (0..dim).map(|i| v[i] * v[i]).sum::<f64>().sqrt();
+        if n <= DEPENDENT_DIRECTION {
+            continue;
+        }
+        // the first direction is kept as given (a single condition's weights are `-t_o / t_d`
+        // to the bit), later ones as orthogonalised
+        rows.push(v);
+        units.push(v.map(|x| x / n));
+    }
+    let mut pivots: Vec<usize> = Vec::new();
+    for r in 0..rows.len() {
+        let d = (0..dim)
+            .filter(|c| !pivots.contains(c))
+            .max_by(|&a, &b| rows[r][a].abs().total_cmp(&rows[r][b].abs()))
+            .expect("fewer independent directions than components");
+        let piv = rows[r][d];
+        for c in 0..dim {
+            if c != d {
+                rows[r][c] /= piv;
+            }
+        }
+        rows[r][d] = 1.0;
+        for q in 0..rows.len() {
+            if q != r && rows[q][d] != 0.0 {
+                let f = rows[q][d];
+                for c in 0..dim {
+                    rows[q][c] -= f * rows[r][c];
+                }
+                rows[q][d] = 0.0;
+            }
+        }
+        pivots.push(d);
+    }
+    pivots
+        .iter()
+        .zip(&rows)
+        .map(|(&d, row)| {
+            let others = (0..dim)
+                .filter(|c| !pivots.contains(c) && row[*c].abs() > ZERO_WEIGHT)
+                .map(|o| (o, -row[o]))
+                .collect();
+            (d, others)
+        })
+        .collect()
 }
 
 /// All skew constraints over global unknowns (replicated on every rank, like the numbering).
@@ -126,68 +195,76 @@ pub struct SkewRows {
 
 impl SkewRows {
     /// The constraints of `skews`, numbered by `dofs`; `coords` [n_nodes][dim] the reference
-    /// positions, `constrained` [n_global] the unknowns Dirichlet conditions prescribe.
+    /// positions, `constrained` [n_global] the unknowns Dirichlet conditions prescribe, `name`
+    /// a global node as messages name it.
+    ///
+    /// A node under several conditions (a line or point where symmetry planes meet) holds all
+    /// their directions: `k` independent ones eliminate `k` of its components ([`node_rows`]);
+    /// axis-aligned directions reduce to fixed components, a condition given twice counts once.
     pub fn new(
         skews: &[SkewBc],
         dofs: &DofMap,
         coords: &[f64],
         constrained: &[bool],
+        name: &dyn Fn(u32) -> String,
     ) -> Result<SkewRows, SkewError> {
         let dim = dofs.dim;
         let mut group = vec![0u32; dofs.rep.len()];
         for &r in &dofs.rep {
             group[r as usize] += 1;
         }
-        let mut out = SkewRows::default();
-        let mut owner_of: HashMap<u32, &str> = HashMap::new();
+        // the held directions of each node, with the condition of each, in order of appearance
+        let mut order: Vec<u32> = Vec::new();
+        let mut held: HashMap<u32, Vec<(&str, [f64; 3])>> = HashMap::new();
         for s in skews {
             for &n in &s.nodes {
-                if let Some(a) = owner_of.insert(n, &s.label) {
-                    if a != s.label {
-                        return Err(SkewError::Twice {
-                            node: n,
-                            a: a.to_string(),
-                            b: s.label.clone(),
-                        });
-                    }
-                    continue;
-                }
                 let x = &coords[n as usize * dim..(n as usize + 1) * dim];
                 let Some(t) = s.direction(x) else {
                     continue;
                 };
-                if dofs.rep[n as usize] != n || group[n as usize] > 1 {
-                    return Err(SkewError::Tied {
-                        label: s.label.clone(),
-                        node: n,
-                    });
+                let list = held.entry(n).or_insert_with(|| {
+                    order.push(n);
+                    Vec::new()
+                });
+                if !list.iter().any(|(l, _)| *l == s.label) {
+                    list.push((&s.label, t));
                 }
-                let Some(g0) = dofs.global(n, 0) else {
-                    continue; // a node in no cell
-                };
-                let involved: Vec<usize> = (0..dim).filter(|&c| t[c].abs() > 1e-14).collect();
-                for &c in &involved {
+            }
+        }
+        let mut out = SkewRows::default();
+        for n in order {
+            let list = &held[&n];
+            if dofs.rep[n as usize] != n || group[n as usize] > 1 {
+                return Err(SkewError::Tied {
+                    label: list[0].0.to_string(),
+                    node: name(n),
+                });
+            }
+            let Some(g0) = dofs.global(n, 0) else {
+                continue; // a node in no cell
+            };
+            for &(label, t) in list {
+                for c in (0..dim).filter(|&c| t[c].abs() > ZERO_WEIGHT) {
                     if constrained[(g0.0 + c as PetscInt) as usize] {
                         return Err(SkewError::Prescribed {
-                            label: s.label.clone(),
-                            node: n,
+                            label: label.to_string(),
+                            node: name(n),
                             component: c,
                         });
                     }
                 }
-                let d = involved
-                    .iter()
-                    .copied()
-                    .max_by(|&a, &b| t[a].abs().total_cmp(&t[b].abs()))
-                    .expect("a unit direction has a non-zero component");
-                let others = involved
-                    .iter()
-                    .filter(|&&c| c != d)
-                    .map(|&c| (g0.0 + c as PetscInt, -t[c] / t[d]))
-                    .collect();
+            }
+            let dirs: Vec<[f64; 3]> = list.iter().map(|&(_, t)| t).collect();
+            for (d, others) in node_rows(&dirs, dim) {
                 let dep = g0.0 + d as PetscInt;
                 out.index.insert(dep, out.rows.len());
-                out.rows.push(SkewRow { dep, others });
+                out.rows.push(SkewRow {
+                    dep,
+                    others: others
+                        .into_iter()
+                        .map(|(o, a)| (g0.0 + o as PetscInt, a))
+                        .collect(),
+                });
             }
         }
         Ok(out)
@@ -212,6 +289,10 @@ impl SkewRows {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn named(n: u32) -> String {
+        format!("node {n}")
+    }
 
     fn radial() -> SkewBc {
         SkewBc {
@@ -258,7 +339,7 @@ mod tests {
             -3.0, 1.0, 0.0, // t ~ (-1, -3, 0): u_y = -u_x / 3
         ];
         let dofs = DofMap::new(3, 4, &[0, 4], &[0, 1, 2, 3], &[0], &[], 1, 0).unwrap();
-        let rows = SkewRows::new(&[radial()], &dofs, &coords, &[false; 12]).unwrap();
+        let rows = SkewRows::new(&[radial()], &dofs, &coords, &[false; 12], &named).unwrap();
         assert_eq!(rows.rows().len(), 3);
         let r1 = rows.of(4).unwrap();
         assert!(r1.others.is_empty());
@@ -294,7 +375,7 @@ mod tests {
             },
         };
         let dofs = DofMap::new(3, 1, &[0, 1], &[0], &[0], &[], 1, 0).unwrap();
-        let rows = SkewRows::new(&[s], &dofs, &[0.5, 0.5, 0.5], &[false; 3]).unwrap();
+        let rows = SkewRows::new(&[s], &dofs, &[0.5, 0.5, 0.5], &[false; 3], &named).unwrap();
         let r = rows.of(2).unwrap();
         assert_eq!(r.others.len(), 2);
         assert_eq!((r.others[0].0, r.others[1].0), (0, 1));
@@ -309,7 +390,7 @@ mod tests {
         // node 1's x prescribed elsewhere
         let mut constrained = vec![false; 12];
         constrained[3] = true;
-        let e = SkewRows::new(&[radial()], &dofs, &coords, &constrained).unwrap_err();
+        let e = SkewRows::new(&[radial()], &dofs, &coords, &constrained, &named).unwrap_err();
         let msg = e.to_string();
         assert!(
             msg.contains("node 1") && msg.contains("bcs.0 (cube/zmin)"),
@@ -320,18 +401,100 @@ mod tests {
         for n in 0..4 {
             constrained[n * 3 + 2] = true;
         }
-        assert!(SkewRows::new(&[radial()], &dofs, &coords, &constrained).is_ok());
+        assert!(SkewRows::new(&[radial()], &dofs, &coords, &constrained, &named).is_ok());
         // tied nodes are refused
         let tied = DofMap::new(3, 4, &[0, 4], &[0, 1, 2, 3], &[0], &[(3, 1)], 1, 0).unwrap();
-        let e = SkewRows::new(&[radial()], &tied, &coords, &[false; 12]).unwrap_err();
+        let e = SkewRows::new(&[radial()], &tied, &coords, &[false; 12], &named).unwrap_err();
         assert!(e.to_string().contains("tied"), "{e}");
-        // two conditions on one node
-        let other = SkewBc {
-            label: "bcs.1 (cube/corner)".into(),
-            nodes: vec![2],
-            ..radial()
-        };
-        let e = SkewRows::new(&[radial(), other], &dofs, &coords, &[false; 12]).unwrap_err();
-        assert!(e.to_string().contains("bcs.1 (cube/corner)"), "{e}");
+    }
+
+    fn sliding(label: &str, nodes: Vec<u32>, normal: [f64; 3]) -> SkewBc {
+        let n = normal.iter().map(|v| v * v).sum::<f64>().sqrt();
+        SkewBc {
+            label: label.into(),
+            nodes,
+            kind: SkewKind::Sliding {
+                normal: normal.map(|v| v / n),
+            },
+        }
+    }
+
+    /// `u` of node `node` with its free components from `free` and its dependent ones from the
+    /// rows (the unknowns of node `node` are `3 node + c`).
+    fn constrained_u(rows: &SkewRows, node: usize, free: [f64; 3]) -> [f64; 3] {
+        let g = |c: usize| (3 * node + c) as PetscInt;
+        let mut u = free;
+        for (c, uc) in u.iter_mut().enumerate() {
+            if let Some(r) = rows.of(g(c)) {
+                *uc = r
+                    .others
+                    .iter()
+                    .map(|&(o, a)| {
+                        assert!(rows.of(o).is_none(), "a row depends on a dependent unknown");
+                        a * free[(o - g(0)) as usize]
+                    })
+                    .sum();
+            }
+        }
+        u
+    }
+
+    #[test]
+    fn symmetry_planes_meeting_at_a_line_or_point_hold_every_normal() {
+        // node 0 on x = 0 and y = 0 (a line), node 1 on all three planes (a point), node 2 on
+        // x = 0 only, node 3 on x = 0 given twice and on an inclined plane
+        let coords = [0.0; 12];
+        let dofs = DofMap::new(3, 4, &[0, 4], &[0, 1, 2, 3], &[0], &[], 1, 0).unwrap();
+        let skews = [
+            sliding("bcs.1 (body/symx)", vec![0, 1, 2, 3], [1.0, 0.0, 0.0]),
+            sliding("bcs.2 (body/symy)", vec![0, 1], [0.0, 1.0, 0.0]),
+            sliding("bcs.3 (body/symz)", vec![1], [0.0, 0.0, 2.0]),
+            sliding("bcs.4 (body/again)", vec![3], [-3.0, 0.0, 0.0]),
+            sliding("bcs.5 (body/tilted)", vec![3], [1.0, 1.0, 1.0]),
+        ];
+        let rows = SkewRows::new(&skews, &dofs, &coords, &[false; 12], &named).unwrap();
+        // axis-aligned planes reduce to fixed components: dependent rows without others
+        for g in [0, 1, 3, 4, 5, 6] {
+            let r = rows.of(g).unwrap_or_else(|| panic!("unknown {g} not held"));
+            assert!(r.others.is_empty(), "unknown {g}: {:?}", r.others);
+        }
+        for g in [2, 7, 8] {
+            assert!(rows.of(g).is_none(), "unknown {g} held");
+        }
+        // node 3: x held (once, however often given) and (1, 1, 1): two rows, one free component
+        let held3: Vec<_> = (9..12).filter_map(|g| rows.of(g)).collect();
+        assert_eq!(held3.len(), 2);
+        let u = constrained_u(&rows, 3, [0.3, -0.7, 0.2]);
+        let s3 = 1.0 / 3f64.sqrt();
+        assert!(u[0].abs() < 1e-15, "{u:?}");
+        assert!((s3 * (u[0] + u[1] + u[2])).abs() < 1e-15, "{u:?}");
+        assert!(u.iter().any(|v| v.abs() > 0.1), "{u:?}");
+    }
+
+    #[test]
+    fn two_inclined_planes_leave_only_their_common_line_free() {
+        let coords = [0.0; 3];
+        let dofs = DofMap::new(3, 1, &[0, 1], &[0], &[0], &[], 1, 0).unwrap();
+        let (n1, n2) = ([1.0, 2.0, 3.0], [0.0, -1.0, 4.0]);
+        let skews = [sliding("a", vec![0], n1), sliding("b", vec![0], n2)];
+        let rows = SkewRows::new(&skews, &dofs, &coords, &[false; 3], &named).unwrap();
+        assert_eq!(rows.rows().len(), 2);
+        for free in [
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [0.3, -0.2, 0.9],
+        ] {
+            let u = constrained_u(&rows, 0, free);
+            for n in [n1, n2] {
+                let d: f64 = (0..3).map(|i| n[i] * u[i]).sum();
+                assert!(d.abs() < 1e-14, "n . u = {d} for {u:?}");
+            }
+        }
+        // the free direction is the planes' common line n1 x n2 = (11, -4, -1)
+        let u = constrained_u(&rows, 0, [1.0, 1.0, 1.0]);
+        let line = [11.0, -4.0, -1.0];
+        let k = u[0] / line[0];
+        assert!((0..3).all(|i| (u[i] - k * line[i]).abs() < 1e-14), "{u:?}");
     }
 }

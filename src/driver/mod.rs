@@ -188,8 +188,10 @@ pub fn check_main(case_path: &Path, sets: &[String], petsc_args: Vec<String>) ->
     }
     // skew conditions against the prescribed and tied unknowns, as `run` builds them
     let constrained = constrained_flags(&model.bcs, &dofs);
-    SkewRows::new(&model.skews, &dofs, &model.coords, &constrained)
-        .map_err(|e| Error::Usage(format!("{}: {e}", case.file.display())))?;
+    SkewRows::new(&model.skews, &dofs, &model.coords, &constrained, &|n| {
+        model.node_label(n)
+    })
+    .map_err(|e| Error::Usage(format!("{}: {e}", case.file.display())))?;
     let sets = model.element_sets(&case.file, &part, 0)?;
     {
         let universe = mpi::initialize().ok_or(Error::Mpi)?;

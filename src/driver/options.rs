@@ -65,8 +65,10 @@ pub(super) fn set_up_solver<'p>(
     let constrained = constrained_flags(&model.bcs, &dofs);
     let mut x = Vector::new_mpi(petsc, n_owned)?;
     x.set(0.0)?;
-    let skew = SkewRows::new(&model.skews, &dofs, &model.coords, &constrained)
-        .map_err(|e| Error::Usage(format!("{}: {e}", case.file.display())))?;
+    let skew = SkewRows::new(&model.skews, &dofs, &model.coords, &constrained, &|n| {
+        model.node_label(n)
+    })
+    .map_err(|e| Error::Usage(format!("{}: {e}", case.file.display())))?;
     let mut asm = Assembler::new(petsc, &x, dofs, sets, constrained.clone())?;
     if !skew.is_empty() {
         asm.set_skew(skew);

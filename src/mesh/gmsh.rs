@@ -708,6 +708,7 @@ pub fn parse_gmsh_with_warnings<'a>(
             }
         ));
     }
+    mesh.node_tags = node_tags;
     Ok((mesh, warnings))
 }
 

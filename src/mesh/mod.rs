@@ -1,6 +1,7 @@
 //! Mesh layer: the unstructured [`Mesh`] of linear parent cells (Quad4 / Hex8) with named node
 //! and face sets, the structured generators for the cases of Corbett & Sauer 2014, section 4
-//! ([`rectangle`], [`half_disk`], [`sector`], [`box3d`], [`hemisphere`], [`hemisphere_nurbs`]), a
+//! ([`rectangle`], [`half_disk`], [`sector`], [`box3d`], [`hemisphere`], [`hemisphere_nurbs`],
+//! [`quarter_sphere`]), a
 //! Gmsh MSH 4.1 reader ([`gmsh`]) and rigid helpers ([`transform`]: translate, scale, merge).
 //! A generator that knows the exact geometry of a contact surface attaches it to the face set as an
 //! [`ExactPatch`] ([`Mesh::exact_surfaces`]), which the enriched layer then uses as is.
@@ -19,6 +20,7 @@ pub mod gmsh;
 pub mod half_disk;
 pub mod hemisphere;
 pub mod hemisphere_nurbs;
+pub mod quarter_sphere;
 pub mod rectangle;
 pub mod sector;
 mod spherical_shell;
@@ -54,6 +56,9 @@ pub struct Mesh {
     /// parametrisation, e.g. the merged rim points of [`hemisphere_nurbs`]), sorted: the only nodes
     /// that a cell may list twice ([`Mesh::validate`]). Empty for meshes read from files.
     pub collapsed_nodes: Vec<u32>,
+    /// The file's own tag of each node, [n_nodes] (Gmsh node tags), for messages that name a node
+    /// as the user knows it; empty for generated meshes, whose nodes are named by their index.
+    pub node_tags: Vec<i64>,
 }
 
 /// Relative tolerance, in units of the cell's own scale `h^dim`, below which a corner Jacobian
@@ -100,6 +105,7 @@ impl Mesh {
             face_sets: BTreeMap::new(),
             exact_surfaces: BTreeMap::new(),
             collapsed_nodes: Vec::new(),
+            node_tags: Vec::new(),
         }
     }
 
@@ -114,6 +120,15 @@ impl Mesh {
     /// Global node numbers of cell `c`. Panics if `c >= n_cells()` (like slice indexing).
     pub fn cell(&self, c: usize) -> &[u32] {
         &self.cell_nodes[self.cell_offsets[c]..self.cell_offsets[c + 1]]
+    }
+
+    /// Node `n` as a message names it: `Gmsh node <tag>` for a mesh read from a file, else
+    /// `mesh node <n>` (the generator's numbering, from 0).
+    pub fn node_label(&self, n: u32) -> String {
+        match self.node_tags.get(n as usize) {
+            Some(t) => format!("Gmsh node {t}"),
+            None => format!("mesh node {n}"),
+        }
     }
 
     /// Coordinates of node `n`, [dim]. Panics if out of range (like slice indexing).

@@ -100,12 +100,17 @@ pub fn merge(parts: &[(&str, &Mesh)]) -> Result<(Mesh, Vec<PartRange>), MeshErro
         }
         out.collapsed_nodes
             .extend(part.collapsed_nodes.iter().map(|&n| n + n0));
+        out.node_tags.extend_from_slice(&part.node_tags);
         ranges.push(PartRange {
             first_node: n0,
             n_nodes: part.n_nodes(),
             first_cell: c0,
             n_cells: part.n_cells(),
         });
+    }
+    // tags name nodes only when every part has them
+    if out.node_tags.len() != out.n_nodes() {
+        out.node_tags.clear();
     }
     Ok((out, ranges))
 }

@@ -54,6 +54,13 @@ fn generate(case: &Case, name: &str, spec: &MeshSpec) -> Result<(Mesh, Vec<Strin
                 p.n_surface,
                 p.n_thickness,
             ),
+            Generator::QuarterSphere(p) => mesh::quarter_sphere::quarter_sphere(
+                p.center,
+                p.radius,
+                p.extent,
+                p.divisions,
+                p.grading,
+            ),
         },
         MeshSpec::File(f) => {
             mesh::gmsh::read_gmsh_with_warnings(&case.resolve_path(&f.file)).map(|(m, w)| {

@@ -144,4 +144,31 @@ impl Model {
     pub fn n_nodes(&self) -> usize {
         self.coords.len() / self.dim
     }
+
+    /// Global node `n` as messages name it: its body, its number as the mesh knows it (the Gmsh
+    /// tag for a mesh read from a file, see [`Mesh::node_label`]) or its index among the enriched
+    /// layer's nodes, and its reference position, e.g. ``Gmsh node 1 of body `ball` at (0, 0, 0)``.
+    pub fn node_label(&self, n: u32) -> String {
+        let x = self
+            .coords
+            .get(n as usize * self.dim..(n as usize + 1) * self.dim)
+            .map(|x| {
+                let v: Vec<String> = x.iter().map(|v| format!("{v}")).collect();
+                format!(" at ({})", v.join(", "))
+            })
+            .unwrap_or_default();
+        for b in &self.bodies {
+            let local = n.wrapping_sub(b.node_offset) as usize;
+            if n < b.node_offset || local >= b.n_nodes() {
+                continue;
+            }
+            let what = if local < b.mesh.n_nodes() {
+                b.mesh.node_label(local as u32)
+            } else {
+                format!("enriched-layer node {}", local - b.mesh.n_nodes())
+            };
+            return format!("{what} of body `{}`{x}", b.name);
+        }
+        format!("node {n}{x}")
+    }
 }

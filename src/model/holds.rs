@@ -113,6 +113,22 @@ fn mode_row(dim: usize, x: &[f64], c: usize) -> Vec<f64> {
     }
 }
 
+/// The held unit direction of every node under a skew condition that carries unknowns (a radial
+/// condition's node on its axis holds none), once per condition.
+fn skew_directions(model: &Model, has_unknowns: &impl Fn(u32) -> bool) -> Vec<(u32, [f64; 3])> {
+    let dim = model.dim;
+    let mut out = Vec::new();
+    for sk in &model.skews {
+        for &n in sk.nodes.iter().filter(|&&n| has_unknowns(n)) {
+            let x = &model.coords[n as usize * dim..(n as usize + 1) * dim];
+            if let Some(t) = sk.direction(x) {
+                out.push((n, t));
+            }
+        }
+    }
+    out
+}
+
 /// Analyses the model: `has_unknowns(node)` says whether a node carries unknowns (display nodes of
 /// enriched surfaces do not).
 pub fn holds(model: &Model, has_unknowns: impl Fn(u32) -> bool) -> HoldReport {
@@ -177,8 +193,8 @@ pub fn holds(model: &Model, has_unknowns: impl Fn(u32) -> bool) -> HoldReport {
     }
     let rigid_roots: std::collections::BTreeSet<u32> =
         rigid_held.iter().map(|&n| uf.find(n)).collect();
-    // constrained unknowns of each component
-    let mut constrained: std::collections::BTreeMap<u32, Vec<(u32, usize)>> = Default::default();
+    // held directions of each component: Dirichlet components and skew conditions' directions
+    let mut constrained: std::collections::BTreeMap<u32, Vec<(u32, [f64; 3])>> = Default::default();
     for bc in &model.bcs {
         for &n in &bc.nodes {
             if !has_unknowns(n) {
@@ -187,9 +203,14 @@ pub fn holds(model: &Model, has_unknowns: impl Fn(u32) -> bool) -> HoldReport {
             let root = uf.find(n);
             let list = constrained.entry(root).or_default();
             for &c in &bc.components {
-                list.push((n, c));
+                let mut e = [0.0; 3];
+                e[c] = 1.0;
+                list.push((n, e));
             }
         }
+    }
+    for (n, t) in skew_directions(model, &has_unknowns) {
+        constrained.entry(uf.find(n)).or_default().push((n, t));
     }
     let n_modes = if dim == 2 { 3 } else { 6 };
     let mut report = HoldReport::default();
@@ -247,11 +268,16 @@ pub fn holds(model: &Model, has_unknowns: impl Fn(u32) -> bool) -> HoldReport {
             .max(1e-300);
         let mut gram = DMatrix::<f64>::zeros(n_modes, n_modes);
         let mut x = [0.0; 3];
-        for (n, c) in list {
+        for (n, t) in list {
             for d in 0..dim {
                 x[d] = (model.coords[*n as usize * dim + d] - centre[d]) / scale;
             }
-            let row = mode_row(dim, &x[..dim], *c);
+            let mut row = vec![0.0; n_modes];
+            for c in (0..dim).filter(|&c| t[c] != 0.0) {
+                for (r, m) in row.iter_mut().zip(mode_row(dim, &x[..dim], c)) {
+                    *r += t[c] * m;
+                }
+            }
             for i in 0..n_modes {
                 for j in 0..n_modes {
                     gram[(i, j)] += row[i] * row[j];
@@ -294,6 +320,9 @@ pub fn holds(model: &Model, has_unknowns: impl Fn(u32) -> bool) -> HoldReport {
     }
     let mut held_alone: std::collections::BTreeSet<u32> =
         rigid_held.iter().map(|&n| alone.find(n)).collect();
+    for (n, _) in skew_directions(model, &has_unknowns) {
+        held_alone.insert(alone.find(n));
+    }
     for bc in &model.bcs {
         for &n in bc.nodes.iter().filter(|&&n| has_unknowns(n)) {
             held_alone.insert(alone.find(n));
@@ -320,8 +349,9 @@ pub fn holds(model: &Model, has_unknowns: impl Fn(u32) -> bool) -> HoldReport {
 
 /// The translations no Dirichlet condition holds, of each body part alone and of each set of parts
 /// that contact or ties join, among those that touch a contact pair (see
-/// [`HoldReport::free_translations`]). Sets that touch a skew condition are left out: their
-/// unknowns at those nodes are not Cartesian components.
+/// [`HoldReport::free_translations`]). A skew condition holds the translations along the axes its
+/// direction has a component on (so a free axis never carries a skew condition's dependent
+/// unknown).
 fn free_translations(
     model: &Model,
     has_unknowns: &impl Fn(u32) -> bool,
@@ -363,12 +393,6 @@ fn free_translations(
                 groups.entry(uf.find(n)).or_default().push(n);
             }
         }
-        let mut skewed = std::collections::BTreeSet::new();
-        for sk in &model.skews {
-            for &n in &sk.nodes {
-                skewed.insert(uf.find(n));
-            }
-        }
         let mut held: std::collections::BTreeMap<u32, [bool; 3]> = Default::default();
         for bc in &model.bcs {
             for &n in bc.nodes.iter().filter(|&&n| has_unknowns(n)) {
@@ -378,8 +402,14 @@ fn free_translations(
                 }
             }
         }
+        for (n, t) in skew_directions(model, has_unknowns) {
+            let h = held.entry(uf.find(n)).or_default();
+            for c in 0..dim {
+                h[c] |= t[c] != 0.0;
+            }
+        }
         for (root, nodes) in groups {
-            if skewed.contains(&root) || !nodes.iter().any(|&n| contact_node[n as usize]) {
+            if !nodes.iter().any(|&n| contact_node[n as usize]) {
                 continue;
             }
             if out.iter().any(|t| t.nodes == nodes) {

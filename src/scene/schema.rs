@@ -126,24 +126,29 @@ pub enum Generator {
     Box(BoxParams),
     Hemisphere(HemisphereParams),
     HemisphereNurbs(HemisphereParams),
+    QuarterSphere(QuarterSphereParams),
 }
 
 impl Generator {
     /// Names accepted for `generator`.
-    pub const NAMES: [&'static str; 6] = [
+    pub const NAMES: [&'static str; 7] = [
         "rectangle",
         "half_disk",
         "sector",
         "box",
         "hemisphere",
         "hemisphere_nurbs",
+        "quarter_sphere",
     ];
 
     /// The spatial dimension of the mesh this generator builds.
     pub fn dim(&self) -> usize {
         match self {
             Generator::Rectangle(_) | Generator::HalfDisk(_) | Generator::Sector(_) => 2,
-            Generator::Box(_) | Generator::Hemisphere(_) | Generator::HemisphereNurbs(_) => 3,
+            Generator::Box(_)
+            | Generator::Hemisphere(_)
+            | Generator::HemisphereNurbs(_)
+            | Generator::QuarterSphere(_) => 3,
         }
     }
 
@@ -156,13 +161,17 @@ impl Generator {
             Generator::Box(_) => "box",
             Generator::Hemisphere(_) => "hemisphere",
             Generator::HemisphereNurbs(_) => "hemisphere_nurbs",
+            Generator::QuarterSphere(_) => "quarter_sphere",
         }
     }
 
     /// The key holding the main cell count (where a too-large mesh is reported).
     pub fn size_key(&self) -> &'static str {
         match self {
-            Generator::Rectangle(_) | Generator::Box(_) | Generator::Sector(_) => "divisions",
+            Generator::Rectangle(_)
+            | Generator::Box(_)
+            | Generator::Sector(_)
+            | Generator::QuarterSphere(_) => "divisions",
             Generator::HalfDisk(_) => "n_arc",
             Generator::Hemisphere(_) | Generator::HemisphereNurbs(_) => "n_surface",
         }
@@ -232,6 +241,30 @@ pub struct HemisphereParams {
     pub n_surface: usize,
     /// Elements through the wall.
     pub n_thickness: usize,
+}
+
+/// `generator = "quarter_sphere"`: the quarter (x >= cx, y >= cy) of the lowest cap of the ball of
+/// `radius` around `center`, between the exact spherical patch `sphere` and the plane z = cz (a
+/// sphere pressed on a flat with two symmetry planes; see `crate::mesh::quarter_sphere`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct QuarterSphereParams {
+    pub center: [f64; 3],
+    pub radius: f64,
+    /// How far the patch reaches from the symmetry planes (x - cx on y = cy, y - cy on x = cx),
+    /// in (0, radius).
+    pub extent: f64,
+    /// `[n_u, n_v, n_z]`: cells along the arc from the lowest point, around the x axis, and from
+    /// the sphere up to the plane.
+    pub divisions: [usize; 3],
+    /// `[g_u, g_v, g_z]`: the last cell of each direction over the first (geometric; > 1 refines
+    /// towards the lowest point and the sphere). Default `[1, 1, 1]` (equal cells).
+    #[serde(default = "unit_grading")]
+    pub grading: [f64; 3],
+}
+
+fn unit_grading() -> [f64; 3] {
+    [1.0; 3]
 }
 
 /// `[bodies.<name>]`.
@@ -871,6 +904,7 @@ impl<'de> Deserialize<'de> for MeshSpec {
                     "box" => Generator::Box(from_table(table)?),
                     "hemisphere" => Generator::Hemisphere(from_table(table)?),
                     "hemisphere_nurbs" => Generator::HemisphereNurbs(from_table(table)?),
+                    "quarter_sphere" => Generator::QuarterSphere(from_table(table)?),
                     other => {
                         return Err(de::Error::custom(nest_message(
                             &format!(

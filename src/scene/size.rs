@@ -83,6 +83,10 @@ impl MeshSize {
                 let [nx, ny, nz] = p.divisions.map(f);
                 (3, (nx + 1.0) * (ny + 1.0) * (nz + 1.0), nx * ny * nz)
             }
+            Generator::QuarterSphere(p) => {
+                let [nu, nv, nz] = p.divisions.map(f);
+                (3, (nu + 1.0) * (nv + 1.0) * (nz + 1.0), nu * nv * nz)
+            }
             Generator::HalfDisk(p) => {
                 // O-grid: core n_bot x n_side, ring n_arc x n_radial (see mesh::half_disk)
                 let n_side = ((p.n_arc.saturating_add(2)) / 4).max(1);

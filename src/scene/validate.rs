@@ -367,6 +367,23 @@ fn check_meshes(case: &Case, dim_ok: bool, v: &mut Issues) {
                         }
                         v.divisions(k("divisions"), &p.divisions);
                     }
+                    Generator::QuarterSphere(p) => {
+                        v.point(k("center"), &p.center);
+                        v.extent(k("radius"), &[p.radius], &p.center);
+                        if !(p.extent > 0.0 && p.extent < p.radius) {
+                            v.push(
+                                k("extent"),
+                                format!("must be in (0, radius = {}), got {}", p.radius, p.extent),
+                            );
+                        }
+                        v.divisions(k("divisions"), &p.divisions);
+                        if let Some(g) = p.grading.iter().find(|g| !(g.is_finite() && **g > 0.0)) {
+                            v.push(
+                                k("grading"),
+                                format!("every grading must be positive and finite, got {g}"),
+                            );
+                        }
+                    }
                     Generator::Hemisphere(p) | Generator::HemisphereNurbs(p) => {
                         v.point(k("center"), &p.center);
                         v.extent(k("outer_radius"), &[p.outer_radius], &p.center);

@@ -2,6 +2,7 @@
 //! [`crate::study`] for the definitions).
 
 use serde::Deserialize;
+use std::path::Path;
 
 /// What a metric computes from the window's values.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
@@ -28,6 +29,60 @@ pub enum MetricKind {
     /// Largest over the columns of the peak-to-peak amplitude of what is left of the column after
     /// removing its least-squares polynomial trend in x of degree `detrend`.
     Oscillation,
+    /// Largest value of the results.h5 field `field` at the last written step, on the first of
+    /// `grids` that has it (not from history.csv).
+    FieldMax,
+    /// Hertz's peak pressure p0 for the load of `column` at the window's last row (`hertz`).
+    HertzP0,
+}
+
+/// `hertz = { shape = "sphere", radius = 1.0, E = 1.0, nu = 0.3, load_scale = 4.0 }`: the
+/// classical contact of an elastic sphere (or, per unit length in plane strain, a cylinder) of
+/// `radius` on a rigid flat, for the load `load_scale` times the metric's column (e.g. 4 for a
+/// quarter model, -1 for a reaction). With E* = E / (1 - nu^2): sphere a = (3 P R / (4 E*))^(1/3),
+/// p0 = 3 P / (2 pi a^2); cylinder a = (4 P R / (pi E*))^(1/2), p0 = 2 P / (pi a).
+#[allow(non_snake_case)]
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HertzSpec {
+    pub shape: HertzShape,
+    pub radius: f64,
+    pub E: f64,
+    pub nu: f64,
+    #[serde(default)]
+    pub load_scale: Option<f64>,
+}
+
+/// The body of [`HertzSpec`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum HertzShape {
+    Sphere,
+    Cylinder,
+}
+
+impl HertzSpec {
+    /// Hertz's peak pressure for the load `p` (before `load_scale`).
+    pub fn p0(&self, p: f64) -> Result<f64, String> {
+        let p = p * self.load_scale.unwrap_or(1.0);
+        if !(p > 0.0 && p.is_finite()) {
+            return Err(format!(
+                "Hertz's p0 needs a positive load, got {p} (after load_scale)"
+            ));
+        }
+        let e_star = self.E / (1.0 - self.nu * self.nu);
+        let pi = std::f64::consts::PI;
+        Ok(match self.shape {
+            HertzShape::Sphere => {
+                let a = (3.0 * p * self.radius / (4.0 * e_star)).cbrt();
+                3.0 * p / (2.0 * pi * a * a)
+            }
+            HertzShape::Cylinder => {
+                let a = (4.0 * p * self.radius / (pi * e_star)).sqrt();
+                2.0 * p / (pi * a)
+            }
+        })
+    }
 }
 
 /// A metric as declared in the study file.
@@ -57,6 +112,16 @@ pub struct MetricSpec {
     /// Another metric of the same run that this one is divided by (which must not itself be relative).
     #[serde(default)]
     pub relative_to: Option<String>,
+    /// `field_max`: the results.h5 field, e.g. `contact_pressure_nominal`.
+    #[serde(default)]
+    pub field: Option<String>,
+    /// `field_max`: the grids tried in order (default `["surface", "bulk"]`: an enriched
+    /// surface's sampled grid where there is one, else the mesh nodes).
+    #[serde(default)]
+    pub grids: Vec<String>,
+    /// `hertz_p0`: the classical solution.
+    #[serde(default)]
+    pub hertz: Option<HertzSpec>,
 }
 
 /// `window = { column = "load_factor", min = 1.25, max = 2.0 }`; both bounds optional, inclusive.
@@ -84,6 +149,8 @@ impl MetricKind {
             MetricKind::MaxAbs => "max_abs",
             MetricKind::MinSlope => "min_slope",
             MetricKind::Oscillation => "oscillation",
+            MetricKind::FieldMax => "field_max",
+            MetricKind::HertzP0 => "hertz_p0",
         }
     }
 }
@@ -124,29 +191,88 @@ pub fn validate(metrics: &[MetricSpec]) -> Result<(), (String, String)> {
                 format!("metric `{}` is declared twice", m.name),
             ));
         }
-        match (&m.column, m.columns.is_empty()) {
-            (None, true) => {
+        let fields_only = |what: &str| format!("only `kind = \"{what}\"` reads it");
+        if m.field.is_some() != (m.kind == MetricKind::FieldMax) {
+            return Err((
+                format!("{key}.field"),
+                match m.kind {
+                    MetricKind::FieldMax => {
+                        format!("metric `{}` needs `field` (a results.h5 field)", m.name)
+                    }
+                    _ => fields_only("field_max"),
+                },
+            ));
+        }
+        if !m.grids.is_empty() && m.kind != MetricKind::FieldMax {
+            return Err((format!("{key}.grids"), fields_only("field_max")));
+        }
+        if m.hertz.is_some() != (m.kind == MetricKind::HertzP0) {
+            return Err((
+                format!("{key}.hertz"),
+                match m.kind {
+                    MetricKind::HertzP0 => format!(
+                        "metric `{}` needs `hertz = {{ shape, radius, E, nu }}`",
+                        m.name
+                    ),
+                    _ => fields_only("hertz_p0"),
+                },
+            ));
+        }
+        if let Some(h) = &m.hertz {
+            let bad = [("radius", h.radius), ("E", h.E)]
+                .into_iter()
+                .find(|(_, v)| !(v.is_finite() && *v > 0.0));
+            if let Some((k, v)) = bad {
                 return Err((
-                    key,
-                    format!("metric `{}` needs `column` or `columns`", m.name),
-                ))
+                    format!("{key}.hertz.{k}"),
+                    format!("must be positive and finite, got {v}"),
+                ));
             }
-            (Some(_), false) => {
+            if !(h.nu > -1.0 && h.nu < 0.5) {
+                return Err((
+                    format!("{key}.hertz.nu"),
+                    format!("must be in (-1, 0.5), got {}", h.nu),
+                ));
+            }
+            if m.column.is_none() {
+                return Err((key, format!("metric `{}` needs `column`, the load", m.name)));
+            }
+        }
+        if m.kind == MetricKind::FieldMax {
+            if m.column.is_some() || !m.columns.is_empty() || m.window.is_some() {
                 return Err((
                     key,
                     format!(
-                        "metric `{}` has both `column` and `columns`; give one",
+                        "metric `{}` reads results.h5 at the last step: no `column`, `columns` or `window`",
                         m.name
                     ),
-                ))
+                ));
             }
-            _ => {}
-        }
-        if m.column_list()
-            .iter()
-            .any(|c| c.trim_start_matches('-').is_empty())
-        {
-            return Err((key, format!("metric `{}` has an empty column name", m.name)));
+        } else {
+            match (&m.column, m.columns.is_empty()) {
+                (None, true) => {
+                    return Err((
+                        key,
+                        format!("metric `{}` needs `column` or `columns`", m.name),
+                    ))
+                }
+                (Some(_), false) => {
+                    return Err((
+                        key,
+                        format!(
+                            "metric `{}` has both `column` and `columns`; give one",
+                            m.name
+                        ),
+                    ))
+                }
+                _ => {}
+            }
+            if m.column_list()
+                .iter()
+                .any(|c| c.trim_start_matches('-').is_empty())
+            {
+                return Err((key, format!("metric `{}` has an empty column name", m.name)));
+            }
         }
         if let Some(w) = &m.window {
             if let (Some(a), Some(b)) = (w.min, w.max) {
@@ -263,8 +389,51 @@ impl Table {
     }
 }
 
-/// The raw value of a metric (its `scale` applied, `relative_to` not).
-pub fn compute(m: &MetricSpec, t: &Table) -> Result<f64, String> {
+/// The largest value of `field` in `dir`/results.h5 at the last written step, on the first of
+/// `grids` that has it.
+pub fn field_max(dir: &Path, field: &str, grids: &[String]) -> Result<f64, String> {
+    let path = dir.join("results.h5");
+    let what = |e: hdf5::Error| format!("{}: {e}", path.display());
+    let f = hdf5::File::open(&path).map_err(what)?;
+    let steps = f.group("steps").map_err(what)?;
+    let last = steps
+        .member_names()
+        .map_err(what)?
+        .into_iter()
+        .filter_map(|n| n.parse::<usize>().ok())
+        .max()
+        .ok_or_else(|| format!("{}: no step written", path.display()))?;
+    let defaults = ["surface".to_string(), "bulk".to_string()];
+    let grids = if grids.is_empty() {
+        &defaults[..]
+    } else {
+        grids
+    };
+    for g in grids {
+        let name = format!("{last}/{g}/{field}");
+        if steps.link_exists(&name) {
+            let v = steps
+                .dataset(&name)
+                .and_then(|d| d.read_raw::<f64>())
+                .map_err(what)?;
+            return Ok(v.into_iter().fold(f64::NEG_INFINITY, f64::max));
+        }
+    }
+    Err(format!(
+        "{}: no field `{field}` on the grids {} of step {last}",
+        path.display(),
+        grids.join(", ")
+    ))
+}
+
+/// The raw value of a metric (its `scale` applied, `relative_to` not); `dir` is the run's
+/// directory (for `field_max`).
+pub fn compute(m: &MetricSpec, t: &Table, dir: &Path) -> Result<f64, String> {
+    if m.kind == MetricKind::FieldMax {
+        let field = m.field.as_deref().expect("validated");
+        let v = field_max(dir, field, &m.grids).map_err(|e| format!("metric `{}`: {e}", m.name))?;
+        return Ok(v * m.scale.unwrap_or(1.0));
+    }
     let rows: Vec<usize> = match &m.window {
         None => (0..t.rows()).collect(),
         Some(w) => {
@@ -295,8 +464,14 @@ pub fn compute(m: &MetricSpec, t: &Table) -> Result<f64, String> {
     } else {
         Vec::new()
     };
-    let value = kind_value(m.kind, &series, &x, m.detrend.unwrap_or(1))
-        .map_err(|e| format!("metric `{}`: {e}", m.name))?;
+    let value = match &m.hertz {
+        Some(h) => {
+            let load = *series[0].last().expect("a row in the window");
+            h.p0(load)
+        }
+        None => kind_value(m.kind, &series, &x, m.detrend.unwrap_or(1)),
+    }
+    .map_err(|e| format!("metric `{}`: {e}", m.name))?;
     Ok(value * m.scale.unwrap_or(1.0))
 }
 
@@ -353,6 +528,12 @@ pub fn kind_value(
             }
             amp
         }
+        MetricKind::FieldMax | MetricKind::HertzP0 => {
+            return Err(format!(
+                "`{}` is not computed from columns alone",
+                kind.label()
+            ))
+        }
     })
 }
 
@@ -387,8 +568,8 @@ fn detrended(x: &[f64], y: &[f64], deg: usize) -> Result<Vec<f64>, String> {
 }
 
 /// All metric values of a run: `Ok(value)` or the reason it could not be computed.
-pub fn compute_all(metrics: &[MetricSpec], t: &Table) -> Vec<Result<f64, String>> {
-    let raw: Vec<Result<f64, String>> = metrics.iter().map(|m| compute(m, t)).collect();
+pub fn compute_all(metrics: &[MetricSpec], t: &Table, dir: &Path) -> Vec<Result<f64, String>> {
+    let raw: Vec<Result<f64, String>> = metrics.iter().map(|m| compute(m, t, dir)).collect();
     metrics
         .iter()
         .enumerate()
@@ -436,11 +617,14 @@ mod tests {
             detrend: None,
             scale: None,
             relative_to: None,
+            field: None,
+            grids: Vec::new(),
+            hertz: None,
         }
     }
 
     fn val(kind: MetricKind, cols: &[&str]) -> f64 {
-        compute(&metric(kind, cols), &table()).unwrap()
+        compute(&metric(kind, cols), &table(), Path::new(".")).unwrap()
     }
 
     #[test]
@@ -471,12 +655,12 @@ mod tests {
             max: None,
         });
         // rows 2..4: a = 3, 2, 5
-        assert_eq!(compute(&m, &table()).unwrap(), 3.0);
+        assert_eq!(compute(&m, &table(), Path::new(".")).unwrap(), 3.0);
         m.window.as_mut().unwrap().max = Some(1.5);
-        assert_eq!(compute(&m, &table()).unwrap(), 1.0);
+        assert_eq!(compute(&m, &table(), Path::new(".")).unwrap(), 1.0);
         m.window.as_mut().unwrap().min = Some(3.0);
         m.window.as_mut().unwrap().max = None;
-        let e = compute(&m, &table()).unwrap_err();
+        let e = compute(&m, &table(), Path::new(".")).unwrap_err();
         assert!(e.contains("no row"), "{e}");
     }
 
@@ -517,7 +701,7 @@ mod tests {
         let mut c = metric(MetricKind::Range, &["a"]);
         c.name = "rel".into();
         c.relative_to = Some("mean".into());
-        let v = compute_all(&[a, b, c], &table());
+        let v = compute_all(&[a, b, c], &table(), Path::new("."));
         assert_eq!(v[0], Ok(4.0));
         assert_eq!(v[1], Ok(5.5));
         assert_eq!(v[2], Ok(4.0 / 5.5));
@@ -539,9 +723,83 @@ mod tests {
         a.relative_to = None;
         a.detrend = Some(2);
         assert_eq!(validate(&[a.clone()]).unwrap_err().0, "metrics.0.detrend");
-        let e = compute(&metric(MetricKind::Max, &["P_nope"]), &table()).unwrap_err();
+        let e = compute(
+            &metric(MetricKind::Max, &["P_nope"]),
+            &table(),
+            Path::new("."),
+        )
+        .unwrap_err();
         assert!(e.contains("no column `P_nope`"), "{e}");
         let e = Table::parse("a,b\n1,x\n", "h.csv").unwrap_err();
         assert!(e.contains("h.csv") && e.contains("`x`"), "{e}");
+    }
+
+    #[test]
+    #[allow(non_snake_case)]
+    fn hertz_p0_follows_the_classical_formulas() {
+        let pi = std::f64::consts::PI;
+        let e_star = 1.0 / (1.0 - 0.09);
+        let sphere = HertzSpec {
+            shape: HertzShape::Sphere,
+            radius: 2.0,
+            E: 1.0,
+            nu: 0.3,
+            load_scale: Some(4.0),
+        };
+        // p0 = (6 P E*^2 / (pi^3 R^2))^(1/3) for the full load P = 4 x 3.8e-4
+        let P = 4.0 * 3.8e-4;
+        let want = (6.0 * P * e_star * e_star / (pi.powi(3) * 4.0)).cbrt();
+        let got = sphere.p0(3.8e-4).unwrap();
+        assert!((got - want).abs() < 1e-14 * want, "{got} vs {want}");
+        // cylinder per unit length: p0 = (P E* / (pi R))^(1/2)
+        let cyl = HertzSpec {
+            shape: HertzShape::Cylinder,
+            load_scale: None,
+            ..sphere.clone()
+        };
+        let want = (8.5e-3 * e_star / (pi * 2.0)).sqrt();
+        let got = cyl.p0(8.5e-3).unwrap();
+        assert!((got - want).abs() < 1e-14 * want, "{got} vs {want}");
+        assert!(sphere.p0(-1.0).unwrap_err().contains("positive load"));
+    }
+
+    #[test]
+    fn field_max_reads_the_last_step_on_the_first_grid_that_has_the_field() {
+        let dir = std::env::temp_dir().join(format!("field-max-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        {
+            let f = hdf5::File::create(dir.join("results.h5")).unwrap();
+            let put = |path: &str, v: &[f64]| {
+                let g = f.create_group(path).unwrap();
+                g.new_dataset_builder().with_data(v).create("p").unwrap();
+            };
+            put("steps/2", &[]);
+            put("steps/2/surface", &[9.0]);
+            put("steps/10", &[]);
+            put("steps/10/bulk", &[3.0, 7.0, -1.0]);
+        }
+        // step 10 is the last (numerically), and it has no surface grid
+        assert_eq!(field_max(&dir, "p", &[]).unwrap(), 7.0);
+        let e = field_max(&dir, "q", &["surface".into()]).unwrap_err();
+        assert!(e.contains("`q`") && e.contains("step 10"), "{e}");
+        let mut m = metric(MetricKind::FieldMax, &[]);
+        m.field = Some("p".into());
+        m.scale = Some(2.0);
+        assert_eq!(compute(&m, &table(), &dir).unwrap(), 14.0);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn field_and_hertz_metrics_are_validated() {
+        let mut m = metric(MetricKind::FieldMax, &["a"]);
+        m.field = Some("p".into());
+        assert!(validate(&[m]).unwrap_err().1.contains("no `column`"));
+        let m = metric(MetricKind::FieldMax, &[]);
+        assert_eq!(validate(&[m]).unwrap_err().0, "metrics.0.field");
+        let m = metric(MetricKind::HertzP0, &["a"]);
+        assert_eq!(validate(&[m]).unwrap_err().0, "metrics.0.hertz");
+        let mut m = metric(MetricKind::Max, &["a"]);
+        m.grids = vec!["bulk".into()];
+        assert_eq!(validate(&[m]).unwrap_err().0, "metrics.0.grids");
     }
 }

@@ -44,7 +44,7 @@ pub fn rows(study: &Study, outcomes: &[Outcome]) -> Vec<Row> {
             }
             let converged = o.status == Status::Converged;
             let metrics: Vec<Option<f64>> = match (&o.history, converged) {
-                (Some(t), true) => compute_all(&study.spec.metrics, t)
+                (Some(t), true) => compute_all(&study.spec.metrics, t, &o.dir)
                     .into_iter()
                     .map(|r| r.map_err(|e| reasons.push(e)).ok())
                     .collect(),
