@@ -400,8 +400,9 @@ pub fn field_max(dir: &Path, field: &str, grids: &[String]) -> Result<f64, Strin
         .member_names()
         .map_err(what)?
         .into_iter()
-        .filter_map(|n| n.parse::<usize>().ok())
+        .filter_map(|n| n.parse::<usize>().ok().map(|k| (k, n)))
         .max()
+        .map(|(_, n)| n)
         .ok_or_else(|| format!("{}: no step written", path.display()))?;
     let defaults = ["surface".to_string(), "bulk".to_string()];
     let grids = if grids.is_empty() {
@@ -773,15 +774,16 @@ mod tests {
                 let g = f.create_group(path).unwrap();
                 g.new_dataset_builder().with_data(v).create("p").unwrap();
             };
-            put("steps/2", &[]);
-            put("steps/2/surface", &[9.0]);
-            put("steps/10", &[]);
-            put("steps/10/bulk", &[3.0, 7.0, -1.0]);
+            // step names are zero-padded, as the results writer's
+            put("steps/000002", &[]);
+            put("steps/000002/surface", &[9.0]);
+            put("steps/000010", &[]);
+            put("steps/000010/bulk", &[3.0, 7.0, -1.0]);
         }
         // step 10 is the last (numerically), and it has no surface grid
         assert_eq!(field_max(&dir, "p", &[]).unwrap(), 7.0);
         let e = field_max(&dir, "q", &["surface".into()]).unwrap_err();
-        assert!(e.contains("`q`") && e.contains("step 10"), "{e}");
+        assert!(e.contains("`q`") && e.contains("step 000010"), "{e}");
         let mut m = metric(MetricKind::FieldMax, &[]);
         m.field = Some("p".into());
         m.scale = Some(2.0);

@@ -69,6 +69,13 @@
 //!   polynomial of degree `detrend` (default 1) in x over the window is subtracted, and the amplitude
 //!   is max minus min of what is left; the largest over the columns. `detrend = 0` gives `range_ece`.
 //!
+//! - `field_max` (with `field`, optional `grids`, default `["surface", "bulk"]`; no columns or
+//!   window): the largest value of that results.h5 field at the last written step, on the first grid
+//!   that has it (e.g. the peak contact pressure).
+//! - `hertz_p0` (with one `column`, the load, and `hertz = { shape, radius, E, nu, load_scale }`):
+//!   Hertz's peak pressure for `load_scale` times the column's last window value
+//!   ([`metrics::HertzSpec`]).
+//!
 //! `scale` multiplies the value (e.g. 1 / (E L0^2)); `relative_to = "other"` divides it by the
 //! metric `other` of the same run (which must not itself be relative).
 //!
