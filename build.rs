@@ -102,9 +102,21 @@ fn mpi_include_dirs() -> Vec<PathBuf> {
 }
 
 /// Records `git describe` of the source tree for run summaries (absent outside a git checkout).
+/// Watches the checkout's own HEAD and index as git names them (in a worktree `.git` is a file and
+/// they live under the main repository's `.git/worktrees/`; a watched path that does not exist
+/// would rerun this script on every build).
 fn git_revision() {
-    println!("cargo:rerun-if-changed=.git/HEAD");
-    println!("cargo:rerun-if-changed=.git/index");
+    for what in ["HEAD", "index"] {
+        if let Ok(out) = Command::new("git")
+            .args(["rev-parse", "--git-path", what])
+            .output()
+        {
+            let path = String::from_utf8_lossy(&out.stdout).trim().to_string();
+            if out.status.success() && std::path::Path::new(&path).exists() {
+                println!("cargo:rerun-if-changed={path}");
+            }
+        }
+    }
     if let Ok(out) = Command::new("git")
         .args(["describe", "--always", "--dirty"])
         .output()
