@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """The contact formulation matrix (docs/formulations.md): every penalty formulation (`gap` x
-`algorithm`, with `augmented` and `solver.contact_freeze_after` where they apply) x element family
+`algorithm`, with `augmented` where it applies) x element family
 x question (row), each run through `nurbs-contact run CASE --set ...`, its metrics computed from the
 run's history.csv, summary.json and results.h5 (through h5dump). Standard library only.
 
@@ -35,10 +35,11 @@ Rows (the questions; `--list` prints the runs):
                     cases/studies/twisting_table4.toml): eq. (22) DeltaP_z and eq. (23) over the
                     rotation, max |M_z|
 
-Formulations (`--forms`, names `ALGORITHM/GAP[+al|+freeze]`): `thp` two-half-pass, `op` one-pass;
+Formulations (`--forms`, names `ALGORITHM/GAP[+al]`): `thp` two-half-pass, `op` one-pass;
 gap pointwise, element_mean, mortar, mortar_linear, mortar_mean; `+al` the augmented Lagrangian
 (`augmented = { tol, max = 30 }`, tol per row below, about a tenth of the plain penalty's
-penetration), `+freeze` `solver.contact_freeze_after = 4`.
+penetration). The `+freeze` lines of docs/formulations.csv measured `solver.contact_freeze_after`,
+a retired key (docs/formulations.md, "Retired keys"); the matrix no longer runs them.
 """
 import argparse
 import concurrent.futures as cf
@@ -66,15 +67,13 @@ def formulations():
             base = [f"contact.0.algorithm={alg}", f"contact.0.gap={gap}"]
             out[f"{tag}/{gap}"] = (base, False)
             out[f"{tag}/{gap}+al"] = (base, True)
-            out[f"{tag}/{gap}+freeze"] = (base + ["solver.contact_freeze_after=4"], False)
     return out
 
 
 FORMS = formulations()
 # the combinations a user can write; the solver's `check` decides which it accepts
 DEFAULT_FORMS = [f"{a}/{g}" for a in ("thp", "op") for g in GAPS] + \
-    [f"{a}/{g}+al" for a in ("thp", "op") for g in ("pointwise", "mortar", "mortar_linear", "element_mean", "mortar_mean")] + \
-    [f"{a}/pointwise+freeze" for a in ("thp", "op")]
+    [f"{a}/{g}+al" for a in ("thp", "op") for g in ("pointwise", "mortar", "mortar_linear", "element_mean", "mortar_mean")]
 
 SLIDE4 = ["bcs.1.value=[[0.0, -0.6666666666666666], [4.0, -0.6666666666666666]]"]
 IRON_MESH = {
@@ -156,8 +155,7 @@ def template(row):
     for s in ROWS[row]["fam"]("F") + ROWS[row]["sets"]:
         parts += ["--set", f"'{s}'" if re.search(r"[ \[\]{}]", s) else s]
     parts += ["--set contact.0.algorithm=A --set contact.0.gap=G",
-              f"[--set 'contact.0.augmented={{ tol = {ROWS[row]['al_tol']:g}, max = 30 }}']",
-              "[--set solver.contact_freeze_after=4]"]
+              f"[--set 'contact.0.augmented={{ tol = {ROWS[row]['al_tol']:g}, max = 30 }}']"]
     return " ".join(parts)
 
 
@@ -585,7 +583,7 @@ def main():
             sys.exit(f"unknown row `{r}` (rows: {', '.join(ROW_ORDER)})")
     for f in forms:
         if f not in FORMS:
-            sys.exit(f"unknown formulation `{f}` (e.g. thp/pointwise, op/mortar+al, thp/pointwise+freeze)")
+            sys.exit(f"unknown formulation `{f}` (e.g. thp/pointwise, op/mortar+al)")
     work = [(r, f, fam) for r in rows for fam in (fams or ROWS[r]["families"]) for f in forms]
     if a.list:
         for r, f, fam in work:

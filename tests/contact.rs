@@ -438,14 +438,6 @@ fn a_failed_projection_cuts_the_load_step_back_on_1_and_2_ranks() {
 fn element_mean_gap_outside_its_scope_is_refused_with_the_key() {
     for (file, sets, want) in [
         (
-            "hertz_2d.toml",
-            vec![
-                "contact.0.gap=element_mean",
-                "solver.contact_freeze_after=4",
-            ],
-            "contact_freeze_after",
-        ),
-        (
             "peeling_2d.toml",
             vec!["contact.0.gap=element_mean"],
             "penalty",

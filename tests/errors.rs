@@ -87,6 +87,47 @@ fn unknown_key_is_named() {
     );
 }
 
+/// A retired key is refused with the key, the file and its line, why it was retired and what to
+/// do, on `run` and `check`, in the file or as an override.
+#[test]
+fn retired_contact_freeze_after_is_refused_with_the_reason() {
+    let text = format!("{BLOCK}\n[solver]\ncontact_freeze_after = 4\n");
+    let e = fails_with("retired-key", &text, 1);
+    let line = text
+        .lines()
+        .position(|l| l.starts_with("contact_freeze_after"))
+        .unwrap()
+        + 1;
+    for want in [
+        format!("case.toml:{line}:"),
+        "`solver.contact_freeze_after`".to_string(),
+        "changed no measured result".to_string(),
+        "docs/formulations.md".to_string(),
+        "delete this line".to_string(),
+    ] {
+        assert!(e.contains(&want), "lacks `{want}`:\n{e}");
+    }
+    let c = case("hertz_2d.toml");
+    let out = run(
+        1,
+        &[
+            "check",
+            c.to_str().unwrap(),
+            "--set",
+            "solver.contact_freeze_after=4",
+        ],
+    );
+    let e = stderr(&out);
+    assert!(!out.status.success(), "the override was accepted");
+    for want in [
+        "hertz_2d.toml",
+        "override `solver.contact_freeze_after=4`",
+        "docs/formulations.md",
+    ] {
+        assert!(e.contains(want), "lacks `{want}`:\n{e}");
+    }
+}
+
 #[test]
 fn impossible_poisson_ratio_is_named() {
     let e = fails_with("nu", &BLOCK.replace("nu = 0.3", "nu = 0.5"), 1);

@@ -361,11 +361,6 @@ fn mortar_gap_outside_its_scope_is_refused_with_the_key() {
         ("peeling_2d.toml", vec!["contact.0.gap=mortar"], "penalty"),
         (
             "hertz_2d.toml",
-            vec!["contact.0.gap=mortar", "solver.contact_freeze_after=4"],
-            "contact_freeze_after",
-        ),
-        (
-            "hertz_2d.toml",
             vec!["contact.0.gap=mortar", "bodies.disk.element=Q1C2"],
             "non-negative",
         ),

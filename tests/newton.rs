@@ -220,3 +220,45 @@ fn a_predicted_start_that_raises_the_residual_is_given_up_at_once() {
         secant.2[last]
     );
 }
+
+/// Newton at the kink of the penalty law (REPRODUCTION.md 4.1): a faceted (Q1C1) block pressed by
+/// a smooth (Q1N2) cylinder with two-half-pass penalty contact has block points that sit at
+/// `g_n = 0` during the depression (the ironing scene, mesh 4, pressed to 0.4 of its depth in 8
+/// steps, Newton started from the converged state). Newton cycles there (active, inactive,
+/// active, ...) at every increment down to the minimum; each attempt ends at the stagnation stop
+/// (`solver.stagnation_window`, default 10) or, with that off, at the iteration limit, and the run
+/// fails with that reason.
+#[test]
+fn newton_cycling_at_the_penalty_kink_ends_at_the_stagnation_stop_or_the_iteration_limit() {
+    let case = case("ironing_2d.toml");
+    let case = case.to_str().unwrap();
+    for (window, reason) in [(10, "DIVERGED_STAGNATION"), (0, "DIVERGED_MAX_IT")] {
+        let d = scratch(&format!("kink-plain-{window}"));
+        let sets = [
+            "bodies.block.element=Q1C1".to_string(),
+            "bodies.cylinder.element=Q1N2".into(),
+            "steps.pseudo_steps=0".into(),
+            "bcs.1.value=[[0.0, -0.26666666666666666], [0.0, -0.26666666666666666]]".into(),
+            "stages.0.steps=8".into(),
+            "stages.1.steps=1".into(),
+            // the cycling is that of Newton started from the converged state (the secant
+            // predictor starts the kink's step elsewhere, and plain Newton gets through it)
+            "solver.predictor=none".into(),
+            format!("solver.stagnation_window={window}"),
+        ];
+        let mut args = vec![
+            "run",
+            case,
+            "--out",
+            d.to_str().unwrap(),
+            "-q",
+            "--overwrite",
+        ];
+        for s in &sets {
+            args.extend(["--set", s.as_str()]);
+        }
+        let out = run(1, &args);
+        assert!(!out.status.success(), "plain Newton got through the kink");
+        assert!(stderr(&out).contains(reason), "{}", stderr(&out));
+    }
+}

@@ -31,19 +31,6 @@ pub type Block = (u32, u32, u32);
 /// The COO slot of a block in the current pattern (`None`: not in it).
 pub type SlotOf<'a> = dyn Fn(&Block) -> Option<usize> + 'a;
 
-/// What [`CouplingSet::settle`] decided about the statuses a set held fixed during a solve.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Settle {
-    /// Nothing was held: the converged state is the set's own.
-    Free,
-    /// Everything held has the status the set's law gives it at the converged state: the state is
-    /// the law's equilibrium, and everything is released.
-    Consistent,
-    /// Some held statuses disagree with the law at the converged state: they were updated (or, after
-    /// a bounded number of rounds, released). Resume Newton.
-    Resume,
-}
-
 /// What [`CouplingSet::augment`] decided after a converged solve.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Augment {
@@ -113,30 +100,6 @@ pub trait CouplingSet: Any + Send {
 
     /// Back to the state of the last [`commit`](Self::commit).
     fn rollback(&mut self);
-
-    /// Newton iterates after which statuses that keep changing are held fixed (0: never).
-    fn set_freeze_after(&mut self, _iterates: usize) {}
-
-    /// See [`set_freeze_after`](Self::set_freeze_after).
-    fn freeze_after(&self) -> usize {
-        0
-    }
-
-    /// Statuses held fixed on this rank now.
-    fn frozen(&self) -> usize {
-        0
-    }
-
-    /// Held statuses on this rank that disagree with the law at the last update.
-    fn inconsistent(&self) -> usize {
-        0
-    }
-
-    /// After a converged solve: `any_frozen` and `inconsistent` summed over every rank; updates or
-    /// releases the held statuses and says whether Newton resumes.
-    fn settle(&mut self, _any_frozen: bool, _inconsistent: usize) -> Settle {
-        Settle::Free
-    }
 
     /// Augmented Lagrangian: this rank's largest constraint violation per group of the set
     /// (contact: per pair) at the last evaluation; empty when the set does not augment.

@@ -14,7 +14,7 @@ pub mod sink;
 pub mod skew;
 
 pub use assembler::{Assembler, MatrixAssembly, Timers};
-pub use coupling_set::{Augment, Block, CouplingSet, Settle, SlotOf};
+pub use coupling_set::{Augment, Block, CouplingSet, SlotOf};
 pub use dirichlet::{
     constrained_flags, prescribed_values, ConflictError, DirichletBc, Prescription,
 };

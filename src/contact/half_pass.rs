@@ -282,14 +282,12 @@ type Contribution<'a> = (u32, PartnerPoint<'a>, Area, bool);
 
 /// Evaluates half-pass `pass` (number `pass_id` over all pairs) with the projections of the last
 /// update: residual into `f_local` (ghosted local vector), with `jac` its tangent blocks into the sink, resultants into
-/// `pass.result`. `forced(q)`: the status the active set holds point `q` at (`None`: the law's).
-#[allow(clippy::too_many_arguments)]
+/// `pass.result`.
 pub(crate) fn run(
     pass: &mut Pass,
     pass_id: u32,
     pair: &PairView,
     geo: &Geometry,
-    forced: impl Fn(usize) -> Option<bool>,
     work: &mut Work,
     f_local: &mut [f64],
     jac: &mut Jacobian,
@@ -327,7 +325,7 @@ pub(crate) fn run(
     gap.begin_pass(&hp, &all, points);
     let mut res = PassResult::default();
     for (i, oe) in elems.iter().enumerate() {
-        hp.element(i, oe, points, bases, &mut gap, &forced, work, &mut res);
+        hp.element(i, oe, points, bases, &mut gap, work, &mut res);
         gap.end_element(&hp, i, &all, points, work);
         hp.scatter(oe, work, f_local, jac);
     }
@@ -345,7 +343,6 @@ impl HalfPass<'_> {
         points: &mut [QPoint],
         bases: &[BasisAt],
         gap: &mut Gap,
-        forced: &impl Fn(usize) -> Option<bool>,
         work: &mut Work,
         res: &mut PassResult,
     ) {
@@ -374,9 +371,8 @@ impl HalfPass<'_> {
                 _ => None,
             };
             for c in self.contributions(&own, &qp, known).into_iter().flatten() {
-                let forced = forced(q);
                 let gm = (&*gap, g_mean, p_mortar);
-                self.contribution(&own, &qp, q, c, gm, forced, work, res, &mut po);
+                self.contribution(&own, &qp, q, c, gm, work, res, &mut po);
             }
             if let (Some(f), Some(l)) = (po.absent, self.l) {
                 work.absent.push((l as u32, f));
@@ -487,15 +483,13 @@ impl HalfPass<'_> {
 
     /// The traction of one contribution: the cohesive law on a material pairing; else the
     /// pressure of the control points (`p_mortar`, mortar gap), or the pair's law at the gap the
-    /// gap part gives (`g_mean`), at the status the active set holds, or shifted by the point's
-    /// multiplier `lambda` (augmented Lagrangian).
-    #[allow(clippy::too_many_arguments)]
+    /// gap part gives (`g_mean`), or shifted by the point's multiplier `lambda` (augmented
+    /// Lagrangian).
     fn traction(
         &self,
         cohesive: bool,
         p_mortar: Option<f64>,
         g_mean: Option<f64>,
-        forced: Option<bool>,
         lambda: f64,
         g: &[f64; 3],
         n: &[f64; 3],
@@ -512,8 +506,6 @@ impl HalfPass<'_> {
             gap::mean_penalty(eps_n, self.touch, gm, g, n)
         } else if let (true, Law::Penalty { eps_n }) = (self.pair.augmented, law) {
             law::penalty_augmented(eps_n, lambda, self.touch, g, n)
-        } else if let (Some(f), Law::Penalty { eps_n }) = (forced, law) {
-            law::penalty_forced(eps_n, f, g, n)
         } else {
             law_traction(&law, self.touch, g, n)
         }
@@ -529,7 +521,6 @@ impl HalfPass<'_> {
         q: usize,
         (le, pp, area, cohesive): Contribution,
         (gap, g_mean, p_mortar): (&Gap, Option<f64>, Option<f64>),
-        forced: Option<bool>,
         work: &mut Work,
         res: &mut PassResult,
         po: &mut PointOut,
@@ -555,9 +546,8 @@ impl HalfPass<'_> {
         let master = self.pair.one_pass && nl > 0;
         work.rc.clear();
         work.rc.resize(nc, 0.0);
-        let lawf = |g: &[f64; 3], n: &[f64; 3]| {
-            self.traction(cohesive, p_mortar, g_mean, forced, qp.lambda, g, n)
-        };
+        let lawf =
+            |g: &[f64; 3], n: &[f64; 3]| self.traction(cohesive, p_mortar, g_mean, qp.lambda, g, n);
         let input = PointIn {
             dim,
             own,

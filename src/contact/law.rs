@@ -92,17 +92,6 @@ pub fn penalty_augmented(
     out
 }
 
-/// The traction of a penalty-type law at a point held at status `forced` (`None`: the law's own
-/// test): held active, the linear branch `-eps_n g_n n` whatever the sign of `g_n`; held inactive,
-/// none.
-pub fn penalty_forced(eps_n: f64, forced: bool, g: &[f64; 3], n: &[f64; 3]) -> Traction {
-    if forced {
-        penalty(eps_n, f64::INFINITY, g, n)
-    } else {
-        Traction::ZERO
-    }
-}
-
 /// Quadratic penalty against penetration: `t = eps_n g_n^2 n` where `g_n = g . n < 0`, zero
 /// otherwise. Its traction and tangent are continuous at `g_n = 0`, so a bonded interface that sits
 /// at `g_n = 0` (the cohesive law's material pairing) has no kink there (`eps_n` in force per

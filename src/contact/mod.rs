@@ -29,7 +29,7 @@ pub mod system;
 
 pub use half_pass::PassResult;
 pub use pair::{Anchor, Augmented, Coupling, Friction, GapKind, Law, PairDef, Partner};
-pub use system::{ContactSystem, Settle};
+pub use system::ContactSystem;
 
 #[cfg(test)]
 mod tests;

@@ -25,7 +25,6 @@ use crate::contact::search::BinGrid;
 use crate::contact::surface::ContactSurface;
 use partner_points::PartnerPoint;
 
-mod active_set;
 mod augment;
 mod checkpoint;
 mod coupling;
@@ -36,7 +35,6 @@ mod pattern;
 mod pressure;
 mod sanity;
 mod setup;
-pub use active_set::{Settle, MAX_ROUNDS as MAX_ACTIVE_SET_ROUNDS};
 pub use checkpoint::ROW as CHECKPOINT_ROW;
 pub use footprint::Footprint;
 pub use sanity::PassDepth;
@@ -85,8 +83,6 @@ pub struct ContactSystem {
     cand: Vec<u32>,
     /// The half-passes' buffers, and the one-pass residual of master-surface nodes.
     work: half_pass::Work,
-    /// Newton at the kink of the penalty law (see `active_set.rs`).
-    active_set: active_set::ActiveSet,
 }
 
 impl ContactSystem {
@@ -272,7 +268,6 @@ impl ContactSystem {
         f_local: &mut [f64],
         mut jac: Option<(&mut dyn MatrixSink, &SlotOf)>,
     ) {
-        let jacobian = jac.is_some();
         self.work.r_table.fill(0.0);
         self.work.absent.clear();
         let geo = half_pass::Geometry {
@@ -282,7 +277,6 @@ impl ContactSystem {
             slots: &self.slots,
             gdofs: &self.gdofs,
         };
-        let active_set = &self.active_set;
         let mut pass_id = 0u32;
         for pair in &mut self.pairs {
             let def = &pair.def;
@@ -298,22 +292,17 @@ impl ContactSystem {
                 lambda: self.lambda,
             };
             for pass in &mut pair.passes {
-                let id = pass_id as usize;
                 half_pass::run(
                     pass,
                     pass_id,
                     &view,
                     &geo,
-                    |q| active_set.forced(id, q),
                     &mut self.work,
                     f_local,
                     &mut jac,
                 );
                 pass_id += 1;
             }
-        }
-        if jacobian {
-            self.observe_iterate();
         }
     }
 
@@ -512,11 +501,9 @@ impl ContactSystem {
         }
     }
 
-    /// Drops what the evaluations since the last commit or rollback left: the cached update and
-    /// the active set's history.
+    /// Drops what the evaluations since the last commit or rollback left: the cached update.
     fn forget_trial(&mut self) {
         self.last_update = None;
-        self.active_set.reset();
     }
 
     /// The one walk over every quadrature point this rank integrates (pair, half-pass, point).

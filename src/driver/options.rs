@@ -101,7 +101,6 @@ pub(super) fn set_up_solver<'p>(
             .map_err(|msg| Error::Usage(format!("{}: contact: {msg}", case.file.display()))),
         )?;
         asm.set_coupling_set(Box::new(sys), &x, case.solver.contact_pattern_ring)?;
-        asm.set_freeze_after(case.solver.contact_freeze_after);
         asm.set_max_penetration(case.solver.max_penetration);
     }
     if !model.couplings.is_empty() {

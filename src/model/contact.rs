@@ -224,8 +224,6 @@ pub fn build_contact(
                 Some("goes with the `penalty` law only")
             } else if spec.algorithm == Algorithm::OnePass && spec.rigid.is_none() {
                 Some("is implemented for the two-half-pass algorithm only")
-            } else if case.solver.contact_freeze_after > 0 {
-                Some("has one status per element; `solver.contact_freeze_after` holds pointwise statuses (drop one of them)")
             } else {
                 None
             };
@@ -286,8 +284,8 @@ pub fn build_contact(
     Ok((surfaces, pairs))
 }
 
-/// The gap of pair `i` (`gap`), with the mortar gap's scope checked: the penalty law, no
-/// active-set freezing, surfaces with a non-negative basis (`mortar`, `mortar_mean`).
+/// The gap of pair `i` (`gap`), with the mortar gap's scope checked: the penalty law, surfaces
+/// with a non-negative basis (`mortar`, `mortar_mean`).
 fn gap_kind(
     case: &Case,
     i: usize,
@@ -315,8 +313,6 @@ fn gap_kind(
     });
     let why = if !matches!(spec.law, LawKind::Penalty) {
         Some("goes with the `penalty` law only".to_string())
-    } else if case.solver.contact_freeze_after > 0 {
-        Some("has one status per weight node; `solver.contact_freeze_after` holds pointwise statuses (drop one of them)".to_string())
     } else if let (Some(&s), GapKind::Mortar | GapKind::MortarMean) = (negative, kind) {
         Some(format!(
             "needs a non-negative basis on the surface: `{}` is a Q1C2 or Q1CH surface, whose \
@@ -357,13 +353,6 @@ fn augmented(case: &Case, i: usize, spec: &ContactSpec) -> Result<Option<Augment
              its points' laws inside the mean, the rounds' answer still depends on `eps_n` at \
              the edge of the contact zone, BENCHMARKS.md \"Augmented Lagrangian on the mortar \
              gaps\"; use `gap = \"mortar\"` for an answer free of `eps_n`)"
-                .to_string(),
-        ))
-    } else if case.solver.contact_freeze_after > 0 {
-        Some((
-            String::new(),
-            "moves the law's kink every round; `solver.contact_freeze_after` holds statuses \
-             at it (drop one of them)"
                 .to_string(),
         ))
     } else if !(a.tol.is_finite() && a.tol > 0.0) {

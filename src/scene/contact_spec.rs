@@ -82,7 +82,7 @@ pub struct ContactSpec {
     /// history (checkpointed); rounds are counted in `history.csv` (`augmentation_rounds`) and
     /// `summary.json`. Pointwise or mortar gap (the mortar gap: one multiplier per control point);
     /// two-half-pass or one-pass (the slave's points or control points carry the multipliers);
-    /// not `element_mean` or `mortar_mean`, not with `solver.contact_freeze_after`.
+    /// not `element_mean` or `mortar_mean`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub augmented: Option<AugmentedSpec>,
     /// Penalty parameter (> 0; force per length^3 in 3D, per length^2 in 2D): `penalty`, and the

@@ -599,14 +599,6 @@ pub struct SolverOptions {
     /// when a point needs an element outside it. 0 reserves exactly the current couplings. Default: 1.
     #[serde(default = "default_contact_pattern_ring")]
     pub contact_pattern_ring: usize,
-    /// Contact, Newton at the kink of the penalty law: after this many Newton iterations of a step
-    /// attempt, a frictionless penalty contact point whose active/inactive status has changed at
-    /// least three times keeps its status until the solve converges; the converged state is accepted
-    /// only when every such point has the status the law gives it there, else those points are
-    /// updated and Newton resumes (REPRODUCTION.md 4.1; 4 measured in BENCHMARKS.md). 0 disables
-    /// it. Default: 0.
-    #[serde(default)]
-    pub contact_freeze_after: usize,
     /// Stop a Newton solve early when its best residual norm has not fallen by 10 % within this
     /// many iterations (a solve cycling at the kink of a penalty law, or creeping): the step is cut
     /// back at once instead of after the iteration limit (30). 0 disables it. Default: 10
@@ -764,7 +756,6 @@ impl Default for SolverOptions {
         SolverOptions {
             petsc_options: String::new(),
             contact_pattern_ring: default_contact_pattern_ring(),
-            contact_freeze_after: 0,
             stagnation_window: default_stagnation_window(),
             linear: None,
             partition: PartitionKind::default(),

@@ -13,7 +13,7 @@
 //! sparsity pattern does not depend on the node list.
 
 use super::{fatal, Assembler, MatrixAssembly};
-use crate::assembly::coupling_set::{Augment, Block, CouplingSet, Settle};
+use crate::assembly::coupling_set::{Augment, Block, CouplingSet};
 use crate::assembly::BlockScatter;
 use crate::petsc::{Matrix, PetscError, PetscInt, ProblemError, Scatter, Snes, Vector};
 use mpi::collective::SystemOperation;
@@ -452,62 +452,6 @@ impl<'p> Assembler<'p> {
     /// same on every rank): rebuild it ([`Assembler::refresh_pattern`]) and continue.
     pub fn pattern_outdated(&self) -> bool {
         self.coupled.as_ref().is_some_and(|c| c.stale)
-    }
-}
-
-/// Newton at the kink of a law (contact: see `crate::contact::system::active_set`): statuses that
-/// keep changing are held during a solve and settled after it.
-impl Assembler<'_> {
-    /// Statuses that keep changing are held after this many Newton iterates of a step attempt
-    /// (0: never).
-    pub fn set_freeze_after(&mut self, iterates: usize) {
-        if let Some(c) = &mut self.coupled {
-            c.set.set_freeze_after(iterates);
-        }
-    }
-
-    /// After a converged Newton solve at `x`: compares every held status with the law's at `x`
-    /// (re-evaluated there) and releases them all when they agree (the state is then the law's
-    /// equilibrium: the same residual, bit for bit), else updates the disagreeing ones for a
-    /// resumed solve. The same answer on every rank.
-    ///
-    /// Collective.
-    pub fn settle_active_set(&mut self, x: &Vector) -> Settle {
-        // the same setting on every rank: no communication when it is off
-        if self
-            .coupled
-            .as_ref()
-            .is_none_or(|c| c.set.freeze_after() == 0)
-        {
-            return Settle::Free;
-        }
-        let frozen = self.coupled.as_ref().map_or(0, |c| c.set.frozen()) as u64;
-        let mut any = 0u64;
-        self.petsc
-            .comm()
-            .all_reduce_into(&frozen, &mut any, SystemOperation::max());
-        if any == 0 {
-            return Settle::Free;
-        }
-        // the gaps at `x` itself (the last evaluation of the solve is there, but make sure)
-        let cu = self.coupling_update(x);
-        let ok = self.agree(cu).is_ok() && {
-            let local = self.guarded_loop(x, None);
-            self.agree(local).is_ok()
-        };
-        let local = match (&self.coupled, ok) {
-            (Some(c), true) => c.set.inconsistent() as u64,
-            (Some(_), false) => 1,
-            (None, _) => 0,
-        };
-        let mut total = 0u64;
-        self.petsc
-            .comm()
-            .all_reduce_into(&local, &mut total, SystemOperation::sum());
-        match &mut self.coupled {
-            Some(c) => c.set.settle(true, total as usize),
-            None => Settle::Free,
-        }
     }
 }
 

@@ -3,7 +3,7 @@
 //! [`Coupling`]s: a half-pass's surface element and its partner element.
 
 use super::ContactSystem;
-use crate::assembly::{Augment, Block, CouplingSet, MatrixSink, Settle, SlotOf};
+use crate::assembly::{Augment, Block, CouplingSet, MatrixSink, SlotOf};
 use std::any::Any;
 
 impl CouplingSet for ContactSystem {
@@ -74,26 +74,6 @@ impl CouplingSet for ContactSystem {
 
     fn rollback(&mut self) {
         ContactSystem::rollback(self);
-    }
-
-    fn set_freeze_after(&mut self, iterates: usize) {
-        ContactSystem::set_freeze_after(self, iterates);
-    }
-
-    fn freeze_after(&self) -> usize {
-        ContactSystem::freeze_after(self)
-    }
-
-    fn frozen(&self) -> usize {
-        self.frozen_points()
-    }
-
-    fn inconsistent(&self) -> usize {
-        self.inconsistent_points()
-    }
-
-    fn settle(&mut self, any_frozen: bool, inconsistent: usize) -> Settle {
-        self.settle_active_set(any_frozen, inconsistent)
     }
 
     fn augmentation_violations(&self) -> Vec<f64> {

@@ -96,7 +96,6 @@ impl ContactSystem {
             cand: Vec::new(),
             work: Default::default(),
             last_update: None,
-            active_set: Default::default(),
         };
         sys.work.r_table = vec![0.0; sys.table.len() * dim];
         sys.update_positions(&vec![0.0; sys.X.len()]);
