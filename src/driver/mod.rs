@@ -175,7 +175,7 @@ pub enum Error {
 /// `nurbs-contact check`: everything but the solve, on one process.
 pub fn check_main(case_path: &Path, sets: &[String], petsc_args: Vec<String>) -> Result<(), Error> {
     let (case, model) = load_and_build(case_path, sets)?;
-    for w in &model.warnings {
+    for w in model.warnings.iter().chain(&model.contact_warnings) {
         eprintln!("warning: {w}");
     }
     for n in &model.notes {
@@ -232,7 +232,8 @@ pub fn check_main(case_path: &Path, sets: &[String], petsc_args: Vec<String>) ->
 fn load_and_build(case_path: &Path, sets: &[String]) -> Result<(Case, Model), Error> {
     let case = load_case(case_path, sets)?;
     validate(&case)?;
-    let model = Model::build(&case)?;
+    let mut model = Model::build(&case)?;
+    model.contact_warnings = model.contact_checks(&case)?;
     Ok((case, model))
 }
 
@@ -513,6 +514,11 @@ fn build_model(petsc: &Petsc, opts: &RunOptions) -> Result<(Case, Model, claim::
         log(rank, opts.verbosity, Verbosity::Normal, || {
             format!("warning: {w}")
         });
+    }
+    if rank == 0 {
+        for w in &model.contact_warnings {
+            eprintln!("warning: {w}");
+        }
     }
     for n in &model.notes {
         log(rank, opts.verbosity, Verbosity::Normal, || n.clone());

@@ -650,6 +650,7 @@ impl Model {
             contact_surfaces,
             contact_pairs,
             warnings,
+            contact_warnings: Vec::new(),
             notes,
         })
     }

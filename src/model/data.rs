@@ -129,6 +129,10 @@ pub struct Model {
     /// What is legal but suspicious in the input (e.g. mesh nodes in no cell), for the front end
     /// to print once.
     pub warnings: Vec<String>,
+    /// Contact inputs that run but whose contact is likely absent or meaningless
+    /// ([`Model::contact_checks`], which the front end runs): printed like [`warnings`](Self::warnings), also when quiet, as the
+    /// contact warnings of the steps are.
+    pub contact_warnings: Vec<String>,
     /// What the front end reports about the built model beside its summary (e.g. the distance of a
     /// smooth enriched surface from the exact one), one line each.
     pub notes: Vec<String>,

@@ -9,6 +9,7 @@
 
 mod build;
 pub mod contact;
+mod contact_checks;
 mod data;
 pub mod enrich;
 #[cfg(test)]
