@@ -9,13 +9,19 @@
 //! - a penalty (`eps_n`, `eps_t`) with `eps h / E` above [`PENALTY_RATIO`]: the tangent's contact
 //!   part swamps the bodies' stiffness and Newton stagnates or the factorisation loses the bodies;
 //! - a rigid partner whose motion in one nominal step exceeds [`STEP_FRACTION`] of its body's
-//!   extent along that motion: it can pass through the body between two steps unseen.
+//!   extent along that motion: it can pass through the body between two steps unseen;
+//! - a rigid circle, sphere or cylinder whose centre starts inside the body of its surface: an
+//!   error (the partner lies in the body, out of reach of the surface's points);
+//! - a turn (a `rotation` condition on a body of a frictional pair, or a rigid partner's rotation)
+//!   that moves the contact surface, in one nominal step of a stage with friction, by more than
+//!   its element size: the return mapping slides each point along the chord of one step, and a
+//!   turn of 180 degrees or more per step is not even told apart from the opposite turn.
 
-use super::data::Model;
+use super::data::{Body, Model};
 use super::error::ModelError;
 use crate::contact::rigid::{RigidMotion, RigidShape};
-use crate::contact::{Law, Partner};
-use crate::scene::Case;
+use crate::contact::{Law, PairDef, Partner};
+use crate::scene::{BcSpec, Case};
 
 /// A control point deeper than this fraction of its surface's mean element size inside its rigid
 /// partner at the start of the first stage is refused.
@@ -86,11 +92,174 @@ impl Model {
             for (k, partner) in &pair.passes {
                 if let Partner::Rigid(shape, motion) = partner {
                     self.rigid_start(case, i, &pair.name, *k, &shape.at(motion, 0.0))?;
+                    self.rigid_inside(case, i, &pair.name, *k, &shape.at(motion, 0.0))?;
                     warnings.extend(self.rigid_steps(case, i, &pair.name, *k, shape, motion));
                 }
             }
+            warnings.extend(self.frictional_turns(case, i, pair));
         }
         Ok(warnings)
+    }
+
+    /// Refuses a rigid circle, sphere or cylinder (not a cavity) whose centre lies in a cell of
+    /// the body of surface `k` (the partner at the start of the first stage).
+    fn rigid_inside(
+        &self,
+        case: &Case,
+        i: usize,
+        pair: &str,
+        k: usize,
+        shape: &RigidShape,
+    ) -> Result<(), ModelError> {
+        let (center, what) = match shape {
+            RigidShape::Sphere {
+                center,
+                inside: false,
+                ..
+            } => (center, if self.dim == 2 { "circle" } else { "sphere" }),
+            RigidShape::Cylinder {
+                center,
+                inside: false,
+                ..
+            } => (center, "cylinder"),
+            _ => return Ok(()),
+        };
+        let s = &self.contact_surfaces[k];
+        let body = &self.bodies[s.body];
+        match cell_containing(body, center) {
+            Some(c) => Err(ModelError::Contact {
+                file: case.file.clone(),
+                key: format!("contact.{i}.rigid"),
+                msg: format!(
+                    "pair `{pair}`: the rigid {what}'s centre {:?} starts inside body `{}` (in \
+                     its cell {c}): the partner lies in the body, where the points of `{}` do \
+                     not reach it, and the body would run through it unhindered; place the \
+                     partner outside the body",
+                    &center[..self.dim],
+                    body.name,
+                    s.name
+                ),
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// Warnings of stages with friction on pair `i` in which a turn moves the pair's surfaces by
+    /// more than their element size per nominal step (or by 180 degrees or more): a `rotation`
+    /// condition on one of the pair's bodies or the pair's rigid partner's rotation, at the
+    /// pair's surface control point farthest from the axis (on the turned body).
+    fn frictional_turns(&self, case: &Case, i: usize, pair: &PairDef) -> Vec<String> {
+        let Some(friction) = &pair.friction else {
+            return Vec::new();
+        };
+        let h = pair
+            .passes
+            .iter()
+            .map(|(k, _)| self.contact_surfaces[*k].h)
+            .fold(f64::INFINITY, f64::min);
+        let bodies: Vec<&str> = pair
+            .passes
+            .iter()
+            .map(|(k, _)| self.bodies[self.contact_surfaces[*k].body].name.as_str())
+            .collect();
+        let mut turns: Vec<Turn> = Vec::new();
+        for (j, bc) in case.bcs.iter().enumerate() {
+            let BcSpec::Rotation(r) = bc else { continue };
+            if !bodies.contains(&r.body.as_str()) {
+                continue;
+            }
+            // the control points of the pair's surfaces on the turned body: they slide
+            let nodes: Vec<u32> = pair
+                .passes
+                .iter()
+                .map(|(k, _)| &self.contact_surfaces[*k])
+                .filter(|s| self.bodies[s.body].name == r.body)
+                .flat_map(|s| s.elements.iter().flat_map(|e| e.nodes.iter().copied()))
+                .collect();
+            let mut c = [0.0; 3];
+            for (d, v) in r.center.iter().take(3).enumerate() {
+                c[d] = *v;
+            }
+            turns.push((
+                format!("the rotation of `{}.{}` (`bcs.{j}`)", r.body, r.set),
+                format!("bcs.{j}.angle_deg"),
+                r.angle_deg.iter().map(|a| a.to_radians()).collect(),
+                unit(r.axis.unwrap_or([0.0, 0.0, 1.0])),
+                c,
+                nodes,
+            ));
+        }
+        for (k, partner) in &pair.passes {
+            if let Partner::Rigid(_, motion) = partner {
+                if motion.angles.is_empty() {
+                    continue;
+                }
+                let nodes = self.contact_surfaces[*k]
+                    .elements
+                    .iter()
+                    .flat_map(|e| e.nodes.iter().copied())
+                    .collect();
+                turns.push((
+                    "the rigid partner's rotation".to_string(),
+                    format!("contact.{i}.rigid.angle_deg"),
+                    motion.angles.clone(),
+                    motion.axis,
+                    motion.center,
+                    nodes,
+                ));
+            }
+        }
+        let mut out = Vec::new();
+        for (what, key, angles, axis, center, nodes) in turns {
+            let radius = nodes
+                .iter()
+                .map(|&n| {
+                    let x = self.position(n);
+                    let d = [0, 1, 2].map(|c| x[c] - center[c]);
+                    let t: f64 = (0..3).map(|c| d[c] * axis[c]).sum();
+                    (0..3)
+                        .map(|c| (d[c] - t * axis[c]).powi(2))
+                        .sum::<f64>()
+                        .sqrt()
+                })
+                .fold(0.0, f64::max);
+            let mut first_step = 1;
+            for (si, stage) in case.stages.iter().enumerate() {
+                let n = stage.steps.max(1);
+                let before = if si == 0 {
+                    0.0
+                } else {
+                    angles.get(si - 1).copied().unwrap_or(0.0)
+                };
+                let turn = (angles.get(si).copied().unwrap_or(before) - before).abs() / n as f64;
+                let on = friction.stages.get(si).copied().unwrap_or(true);
+                if on && (turn * radius > h || turn >= std::f64::consts::PI) {
+                    let half = if turn >= std::f64::consts::PI {
+                        " (a turn of 180 degrees or more per step is not even told apart from \
+                         the opposite turn: the step can end where it began)"
+                    } else {
+                        ""
+                    };
+                    out.push(format!(
+                        "contact `{}`: in stage {si} `{}` (nominal steps {first_step} to {}), \
+                         {what} turns {:.4} degrees per step, moving contact control points \
+                         {:.4e} from its axis by {:.4e} per step, against the contact \
+                         surfaces' element size {h:.4e}: friction follows each step along a straight chord, so the \
+                         stick and slip of the turn are not resolved{half}; give the stage more \
+                         steps (`stages.{si}.steps` = {}) or turn less per stage (`{key}`)",
+                        pair.name,
+                        stage.name,
+                        first_step + n - 1,
+                        turn.to_degrees(),
+                        radius,
+                        turn * radius,
+                        stage.steps
+                    ));
+                }
+                first_step += n;
+            }
+        }
+        out
     }
 
     /// Refuses a control point of surface `k` deeper than [`START_DEPTH`] of its element size
@@ -213,6 +382,78 @@ impl Model {
         }
         (hi - lo).max(0.0)
     }
+}
+
+/// What turns (for the message), its key, its angles per stage in radians, unit axis, a point
+/// on the axis, and the contact control points it moves.
+type Turn = (String, String, Vec<f64>, [f64; 3], [f64; 3], Vec<u32>);
+
+/// `v` normalised (unchanged if zero).
+fn unit(v: [f64; 3]) -> [f64; 3] {
+    let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    if l > 0.0 {
+        v.map(|c| c / l)
+    } else {
+        v
+    }
+}
+
+/// The first cell of `body`'s mesh whose corners' simplices (two triangles of a quad, six
+/// tetrahedra of a hexahedron about its 0-6 diagonal) contain `x` [3].
+fn cell_containing(body: &Body, x: &[f64; 3]) -> Option<usize> {
+    let m = &body.mesh;
+    let d = m.dim;
+    let at = |n: u32| -> [f64; 3] {
+        let mut p = [0.0; 3];
+        p[..d].copy_from_slice(&m.coords[n as usize * d..(n as usize + 1) * d]);
+        p
+    };
+    const TRIS: [[usize; 3]; 2] = [[0, 1, 2], [0, 2, 3]];
+    const TETS: [[usize; 4]; 6] = [
+        [0, 1, 2, 6],
+        [0, 2, 3, 6],
+        [0, 3, 7, 6],
+        [0, 7, 4, 6],
+        [0, 4, 5, 6],
+        [0, 5, 1, 6],
+    ];
+    (0..m.n_cells()).find(|&c| {
+        let nodes = m.cell(c);
+        if d == 2 && nodes.len() >= 4 {
+            TRIS.iter()
+                .any(|t| in_simplex(&t.map(|a| at(nodes[a])), x, 2))
+        } else if d == 3 && nodes.len() >= 8 {
+            TETS.iter()
+                .any(|t| in_simplex(&t.map(|a| at(nodes[a])), x, 3))
+        } else {
+            false
+        }
+    })
+}
+
+/// Whether `x` lies in the simplex of `v` (a triangle in the plane for `dim` 2, a tetrahedron for
+/// 3), boundary included: its barycentric coordinates all non-negative.
+fn in_simplex<const N: usize>(v: &[[f64; 3]; N], x: &[f64; 3], dim: usize) -> bool {
+    let sub = |a: &[f64; 3], b: &[f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let det = |p: &[[f64; 3]]| -> f64 {
+        let e: Vec<[f64; 3]> = p[1..].iter().map(|q| sub(q, &p[0])).collect();
+        if dim == 2 {
+            e[0][0] * e[1][1] - e[0][1] * e[1][0]
+        } else {
+            e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1])
+                - e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0])
+                + e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0])
+        }
+    };
+    let total = det(&v[..]);
+    if total == 0.0 {
+        return false;
+    }
+    (0..N).all(|a| {
+        let mut p = *v;
+        p[a] = *x;
+        det(&p[..]) / total >= 0.0
+    })
 }
 
 /// A shape's reference point (a plane's point, a sphere's or cylinder's centre) and, for a plane
