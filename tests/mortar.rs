@@ -66,15 +66,15 @@ fn mortar_gap_passes_the_contact_patch_test_in_2d_and_3d() {
 }
 
 #[test]
-fn one_pass_mortar_passes_the_contact_patch_test_on_matching_meshes_alike_on_1_and_2_ranks() {
+fn one_pass_mortar_passes_the_contact_patch_test_alike_on_1_and_2_ranks() {
     // one-pass: the slave (upper) surface's control points carry the pressure, the master takes
     // the opposite traction at the slave's points. On matching meshes the slave's pressure is
-    // uniform; on the non-matching ones the master's forces, integrated at the slave's points
-    // across the master's element boundaries (no segmentation), are not those of a uniform
-    // pressure, and the slave's pressure varies by 2.6 % (Q1C1, 2D), as the one-pass pointwise
-    // gap's does (measured, BENCHMARKS.md "One-pass mortar gap"). Either way the slave's pass
-    // carries the load the top reaction measures, and a 2-rank run (the slave's supports and the
-    // master rows split by METIS) gives the 1-rank history.
+    // uniform. On the non-matching ones it is uniform in 2D, where the slave's elements are
+    // integrated over segments between the master's element boundaries (without them the
+    // master's forces of a uniform pressure were not exact and the pressure varied by 2.5 %,
+    // Q1C1); in 3D, integrated across the master's boundaries, it still varies. Either way the
+    // slave's pass carries the load the top reaction measures, and a 2-rank run (the slave's
+    // supports and the master rows split by METIS) gives the 1-rank history.
     for (file, dim, slave, matching) in [
         (
             "contact_patch_2d.toml",
@@ -127,10 +127,15 @@ fn one_pass_mortar_passes_the_contact_patch_test_on_matching_meshes_alike_on_1_a
                         r.abs() > 1e-3 && (pf.abs() - r.abs()).abs() < 1e-9 * r.abs(),
                         "{file} {fam} {gap} {tag}: pass force {pf} vs reaction {r}"
                     );
-                    if !mesh.is_empty() {
+                    if !mesh.is_empty() || dim == 2 {
                         let p = h5_last(&d, "bulk", "contact_pressure");
                         let on: Vec<f64> = p.iter().copied().filter(|&v| v != 0.0).collect();
-                        let n_slave = if dim == 2 { 7 } else { 49 };
+                        // the slave's nodes: 6 (matching) or 4 elements across, 2D; 6 x 6, 3D
+                        let n_slave = match (dim, mesh.is_empty()) {
+                            (2, true) => 5,
+                            (2, false) => 7,
+                            _ => 49,
+                        };
                         assert!(
                             on.len() >= n_slave,
                             "{file} {fam} {gap}: {} nodes",

@@ -150,6 +150,9 @@ pub(crate) struct Pass {
     pub(crate) halo: Vec<OwnElem>,
     /// Mortar gap: the control points of `elems` and `halo`.
     pub(crate) mortar: Option<MortarNet>,
+    /// One-pass weighted gap in 2D: the elements' points are placed on segments between the
+    /// master's element boundaries at every update ([`crate::contact::system`]'s `segments`).
+    pub(crate) segments: Option<crate::contact::system::Segments>,
     /// Rigid shape at the current load.
     pub(crate) shape: Option<RigidShape>,
     pub(crate) result: PassResult,
@@ -302,6 +305,7 @@ pub(crate) fn run(
         shape,
         result,
         bases,
+        segments: _,
     } = pass;
     let hp = HalfPass {
         geo,

@@ -34,10 +34,12 @@ mod partner_points;
 mod pattern;
 mod pressure;
 mod sanity;
+mod segments;
 mod setup;
 pub use checkpoint::ROW as CHECKPOINT_ROW;
 pub use footprint::Footprint;
 pub use sanity::PassDepth;
+pub(crate) use segments::Segments;
 
 /// Values per point of [`ContactSystem::point_records`].
 pub const POINT_RECORD: usize = 18;
@@ -160,6 +162,7 @@ impl ContactSystem {
         }
         self.update_positions(u_table);
         self.check_motion(u_table);
+        self.segment_all();
         self.ghost.requests.clear();
         self.request_anchors();
         for pair in &mut self.pairs {
@@ -176,6 +179,12 @@ impl ContactSystem {
                 let PartnerPoint { pair, pass, q, k, e, l, x } = pt;
                 let dist = sys.pairs[pair].def.search_distance;
                 let ps = &sys.pairs[pair].passes[pass];
+                // an unused segment slot: no partner
+                if ps.points[q].w == 0.0 {
+                    let point = &mut sys.pairs[pair].passes[pass].points[q];
+                    (point.current, point.edge) = (None, None);
+                    return Ok(());
+                }
                 let warm = ps.points[q].warm;
                 // the partner basis at the warm start is the one the last evaluation used
                 let known = warm.and_then(|(f, xi)| ps.bases.get(q).and_then(|b| b.get(f, &xi)));
@@ -347,6 +356,8 @@ impl ContactSystem {
                         out.extend([pass_id as f64, oe.e as f64, (q - oe.first) as f64]);
                         out.extend(qp.X);
                         out.extend(x);
+                        // an unused segment slot carries no pressure or gap: NaN
+                        let p = if qp.w == 0.0 { f64::NAN } else { p };
                         out.extend([p, qp.gap.unwrap_or(f64::NAN), state]);
                         out.extend(qp.t_t);
                         out.extend(qp.g_t);

@@ -350,6 +350,12 @@ impl MortarNet {
         self.d.resize(n_cp, None);
     }
 
+    /// Replaces the weight functions of element `i` (own, then halo) at its points
+    /// [n_points][n_weight nodes] (points moved onto new segments).
+    pub(crate) fn set_weights(&mut self, i: usize, phi: Vec<f64>) {
+        self.phi[i] = phi;
+    }
+
     /// The weight functions at point `j` (of the element's points) of element `i`.
     fn weights(&self, i: usize, j: usize) -> &[f64] {
         let n = self.elem_cps[i].len();

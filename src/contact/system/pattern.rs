@@ -141,7 +141,10 @@ impl ContactSystem {
                             for s in pass.coupled_elems(i) {
                                 w.extend(
                                     (s.first..s.first + s.n)
-                                        .filter(|&q| pass.points[q].current.is_none())
+                                        .filter(|&q| {
+                                            let p = &pass.points[q];
+                                            p.current.is_none() && p.w > 0.0
+                                        })
                                         .map(|q| (oe.e, s.e, pass.points[q].xi)),
                                 );
                             }

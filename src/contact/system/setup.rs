@@ -106,9 +106,23 @@ impl ContactSystem {
                 let mut points = Vec::new();
                 let mut elems = Vec::new();
                 let n_el = sys.surfaces[k].elements.len();
+                let segments = match partner {
+                    Partner::Surface(l) if super::segments::segmented(&def, dim, partner) => {
+                        let n_g = sys.surfaces[k]
+                            .elements
+                            .iter()
+                            .map(|el| el.basis.quadrature_counts()[0])
+                            .max()
+                            .unwrap_or(1);
+                        let linear = def.gap == GapKind::MortarLinear;
+                        Some(sys.segment_rule(k, *l, n_g, linear))
+                    }
+                    _ => None,
+                };
+                let per = segments.as_ref().map(|s| s.per_element());
                 for e in 0..n_el {
                     if cell_part[sys.surfaces[k].elements[e].cell] as usize == rank {
-                        elems.extend(sys.surface_points(&def, k, e, dofs, &mut points)?);
+                        elems.extend(sys.surface_points(&def, k, e, dofs, per, &mut points)?);
                     }
                 }
                 let (halo, mortar) = if matches!(
@@ -116,7 +130,7 @@ impl ContactSystem {
                     GapKind::Mortar | GapKind::MortarLinear | GapKind::MortarMean
                 ) {
                     let linear = def.gap == GapKind::MortarLinear;
-                    let halo = sys.halo(&def, k, linear, &elems, dofs, &mut points)?;
+                    let halo = sys.halo(&def, k, linear, &elems, dofs, per, &mut points)?;
                     let all: Vec<&OwnElem> = elems.iter().chain(&halo).collect();
                     let nodes: Vec<Vec<u32>> = all
                         .iter()
@@ -139,6 +153,7 @@ impl ContactSystem {
                     elems,
                     halo,
                     mortar,
+                    segments,
                     shape: None,
                     result: PassResult::default(),
                     bases: Vec::new(),
@@ -152,13 +167,16 @@ impl ContactSystem {
     }
 
     /// The quadrature points of element `e` of surface `k` inside the pair's region, appended to
-    /// `points`, and the element that holds them (`None`: none inside the region).
+    /// `points`, and the element that holds them (`None`: none inside the region). With `per`
+    /// (segmented passes), padded to `per` points by unused slots of weight 0, which the first
+    /// update places on the element's segments.
     fn surface_points(
         &self,
         def: &PairDef,
         k: usize,
         e: usize,
         dofs: &DofMap,
+        per: Option<usize>,
         points: &mut Vec<QPoint>,
     ) -> Result<Option<OwnElem>, String> {
         let dim = self.dim;
@@ -197,6 +215,14 @@ impl ContactSystem {
         if points.len() == first {
             return Ok(None); // outside the pair's region
         }
+        if let Some(per) = per {
+            el.basis.eval(&[0.0; 2][..m], &mut N, &mut dN, &mut ddN);
+            while points.len() - first < per {
+                bN.extend_from_slice(&N[..nk]);
+                bdN.extend_from_slice(&dN[..nk * m]);
+                points.push(QPoint::default());
+            }
+        }
         let local = self.gdofs[k][e]
             .iter()
             .map(|&g| {
@@ -226,7 +252,9 @@ impl ContactSystem {
     }
 
     /// The mortar gap's halo of `elems` on surface `k`: the elements of other ranks that share a
-    /// weight node with them, with their points appended to `points` (in element order).
+    /// weight node with them, with their points appended to `points` (in element order; `per` as
+    /// [`ContactSystem::surface_points`]).
+    #[allow(clippy::too_many_arguments)]
     fn halo(
         &self,
         def: &PairDef,
@@ -234,6 +262,7 @@ impl ContactSystem {
         linear: bool,
         elems: &[OwnElem],
         dofs: &DofMap,
+        per: Option<usize>,
         points: &mut Vec<QPoint>,
     ) -> Result<Vec<OwnElem>, String> {
         let own: std::collections::HashSet<u32> = elems.iter().map(|o| o.e).collect();
@@ -251,7 +280,7 @@ impl ContactSystem {
             {
                 continue;
             }
-            halo.extend(self.surface_points(def, k, e as usize, dofs, points)?);
+            halo.extend(self.surface_points(def, k, e as usize, dofs, per, points)?);
         }
         Ok(halo)
     }
