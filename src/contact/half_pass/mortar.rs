@@ -558,6 +558,10 @@ impl MortarNet {
             let io = piece(&mut out, own_key, nk * dim);
             let m = dim - 1;
             for q in oe.first..oe.first + oe.n {
+                // (an unused segment slot)
+                if points[q].w == 0.0 {
+                    continue;
+                }
                 let (N, dN) = oe.basis(q);
                 let phi = self.weights(j as usize, q - oe.first);
                 // every entry of the element's list that is `a` (a collapsed control point repeats)

@@ -87,8 +87,7 @@ pub(crate) fn segmented(def: &PairDef, dim: usize, partner: &Partner) -> bool {
 
 impl ContactSystem {
     /// The segment rule of surface `k` integrated against surface `l` with `n_g` Gauss points per
-    /// segment: enough slots for the longest slave element over the shortest master element (two
-    /// breakpoints per master node where the master is C0).
+    /// segment: enough slots for the longest slave element over the shortest master element.
     pub(super) fn segment_rule(&self, k: usize, l: usize, n_g: usize, linear: bool) -> Segments {
         let chord = |s: usize| -> Vec<f64> {
             let surf = &self.surfaces[s];
@@ -115,7 +114,9 @@ impl ContactSystem {
         } else {
             1.0
         };
-        let slots = (2.0 * ratio.ceil() + 2.0).min(MAX_SLOTS as f64) as usize;
+        // a slave element meets at most ceil(ratio) + 1 master nodes, each two breakpoints where
+        // the master is C0 (the edges of its fan); the master's elements may shorten by half
+        let slots = (2.0 * (1.5 * ratio).ceil() + 3.0).min(MAX_SLOTS as f64) as usize;
         let (zeta, wz) =
             crate::fem::quadrature::gauss_legendre(n_g).expect("a rule of at least one point");
         Segments {
