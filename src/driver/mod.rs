@@ -97,6 +97,15 @@ pub enum Error {
         /// What failed.
         source: SolverError,
     },
+    /// Load stepping failed in a case whose contact penalty the set-up found absurd
+    /// ([`crate::model::Model::absurd_penalties`]).
+    #[error("{}: {message}", .file.display())]
+    AbsurdPenalty {
+        /// The case file.
+        file: PathBuf,
+        /// The load stepping's message and the penalties.
+        message: String,
+    },
     /// Boundary conditions that contradict each other.
     #[error("{}: {source}", .file.display())]
     Conflict {
@@ -233,7 +242,7 @@ fn load_and_build(case_path: &Path, sets: &[String]) -> Result<(Case, Model), Er
     let case = load_case(case_path, sets)?;
     validate(&case)?;
     let mut model = Model::build(&case)?;
-    model.contact_warnings = model.contact_checks(&case)?;
+    model.contact_checks(&case)?;
     Ok((case, model))
 }
 
@@ -312,7 +321,10 @@ pub fn run_main(opts: RunOptions) -> Result<(), Error> {
     crate::interrupt::install().map_err(|e| Error::Usage(format!("signal handlers: {e}")))?;
     let result = run(&petsc, &opts);
     // Options are only all read once the solver has run; an earlier failure has its own message.
-    if matches!(result, Ok(()) | Err(Error::Solver { .. })) {
+    if matches!(
+        result,
+        Ok(()) | Err(Error::Solver { .. } | Error::AbsurdPenalty { .. })
+    ) {
         warn_unused_options(&petsc);
     }
     drop(petsc);
@@ -466,6 +478,14 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
             signal: observer_signal.unwrap_or(0),
             steps,
             out_dir,
+        },
+        source if !model.absurd_penalties.is_empty() => Error::AbsurdPenalty {
+            file: case.file.clone(),
+            message: format!(
+                "{source}; the contact penalty is absurd against the bodies' stiffness, likely \
+                 the cause: {} (see the warning before the run)",
+                model.absurd_penalties.join(", ")
+            ),
         },
         SolverError::Singular { step, load, pivots } if !solver.suspects.is_empty() => {
             Error::IllPosed {

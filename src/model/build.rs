@@ -662,6 +662,7 @@ impl Model {
             contact_pairs,
             warnings,
             contact_warnings: Vec::new(),
+            absurd_penalties: Vec::new(),
             notes,
         })
     }

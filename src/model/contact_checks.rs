@@ -42,11 +42,13 @@ pub const PENALTY_RATIO: f64 = 1e10;
 pub const STEP_FRACTION: f64 = 0.5;
 
 impl Model {
-    /// The checks of this module on every pair of `case`: the warnings, or the error of a rigid
-    /// partner that starts deep inside its surface. The front end's (`check`, `run`): a model
-    /// built for a test may start anywhere.
-    pub fn contact_checks(&self, case: &Case) -> Result<Vec<String>, ModelError> {
+    /// The checks of this module on every pair of `case`: sets
+    /// [`contact_warnings`](Model::contact_warnings) and [`absurd_penalties`](Model::absurd_penalties),
+    /// or gives the error of a rigid partner that starts inside its body. The front end's
+    /// (`check`, `run`): a model built for a test may start anywhere.
+    pub fn contact_checks(&mut self, case: &Case) -> Result<(), ModelError> {
         let mut warnings = Vec::new();
+        let mut absurd = Vec::new();
         for (i, (pair, spec)) in self.contact_pairs.iter().zip(&case.contact).enumerate() {
             let surfaces: Vec<usize> = pair.passes.iter().map(|(k, _)| *k).collect();
             let h_min = surfaces
@@ -78,6 +80,10 @@ impl Model {
                     })
                     .fold((0.0, ""), |m, (r, b)| if r > m.0 { (r, b) } else { m });
                 if ratio > PENALTY_RATIO {
+                    absurd.push(format!(
+                        "`contact.{i}.{name}` = {eps:e} of pair `{}` ({name} h / E = {ratio:.1e})",
+                        pair.name
+                    ));
                     warnings.push(format!(
                         "contact `{}`: `contact.{i}.{name}` = {eps:e} is absurd against body \
                          `{body}`: {name} h / E = {ratio:.1e} (h the contact surface's element \
@@ -98,7 +104,9 @@ impl Model {
             }
             warnings.extend(self.frictional_turns(case, i, pair));
         }
-        Ok(warnings)
+        self.contact_warnings = warnings;
+        self.absurd_penalties = absurd;
+        Ok(())
     }
 
     /// Refuses a rigid circle, sphere or cylinder (not a cavity) whose centre lies in a cell of

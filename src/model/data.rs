@@ -133,6 +133,9 @@ pub struct Model {
     /// ([`Model::contact_checks`], which the front end runs): printed like [`warnings`](Self::warnings), also when quiet, as the
     /// contact warnings of the steps are.
     pub contact_warnings: Vec<String>,
+    /// The penalties among those warnings whose `eps h / E` is absurd, as `` `key` = value of pair
+    /// `name` (ratio) ``: a failed run names them.
+    pub absurd_penalties: Vec<String>,
     /// What the front end reports about the built model beside its summary (e.g. the distance of a
     /// smooth enriched surface from the exact one), one line each.
     pub notes: Vec<String>,
