@@ -104,7 +104,7 @@ impl<'c, 'p> StepObserver<'c, 'p> {
     /// of the half-pass's points is active: contact that is silently not there (a smooth surface
     /// lies inside its control points and may not reach a partner the mesh goes through).
     /// Collective.
-    fn warn_unseen_contact(&mut self, asm: &Assembler, rec: &StepRecord) {
+    fn warn_unseen_contact(&mut self, model: &Model, asm: &Assembler, rec: &StepRecord) {
         let Some(c) = asm.coupling_set::<ContactSystem>() else {
             return;
         };
@@ -133,7 +133,7 @@ impl<'c, 'p> StepObserver<'c, 'p> {
             if rank == 0 {
                 let dim = self.case.case.dim;
                 eprintln!(
-                    "warning: step {} (load {:.6}): contact `{}`: node {} of `{}` at {:?} lies \
+                    "warning: step {} (load {:.6}): contact `{}`: surface `{}`: {}, now at {:?}, lies \
                      {depth:.3e} inside the rigid partner ({:.1} % of the surface's element \
                      size) while no contact point of the pair is active: the contact surface \
                      does not reach the partner there and nothing holds the body (a smooth \
@@ -142,8 +142,8 @@ impl<'c, 'p> StepObserver<'c, 'p> {
                     rec.step,
                     rec.load,
                     d.pair,
-                    point[0] as u64,
                     d.surface,
+                    model.node_label(point[0] as u32),
                     point[1..1 + dim]
                         .iter()
                         .map(|v| format!("{v:.4e}"))
@@ -204,7 +204,7 @@ impl<'c, 'p> StepObserver<'c, 'p> {
             }
         }
         extra_columns.extend(contact_history(asm, model.dim));
-        self.warn_unseen_contact(asm, rec);
+        self.warn_unseen_contact(model, asm, rec);
         if model.contact_pairs.iter().any(|p| p.augmented.is_some()) {
             extra_columns.push(rec.augmentation_rounds as f64);
         }
