@@ -25,7 +25,7 @@ use crate::contact::kernel::{
 };
 use crate::contact::law::{self, Traction};
 use crate::contact::pair::{
-    law_traction, Anchor, Coupling, Friction, GapKind, Law, Partner, SlotOf,
+    law_traction, Anchor, BlockKey, Coupling, Friction, GapKind, Law, Partner, SlotOf,
 };
 use crate::contact::projection::{BasisAt, Positions, Projection};
 use crate::contact::rigid::{RigidMotion, RigidShape};
@@ -658,24 +658,24 @@ impl HalfPass<'_> {
             for (le, kb) in &work.blocks[..work.n_used] {
                 let c: Coupling = (self.pass_id, oe.e, *le);
                 let own_rows = &self.geo.gdofs[self.k][e];
-                let cols = if let Some(e2) = mortar::own_columns(*le) {
-                    self.geo.gdofs[self.k][e2 as usize].clone()
-                } else {
-                    let mut cols = own_rows.clone();
-                    if let (Some(l), true) = (self.l, *le != u32::MAX) {
-                        cols.extend_from_slice(&self.geo.gdofs[l][*le as usize]);
+                let key = BlockKey::decode(*le);
+                let cols = match key {
+                    BlockKey::Own(e2) => self.geo.gdofs[self.k][e2 as usize].clone(),
+                    BlockKey::Rigid => own_rows.clone(),
+                    BlockKey::Partner(l_e) => {
+                        let l = self.l.expect("a partner surface");
+                        let mut cols = own_rows.clone();
+                        cols.extend_from_slice(&self.geo.gdofs[l][l_e as usize]);
+                        cols
                     }
-                    cols
                 };
                 // one-pass: a partner block's rows are the own element's and the partner's (an
                 // own-columns block of the mortar gap keeps the own rows)
-                let rows =
-                    if self.pair.one_pass && self.l.is_some() && mortar::own_columns(*le).is_none()
-                    {
-                        &cols
-                    } else {
-                        own_rows
-                    };
+                let rows = if self.pair.one_pass && matches!(key, BlockKey::Partner(_)) {
+                    &cols
+                } else {
+                    own_rows
+                };
                 if let Some(slot) = slot_of(&c) {
                     sink.add_block(slot, rows, &cols, kb);
                 }
@@ -685,9 +685,10 @@ impl HalfPass<'_> {
             for (le, key, kb) in &work.cross[..work.n_cross] {
                 let l = self.l.expect("a master surface");
                 let own_rows = &self.geo.gdofs[self.k][e];
-                let (cols, col_from) = match mortar::own_columns(*key) {
-                    Some(e2) => (&self.geo.gdofs[self.k][e2 as usize], 0),
-                    None => (&self.geo.gdofs[l][*key as usize], own_rows.len()),
+                let (cols, col_from) = match BlockKey::decode(*key) {
+                    BlockKey::Own(e2) => (&self.geo.gdofs[self.k][e2 as usize], 0),
+                    BlockKey::Partner(l_e) => (&self.geo.gdofs[l][l_e as usize], own_rows.len()),
+                    BlockKey::Rigid => unreachable!("one-pass cross blocks have a master surface"),
                 };
                 let rows = &self.geo.gdofs[l][*le as usize];
                 let (Some(rs), Some(cs)) = (

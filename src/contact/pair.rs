@@ -123,9 +123,55 @@ pub struct Augmented {
 }
 
 /// One coupling block of the Jacobian, contact's [`Block`](crate::assembly::Block): rows of
-/// element `k_e` of the pass's surface, columns of `k_e` and of partner element `l_e`
-/// (`u32::MAX` for a rigid partner), as `(pass, k_e, l_e)`.
+/// element `k_e` of the pass's surface, and the columns its third key names ([`BlockKey`]), as
+/// `(pass, k_e, key)`.
 pub type Coupling = crate::assembly::Block;
+
+/// What a coupling block's columns are: those of the own element and partner element `l`
+/// (one-pass: its rows too), those of the own element against a rigid partner, or (weighted gaps)
+/// those of element `e` of the integrated surface itself. Encoded into the block's third `u32`
+/// only here: partner elements as themselves, the rigid partner as `u32::MAX`, own-surface
+/// elements with the top bit set.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum BlockKey {
+    Partner(u32),
+    Rigid,
+    Own(u32),
+}
+
+const OWN_BIT: u32 = 1 << 31;
+
+impl BlockKey {
+    /// The block's third `u32`.
+    pub(crate) fn encode(self) -> u32 {
+        match self {
+            BlockKey::Partner(l) => {
+                debug_assert!(
+                    l & OWN_BIT == 0,
+                    "partner element {l} beyond the key's range"
+                );
+                l
+            }
+            BlockKey::Rigid => u32::MAX,
+            BlockKey::Own(e) => {
+                // (`OWN_BIT - 1` would be the rigid partner's `u32::MAX`)
+                debug_assert!(e < OWN_BIT - 1, "own element {e} beyond the key's range");
+                e | OWN_BIT
+            }
+        }
+    }
+
+    /// The key a block's third `u32` encodes.
+    pub(crate) fn decode(key: u32) -> BlockKey {
+        if key == u32::MAX {
+            BlockKey::Rigid
+        } else if key & OWN_BIT != 0 {
+            BlockKey::Own(key & !OWN_BIT)
+        } else {
+            BlockKey::Partner(key)
+        }
+    }
+}
 
 /// The COO slot of a coupling block in the current pattern (`None`: not in it).
 pub use crate::assembly::SlotOf;
@@ -276,5 +322,29 @@ mod tests {
         assert_eq!(facing_points(&points, &[[2, 7]]), points.to_vec());
         // nothing faces (rigid partners, or surfaces beyond the search distance): every point
         assert_eq!(facing_points(&points, &[]), points.to_vec());
+    }
+}
+
+#[cfg(test)]
+mod block_key_tests {
+    use super::BlockKey;
+
+    #[test]
+    fn block_keys_round_trip_and_stay_apart() {
+        for k in [
+            BlockKey::Partner(0),
+            BlockKey::Partner((1 << 31) - 1),
+            BlockKey::Rigid,
+            BlockKey::Own(0),
+            BlockKey::Own(17),
+            BlockKey::Own((1 << 31) - 2),
+        ] {
+            assert_eq!(BlockKey::decode(k.encode()), k);
+        }
+        assert_ne!(BlockKey::Own(5).encode(), BlockKey::Partner(5).encode());
+        assert_ne!(
+            BlockKey::Own((1 << 31) - 2).encode(),
+            BlockKey::Rigid.encode()
+        );
     }
 }

@@ -72,18 +72,9 @@
 use super::{block_slot, HalfPass, OwnElem, QPoint, Work};
 use crate::contact::kernel::{gap_and_normal, SlipState};
 use crate::contact::law::Traction;
+use crate::contact::pair::BlockKey;
 use crate::contact::surface::{raw_normal, MAX_FACE_NODES};
 use std::collections::HashMap;
-
-/// The bit of a coupling block's third key that says its columns are those of an element of the
-/// integrated surface itself (the key's other bits), not of a partner element. Partner element
-/// indices stay below it; `u32::MAX` (a rigid partner) is not such a key.
-pub(crate) const OWN_COLUMNS: u32 = 1 << 31;
-
-/// The own-surface element whose columns a block key `key` names, if it is such a key.
-pub(crate) fn own_columns(key: u32) -> Option<u32> {
-    (key != u32::MAX && key & OWN_COLUMNS != 0).then_some(key & !OWN_COLUMNS)
-}
 
 /// Jacobian columns of a control point: per block key, the column values.
 type Columns = Vec<(u32, Vec<f64>)>;
@@ -446,7 +437,7 @@ impl MortarNet {
             let f = eps_n / self.w[a];
             let g_master = std::mem::take(&mut work.g_master);
             for (key, vals) in self.d[a].as_ref().expect("built above") {
-                let (ncols, off) = if own_columns(*key).is_some() {
+                let (ncols, off) = if let BlockKey::Own(_) = BlockKey::decode(*key) {
                     (vals.len(), 0)
                 } else {
                     (rows + vals.len(), rows)
@@ -466,7 +457,7 @@ impl MortarNet {
                     }
                 }
                 // one-pass: a partner block holds the partner's rows below the own ones
-                let nrows = if one_pass && own_columns(*key).is_none() {
+                let nrows = if one_pass && !matches!(BlockKey::decode(*key), BlockKey::Own(_)) {
                     ncols
                 } else {
                     rows
@@ -542,7 +533,7 @@ impl MortarNet {
     }
 
     /// `D_A` of control point `a`: per own-surface element of its support (key
-    /// [`OWN_COLUMNS`]` | e`) and per partner element of its points, the column values.
+    /// [`BlockKey::Own`]) and per partner element of its points, the column values.
     fn columns(
         &self,
         a: usize,
@@ -555,7 +546,7 @@ impl MortarNet {
         for &j in &self.support[a] {
             let oe = all[j as usize];
             let cps = &self.elem_cps[j as usize];
-            let own_key = OWN_COLUMNS | oe.e;
+            let own_key = BlockKey::Own(oe.e).encode();
             let nk = oe.N.len() / oe.n;
             let io = piece(&mut out, own_key, nk * dim);
             let m = dim - 1;

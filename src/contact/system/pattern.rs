@@ -2,8 +2,7 @@
 //! projections need, and a band around them reserved for points that slide or approach.
 
 use super::ContactSystem;
-use crate::contact::half_pass::mortar::{own_columns, OWN_COLUMNS};
-use crate::contact::pair::{Anchor, Coupling, Partner};
+use crate::contact::pair::{Anchor, BlockKey, Coupling, Partner};
 
 impl ContactSystem {
     /// The coupling blocks the current projections need (sorted, unique): an element's rows with
@@ -18,7 +17,11 @@ impl ContactSystem {
                 for (i, oe) in pass.elems.iter().enumerate() {
                     let sources = pass.coupled_elems(i);
                     if pass.mortar.is_some() {
-                        out.extend(sources.iter().map(|s| (pass_id, oe.e, OWN_COLUMNS | s.e)));
+                        out.extend(
+                            sources
+                                .iter()
+                                .map(|s| (pass_id, oe.e, BlockKey::Own(s.e).encode())),
+                        );
                     }
                     if pass.shape.is_some() {
                         out.push((pass_id, oe.e, u32::MAX));
@@ -66,7 +69,11 @@ impl ContactSystem {
                 for (i, oe) in pass.elems.iter().enumerate() {
                     let sources = pass.coupled_elems(i);
                     if pass.mortar.is_some() {
-                        out.extend(sources.iter().map(|s| (pass_id, oe.e, OWN_COLUMNS | s.e)));
+                        out.extend(
+                            sources
+                                .iter()
+                                .map(|s| (pass_id, oe.e, BlockKey::Own(s.e).encode())),
+                        );
                     }
                     let Some(l) = l else {
                         out.push((pass_id, oe.e, u32::MAX));
@@ -174,7 +181,7 @@ impl ContactSystem {
         let (pass, k_e, l_e) = *c;
         let (k, partner, one_pass) = self.pass_surfaces(pass as usize);
         let own = &self.gdofs[k][k_e as usize][..];
-        if let Some(e2) = own_columns(l_e) {
+        if let BlockKey::Own(e2) = BlockKey::decode(l_e) {
             return (own.to_vec(), self.gdofs[k][e2 as usize].clone());
         }
         let mut cols = own.to_vec();
