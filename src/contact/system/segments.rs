@@ -177,12 +177,10 @@ impl ContactSystem {
         let el = &self.surfaces[k].elements[e];
         let xe = self.pos[k].of(e);
         let at = |t: f64| frame(el, dim, xe, &[t, 0.0]).0;
-        let samples: Vec<(f64, [f64; 3])> = (0..=SAMPLES)
-            .map(|j| {
-                let t = -1.0 + 2.0 * j as f64 / SAMPLES as f64;
-                (t, at(t))
-            })
-            .collect();
+        let samples: [(f64, [f64; 3]); SAMPLES + 1] = std::array::from_fn(|j| {
+            let t = -1.0 + 2.0 * j as f64 / SAMPLES as f64;
+            (t, at(t))
+        });
         let (x0, x1) = (samples[0].1, samples[SAMPLES].1);
         let length = (0..dim)
             .map(|c| (x1[c] - x0[c]).powi(2))
