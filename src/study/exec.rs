@@ -67,6 +67,13 @@ fn summary_of_case(dir: &Path, case_toml: &str) -> Option<Summary> {
     (written == case_toml).then(|| read_summary(dir)).flatten()
 }
 
+/// Whether `dir` holds a converged `summary.json` written at or after `t`.
+fn converged_since(dir: &Path, t: std::time::SystemTime) -> bool {
+    let written = std::fs::metadata(dir.join("summary.json")).and_then(|m| m.modified());
+    written.is_ok_and(|w| w >= t)
+        && read_summary(dir).is_some_and(|s| matches!(s.status, RunStatus::Converged))
+}
+
 fn read_summary(dir: &Path) -> Option<Summary> {
     let text = std::fs::read_to_string(dir.join("summary.json")).ok()?;
     serde_json::from_str(&text).ok()
@@ -278,6 +285,7 @@ fn launch_run(
     cmd.stdin(Stdio::null())
         .stdout(Stdio::from(out_file))
         .stderr(Stdio::from(err_file));
+    let started = std::time::SystemTime::now();
     let mut child = cmd
         .spawn()
         .map_err(|e| format!("cannot start {:?}: {e}", cmd.get_program()))?;
@@ -337,6 +345,11 @@ fn launch_run(
         std::thread::sleep(Duration::from_millis(50));
     };
     if status.success() {
+        return Ok(());
+    }
+    // The study's stop reached a run that had already finished: it wrote its converged summary
+    // (the last file it writes) and was tearing down (mpirun exits non-zero on the signal then).
+    if stopping.is_some() && converged_since(dir, started) {
         return Ok(());
     }
     Err(format!(
