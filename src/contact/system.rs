@@ -38,7 +38,7 @@ mod segments;
 mod setup;
 pub use checkpoint::ROW as CHECKPOINT_ROW;
 pub use footprint::Footprint;
-pub use sanity::PassDepth;
+pub use sanity::{PassDepth, PassSlip};
 pub(crate) use segments::Segments;
 
 /// Values per point of [`ContactSystem::point_records`].

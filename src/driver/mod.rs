@@ -415,6 +415,9 @@ pub fn run(petsc: &Petsc, opts: &RunOptions) -> Result<(), Error> {
     );
     let t_solve = Instant::now();
     let start = restart.as_ref().map(|(_, s)| s.position);
+    if start.is_none() {
+        observer.warn_initial_penetrations(&model, &mut solver.asm);
+    }
     let result = solver.load_loop(&model, &mut observer, start);
     let solve_wall = t_solve.elapsed().as_secs_f64();
     let observer_signal = observer.interrupted;

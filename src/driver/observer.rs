@@ -45,11 +45,47 @@ pub(super) struct StepObserver<'c, 'p> {
     /// Rigid-partner half-passes (in the contact system's order) already warned of a control
     /// point inside the partner with no active contact point.
     pub(super) unseen_warned: Vec<usize>,
+    /// Frictional half-passes already warned of a step's slip beyond [`SLIP_PER_STEP`].
+    pub(super) slip_warned: Vec<usize>,
 }
 
 /// A control point deeper than this fraction of its surface's mean element size inside a rigid
-/// partner, while none of the half-pass's points is active, is warned of.
+/// partner, while none of the pair's points is active, is warned of.
 const UNSEEN_DEPTH: f64 = 0.01;
+
+/// A frictional point that moves tangentially against its partner by more than this many element
+/// sizes of its surface within one step is warned of.
+const SLIP_PER_STEP: f64 = 1.0;
+
+/// The deepest point of `d` (this rank's part of a reduced half-pass whose depth over all ranks
+/// is `depth`), from the lowest rank that holds it: its node and position [3]. Collective.
+fn deepest_point(
+    comm: &mpi::topology::SimpleCommunicator,
+    d: &crate::contact::system::PassDepth,
+    depth: f64,
+) -> [f64; 4] {
+    let mine = if d.depth == depth {
+        comm.rank()
+    } else {
+        i32::MAX
+    };
+    let mut holder = 0i32;
+    comm.all_reduce_into(&mine, &mut holder, SystemOperation::min());
+    let local = if comm.rank() == holder {
+        [d.node as f64, d.position[0], d.position[1], d.position[2]]
+    } else {
+        [0.0; 4]
+    };
+    let mut point = [0.0f64; 4];
+    comm.all_reduce_into(&local[..], &mut point[..], SystemOperation::sum());
+    point
+}
+
+/// Coordinates as `(x, y[, z])` with five significant digits.
+fn coordinates(x: &[f64]) -> String {
+    let v: Vec<String> = x.iter().map(|v| format!("{v:.4e}")).collect();
+    format!("({})", v.join(", "))
+}
 
 impl<'c, 'p> StepObserver<'c, 'p> {
     pub(super) fn new(
@@ -96,21 +132,22 @@ impl<'c, 'p> StepObserver<'c, 'p> {
                 Vec::new()
             },
             unseen_warned: Vec::new(),
+            slip_warned: Vec::new(),
         }
     }
 
     /// Rank 0 warns, once per half-pass, of a control point of a contact surface that lies inside
-    /// its rigid partner deeper than [`UNSEEN_DEPTH`] of the surface's element size while none
-    /// of the half-pass's points is active: contact that is silently not there (a smooth surface
-    /// lies inside its control points and may not reach a partner the mesh goes through).
-    /// Collective.
-    fn warn_unseen_contact(&mut self, model: &Model, asm: &Assembler, rec: &StepRecord) {
-        let Some(c) = asm.coupling_set::<ContactSystem>() else {
+    /// its partner (a rigid shape, or the body of the partner surface) deeper than
+    /// [`UNSEEN_DEPTH`] of the surface's element size while none of the pair's points (of either
+    /// half-pass) is active: contact that is silently not there (a smooth surface lies inside its control
+    /// points and may not reach a partner the mesh goes through). Collective.
+    fn warn_unseen_contact(&mut self, model: &Model, asm: &mut Assembler, rec: &StepRecord) {
+        let Some(c) = asm.coupling_set_mut::<ContactSystem>() else {
             return;
         };
+        let depths = c.unseen_penetrations();
         let comm = asm.comm();
-        let rank = comm.rank();
-        for (i, d) in c.unseen_penetrations().into_iter().enumerate() {
+        for (i, d) in depths.into_iter().enumerate() {
             let mut active = 0u64;
             comm.all_reduce_into(&(d.n_active as u64), &mut active, SystemOperation::sum());
             let mut depth = 0.0f64;
@@ -119,36 +156,126 @@ impl<'c, 'p> StepObserver<'c, 'p> {
                 continue;
             }
             self.unseen_warned.push(i);
-            // the point itself, from the lowest rank that holds it
-            let mine = if d.depth == depth { rank } else { i32::MAX };
-            let mut holder = 0i32;
-            comm.all_reduce_into(&mine, &mut holder, SystemOperation::min());
-            let local = if rank == holder {
-                [d.node as f64, d.position[0], d.position[1], d.position[2]]
-            } else {
-                [0.0; 4]
-            };
-            let mut point = [0.0f64; 4];
-            comm.all_reduce_into(&local[..], &mut point[..], SystemOperation::sum());
-            if rank == 0 {
-                let dim = self.case.case.dim;
+            let point = deepest_point(comm, &d, depth);
+            if comm.rank() == 0 {
+                let (inside, other) = match &d.partner {
+                    None => ("the rigid partner".to_string(), "the partner".to_string()),
+                    Some(p) => (
+                        format!("the partner surface `{p}` (in its body)"),
+                        format!("`{p}`"),
+                    ),
+                };
                 eprintln!(
-                    "warning: step {} (load {:.6}): contact `{}`: surface `{}`: {}, now at {:?}, lies \
-                     {depth:.3e} inside the rigid partner ({:.1} % of the surface's element \
-                     size) while no contact point of the pair is active: the contact surface \
-                     does not reach the partner there and nothing holds the body (a smooth \
-                     surface lies inside its control points; a finer surface mesh brings it \
-                     closer to them)",
+                    "warning: step {} (load {:.6}): contact `{}`: surface `{}`: {}, now at {}, lies \
+                     {depth:.3e} inside {inside} ({:.1} % of the surface's element size) while \
+                     no contact point of the pair is active: the pair's points do not reach \
+                     {other} there and nothing holds the body (the points lie apart from this \
+                     node, and a smooth surface lies inside its control points; a finer surface \
+                     mesh brings them closer to it)",
                     rec.step,
                     rec.load,
                     d.pair,
                     d.surface,
                     model.node_label(point[0] as u32),
-                    point[1..1 + dim]
-                        .iter()
-                        .map(|v| format!("{v:.4e}"))
-                        .collect::<Vec<_>>(),
+                    coordinates(&point[1..1 + self.case.case.dim]),
                     100.0 * depth / d.h
+                );
+            }
+        }
+    }
+
+    /// Rank 0 warns of each half-pass whose surface starts (reference configuration, rigid
+    /// partners at load 0) deeper than [`UNSEEN_DEPTH`] of its element size inside its partner,
+    /// naming the pair, the surface and the deepest point with its element's closest node. Before
+    /// the first step of a run that does not restart. Collective.
+    pub(super) fn warn_initial_penetrations(&self, model: &Model, asm: &mut Assembler) {
+        let Some(c) = asm.coupling_set_mut::<ContactSystem>() else {
+            return;
+        };
+        let depths = c.initial_penetrations();
+        let comm = asm.comm();
+        for d in depths {
+            let mut depth = 0.0f64;
+            comm.all_reduce_into(&d.depth, &mut depth, SystemOperation::max());
+            if depth <= UNSEEN_DEPTH * d.h {
+                continue;
+            }
+            let point = deepest_point(comm, &d, depth);
+            if comm.rank() == 0 {
+                let inside = match &d.partner {
+                    None => "the rigid partner".to_string(),
+                    Some(p) => format!("the partner surface `{p}` (in its body)"),
+                };
+                eprintln!(
+                    "warning: load 0: contact `{}`: surface `{}` starts {depth:.3e} inside \
+                     {inside} ({:.1} % of the surface's element size), deepest at {} next to {}: \
+                     the first step has to push the bodies apart by that much before the load \
+                     acts, with the contact force of the whole overlap; place the surfaces \
+                     touching or apart",
+                    d.pair,
+                    d.surface,
+                    100.0 * depth / d.h,
+                    coordinates(&point[1..1 + self.case.case.dim]),
+                    model.node_label(point[0] as u32),
+                );
+            }
+        }
+    }
+
+    /// Rank 0 warns, once per half-pass, of a converged step in which a point of a frictional
+    /// pair moved tangentially against its partner by more than [`SLIP_PER_STEP`] element sizes
+    /// of its surface since the last converged step: the return mapping follows the step along
+    /// one straight chord, and the stick and slip within it are not resolved. Collective.
+    fn warn_step_slip(&mut self, asm: &Assembler, rec: &StepRecord) {
+        let Some(c) = asm.coupling_set::<ContactSystem>() else {
+            return;
+        };
+        let comm = asm.comm();
+        for (i, s) in c.step_slips().into_iter().enumerate() {
+            let mut slip = 0.0f64;
+            comm.all_reduce_into(&s.slip, &mut slip, SystemOperation::max());
+            if slip <= SLIP_PER_STEP * s.h || self.slip_warned.contains(&i) {
+                continue;
+            }
+            self.slip_warned.push(i);
+            let mine = if s.slip == slip {
+                comm.rank()
+            } else {
+                i32::MAX
+            };
+            let mut holder = 0i32;
+            comm.all_reduce_into(&mine, &mut holder, SystemOperation::min());
+            let local = if comm.rank() == holder {
+                s.position
+            } else {
+                [0.0; 3]
+            };
+            let mut at = [0.0f64; 3];
+            comm.all_reduce_into(&local[..], &mut at[..], SystemOperation::sum());
+            if comm.rank() == 0 {
+                let stage = self.case.stages.get(rec.load.ceil().max(1.0) as usize - 1);
+                let advice = match stage {
+                    Some(st) => format!(
+                        "; give stage `{}` more steps (`stages.{}.steps` = {})",
+                        st.name,
+                        rec.load.ceil().max(1.0) as usize - 1,
+                        st.steps
+                    ),
+                    None => String::new(),
+                };
+                eprintln!(
+                    "warning: step {} (load {:.6}): contact `{}`: surface `{}`: a frictional \
+                     point, now at {}, moved {slip:.3e} tangentially against its partner within \
+                     the step, {:.1} times the surface's element size {:.3e}: friction follows \
+                     each step along one straight chord, so the stick and slip within this \
+                     step are not resolved{advice}",
+                    rec.step,
+                    rec.load,
+                    s.pair,
+                    s.surface,
+                    coordinates(&at[..self.case.case.dim]),
+                    slip / s.h,
+                    s.h
                 );
             }
         }
@@ -205,6 +332,7 @@ impl<'c, 'p> StepObserver<'c, 'p> {
         }
         extra_columns.extend(contact_history(asm, model.dim));
         self.warn_unseen_contact(model, asm, rec);
+        self.warn_step_slip(asm, rec);
         if model.contact_pairs.iter().any(|p| p.augmented.is_some()) {
             extra_columns.push(rec.augmentation_rounds as f64);
         }

@@ -15,7 +15,10 @@
 //! - a turn (a `rotation` condition on a body of a frictional pair, or a rigid partner's rotation)
 //!   that moves the contact surface, in one nominal step of a stage with friction, by more than
 //!   its element size: the return mapping slides each point along the chord of one step, and a
-//!   turn of 180 degrees or more per step is not even told apart from the opposite turn.
+//!   turn of 180 degrees or more per step is not even told apart from the opposite turn;
+//! - a rigid partner of a frictional pair that translates along its surface, in one nominal step
+//!   of a stage with friction, by more than the surface's element size: the stick and slip of
+//!   the slide are not resolved, and the contact zone jumps by more than an element.
 
 use super::data::{Body, Model};
 use super::error::ModelError;
@@ -100,6 +103,7 @@ impl Model {
                     self.rigid_start(case, i, &pair.name, *k, &shape.at(motion, 0.0))?;
                     self.rigid_inside(case, i, &pair.name, *k, &shape.at(motion, 0.0))?;
                     warnings.extend(self.rigid_steps(case, i, &pair.name, *k, shape, motion));
+                    warnings.extend(self.rigid_slides(case, i, pair, *k, shape, motion));
                 }
             }
             warnings.extend(self.frictional_turns(case, i, pair));
@@ -369,6 +373,106 @@ impl Model {
             first_step += n;
         }
         out
+    }
+
+    /// Warnings of stages with friction on pair `i` in which its rigid partner (of surface `k`)
+    /// translates along the surface by more than the surface's element size per nominal step:
+    /// the tangential part of the stage's translation, against the plane's normal or, for a
+    /// circle, sphere or cylinder, against the direction from the surface's control point closest
+    /// to its centre (or axis) to that centre.
+    fn rigid_slides(
+        &self,
+        case: &Case,
+        i: usize,
+        pair: &PairDef,
+        k: usize,
+        shape: &RigidShape,
+        motion: &RigidMotion,
+    ) -> Vec<String> {
+        let Some(friction) = &pair.friction else {
+            return Vec::new();
+        };
+        if motion.translations.is_empty() {
+            return Vec::new();
+        }
+        let s = &self.contact_surfaces[k];
+        let shift = |lambda: f64| {
+            crate::assembly::dirichlet::stage_lerp(
+                &motion.translations,
+                lambda,
+                [0.0; 3],
+                |a, b, f| [0, 1, 2].map(|c| a[c] + (b[c] - a[c]) * f),
+            )
+        };
+        let mut out = Vec::new();
+        let mut first_step = 1;
+        for (si, stage) in case.stages.iter().enumerate() {
+            let n = stage.steps.max(1);
+            let on = friction.stages.get(si).copied().unwrap_or(true);
+            let (a, b) = (shift(si as f64), shift(si as f64 + 1.0));
+            let d = [0, 1, 2].map(|c| (b[c] - a[c]) / n as f64);
+            // the partner's normal towards the surface at the start of the stage
+            let normal = match shape.at(motion, si as f64) {
+                RigidShape::Plane { normal, .. } => unit(normal),
+                RigidShape::Sphere { center, .. } => self.towards(s, &center, None),
+                RigidShape::Cylinder { center, axis, .. } => {
+                    self.towards(s, &center, Some(unit(axis)))
+                }
+            };
+            let t: f64 = (0..3).map(|c| d[c] * normal[c]).sum();
+            let slide = (0..3)
+                .map(|c| (d[c] - t * normal[c]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            if on && slide > s.h {
+                out.push(format!(
+                    "contact `{}`: in stage {si} `{}` (nominal steps {first_step} to {}), the \
+                     rigid partner slides {slide:.4e} per step along surface `{}`, more than its \
+                     element size {:.4e}: friction follows each step along one straight chord, \
+                     so the stick and slip of the slide are not resolved, and the contact zone \
+                     jumps by more than an element between two steps; give the stage more steps \
+                     (`stages.{si}.steps` = {}) or the partner less motion \
+                     (`contact.{i}.rigid.translation`)",
+                    pair.name,
+                    stage.name,
+                    first_step + n - 1,
+                    s.name,
+                    s.h,
+                    stage.steps
+                ));
+            }
+            first_step += n;
+        }
+        out
+    }
+
+    /// Unit direction from the control point of surface `s` closest to `center` (or to the axis
+    /// through it along unit `axis`) towards it, in the reference configuration; the parts along
+    /// `axis` left out.
+    fn towards(
+        &self,
+        s: &crate::contact::surface::ContactSurface,
+        center: &[f64; 3],
+        axis: Option<[f64; 3]>,
+    ) -> [f64; 3] {
+        let across = |x: [f64; 3]| {
+            let d = [0, 1, 2].map(|c| center[c] - x[c]);
+            match axis {
+                Some(a) => {
+                    let t: f64 = (0..3).map(|c| d[c] * a[c]).sum();
+                    [0, 1, 2].map(|c| d[c] - t * a[c])
+                }
+                None => d,
+            }
+        };
+        let len = |v: &[f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        let closest = s
+            .elements
+            .iter()
+            .flat_map(|e| e.nodes.iter())
+            .map(|&n| across(self.position(n)))
+            .min_by(|a, b| len(a).total_cmp(&len(b)));
+        unit(closest.unwrap_or([0.0; 3]))
     }
 
     /// Reference position [3] of global node `n`.
