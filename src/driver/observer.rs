@@ -142,17 +142,35 @@ impl<'c, 'p> StepObserver<'c, 'p> {
     /// half-pass) is active: contact that is silently not there (a smooth surface lies inside its control
     /// points and may not reach a partner the mesh goes through). Collective.
     fn warn_unseen_contact(&mut self, model: &Model, asm: &mut Assembler, rec: &StepRecord) {
+        let Some(c) = asm.coupling_set::<ContactSystem>() else {
+            return;
+        };
+        // the depths only of the half-passes whose pair has no active point on any rank (the
+        // projections of their control points cost a global search each)
+        let local = c.pair_active();
+        let mut active = vec![0u64; local.len()];
+        asm.comm()
+            .all_reduce_into(&local[..], &mut active[..], SystemOperation::sum());
+        let wanted: Vec<bool> = active
+            .iter()
+            .enumerate()
+            .map(|(i, &a)| a == 0 && !self.unseen_warned.contains(&i))
+            .collect();
+        if !wanted.contains(&true) {
+            return;
+        }
         let Some(c) = asm.coupling_set_mut::<ContactSystem>() else {
             return;
         };
-        let depths = c.unseen_penetrations();
+        let depths = c.unseen_penetrations(&wanted);
         let comm = asm.comm();
         for (i, d) in depths.into_iter().enumerate() {
-            let mut active = 0u64;
-            comm.all_reduce_into(&(d.n_active as u64), &mut active, SystemOperation::sum());
+            if !wanted[i] {
+                continue;
+            }
             let mut depth = 0.0f64;
             comm.all_reduce_into(&d.depth, &mut depth, SystemOperation::max());
-            if active > 0 || depth <= UNSEEN_DEPTH * d.h || self.unseen_warned.contains(&i) {
+            if depth <= UNSEEN_DEPTH * d.h {
                 continue;
             }
             self.unseen_warned.push(i);

@@ -13,8 +13,8 @@ use super::ContactSystem;
 use crate::contact::pair::Partner;
 use crate::contact::rigid::RigidShape;
 
-/// The deepest point of this rank's elements of one half-pass inside its partner, with the
-/// pair's active points on this rank ([`ContactSystem::unseen_penetrations`],
+/// The deepest point of this rank's elements of one half-pass inside its partner
+/// ([`ContactSystem::unseen_penetrations`],
 /// [`ContactSystem::initial_penetrations`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PassDepth {
@@ -24,8 +24,6 @@ pub struct PassDepth {
     pub surface: String,
     /// The partner surface, `body.face_set` (`None`: a rigid partner).
     pub partner: Option<String>,
-    /// Active points of the pair (all its half-passes) on this rank.
-    pub n_active: usize,
     /// Depth of the deepest point inside the partner (0: none inside), the global node (the
     /// control point itself, or the node of the point's element closest to it) and the point's
     /// position [3].
@@ -59,17 +57,35 @@ fn depth_in_shape(shape: &RigidShape, x: &[f64; 3]) -> Option<f64> {
 }
 
 impl ContactSystem {
+    /// Per half-pass (in pair and pass order, the same list on every rank): the active points
+    /// of its pair (all half-passes) on this rank at the last evaluation.
+    pub fn pair_active(&self) -> Vec<u64> {
+        self.pairs
+            .iter()
+            .flat_map(|p| {
+                let n: usize = p.passes.iter().map(|q| q.result.n_active).sum();
+                std::iter::repeat_n(n as u64, p.passes.len())
+            })
+            .collect()
+    }
+
     /// Per half-pass (in pair and pass order, the same list on every rank): the deepest control
     /// point of this rank's surface elements inside the partner at the last evaluation (a rigid
-    /// shape, or the partner surface within the pair's search distance), and the pair's active
-    /// points on this rank. The caller reduces them over the ranks.
-    pub fn unseen_penetrations(&mut self) -> Vec<PassDepth> {
+    /// shape, or the partner surface within the pair's search distance), only for the
+    /// half-passes `wanted` marks (the others: depth 0). The caller reduces them over the ranks.
+    pub fn unseen_penetrations(&mut self, wanted: &[bool]) -> Vec<PassDepth> {
         let dim = self.dim;
         let mut out = Vec::new();
+        let mut id = 0;
         for i in 0..self.pairs.len() {
             let dist = self.pairs[i].def.search_distance;
             for j in 0..self.pairs[i].passes.len() {
                 let mut d = self.pass_depth(i, j);
+                id += 1;
+                if !wanted.get(id - 1).copied().unwrap_or(false) {
+                    out.push(d);
+                    continue;
+                }
                 let pass = &self.pairs[i].passes[j];
                 let (k, shape, partner) = (pass.k, pass.shape.clone(), pass.partner.clone());
                 let elems: Vec<usize> = pass.elems.iter().map(|oe| oe.e as usize).collect();
@@ -159,8 +175,8 @@ impl ContactSystem {
     }
 
     /// Per frictional half-pass (in pair and pass order, the same list on every rank): the
-    /// largest tangential gap of this rank's points at the last evaluation. The caller reduces
-    /// them over the ranks.
+    /// largest tangential gap of this rank's points at the last evaluation (0 in a stage without
+    /// friction). The caller reduces them over the ranks.
     pub fn step_slips(&self) -> Vec<PassSlip> {
         let mut out = Vec::new();
         for pair in self.pairs.iter().filter(|p| p.def.friction.is_some()) {
@@ -173,7 +189,13 @@ impl ContactSystem {
                     position: [0.0; 3],
                     h: surface.h,
                 };
-                for oe in &pass.elems {
+                // a stage without friction carries no tangential gaps of its own
+                let on = pair
+                    .def
+                    .friction
+                    .as_ref()
+                    .is_some_and(|f| f.on_at(self.lambda));
+                for oe in pass.elems.iter().filter(|_| on) {
                     if !self.pos[pass.k].has(oe.e as usize) {
                         continue;
                     }
@@ -203,7 +225,6 @@ impl ContactSystem {
                 Partner::Surface(l) => Some(self.surfaces[l].name.clone()),
                 Partner::Rigid(..) => None,
             },
-            n_active: self.pairs[i].passes.iter().map(|p| p.result.n_active).sum(),
             depth: 0.0,
             node: u32::MAX,
             position: [0.0; 3],
