@@ -18,7 +18,10 @@
 //!   turn of 180 degrees or more per step is not even told apart from the opposite turn;
 //! - a rigid partner of a frictional pair that translates along its surface, in one nominal step
 //!   of a stage with friction, by more than the surface's element size: the stick and slip of
-//!   the slide are not resolved, and the contact zone jumps by more than an element.
+//!   the slide are not resolved, and the contact zone jumps by more than an element;
+//! - a rigid partner that turns, in one nominal step of a stage without friction, by 180 degrees
+//!   or more, or that sweeps the surface's farthest control points from its axis by more than
+//!   [`STEP_FRACTION`] of the body's size.
 
 use super::data::{Body, Model};
 use super::error::ModelError;
@@ -104,6 +107,7 @@ impl Model {
                     self.rigid_inside(case, i, &pair.name, *k, &shape.at(motion, 0.0))?;
                     warnings.extend(self.rigid_steps(case, i, &pair.name, *k, shape, motion));
                     warnings.extend(self.rigid_slides(case, i, pair, *k, shape, motion));
+                    warnings.extend(self.rigid_turns(case, i, pair, *k, motion));
                 }
             }
             warnings.extend(self.frictional_turns(case, i, pair));
@@ -438,6 +442,91 @@ impl Model {
                     first_step + n - 1,
                     s.name,
                     s.h,
+                    stage.steps
+                ));
+            }
+            first_step += n;
+        }
+        out
+    }
+
+    /// Warnings of stages without friction on pair `i` in which its rigid partner (of surface
+    /// `k`) turns, per nominal step, by 180 degrees or more (not told apart from the opposite
+    /// turn), or moves the surface's control points farthest from its axis by more than
+    /// [`STEP_FRACTION`] of the body's largest extent (it can pass through the body between two
+    /// steps unseen). Stages with friction: [`Model::frictional_turns`].
+    fn rigid_turns(
+        &self,
+        case: &Case,
+        i: usize,
+        pair: &PairDef,
+        k: usize,
+        motion: &RigidMotion,
+    ) -> Vec<String> {
+        if motion.angles.is_empty() {
+            return Vec::new();
+        }
+        let s = &self.contact_surfaces[k];
+        let body = &self.bodies[s.body];
+        let (axis, center) = (motion.axis, motion.center);
+        let radius = s
+            .elements
+            .iter()
+            .flat_map(|e| e.nodes.iter())
+            .map(|&n| {
+                let x = self.position(n);
+                let d = [0, 1, 2].map(|c| x[c] - center[c]);
+                let t: f64 = (0..3).map(|c| d[c] * axis[c]).sum();
+                (0..3)
+                    .map(|c| (d[c] - t * axis[c]).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+            })
+            .fold(0.0, f64::max);
+        let size = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+            .iter()
+            .take(self.dim)
+            .map(|u| self.extent(body.node_offset, body.n_nodes(), u))
+            .fold(0.0, f64::max);
+        let mut out = Vec::new();
+        let mut first_step = 1;
+        for (si, stage) in case.stages.iter().enumerate() {
+            let n = stage.steps.max(1);
+            let frictional = pair
+                .friction
+                .as_ref()
+                .is_some_and(|f| f.stages.get(si).copied().unwrap_or(true));
+            let before = if si == 0 {
+                0.0
+            } else {
+                motion.angles.get(si - 1).copied().unwrap_or(0.0)
+            };
+            let after = motion.angles.get(si).copied().unwrap_or(before);
+            let turn = (after - before).abs() / n as f64;
+            let half = turn >= std::f64::consts::PI;
+            if !frictional && (half || turn * radius > STEP_FRACTION * size) {
+                let why = if half {
+                    "a turn of 180 degrees or more per step is not told apart from the opposite \
+                     turn, and the partner sweeps through the body between two steps unseen"
+                } else {
+                    "it can pass through the body between two steps unseen (contact is only \
+                     evaluated at a step's states)"
+                };
+                out.push(format!(
+                    "contact `{}`: in stage {si} `{}` (nominal steps {first_step} to {}), the \
+                     rigid partner turns {:.4e} degrees per step, which moves it by {:.4e} per \
+                     step at the control point of surface `{}` farthest from its axis \
+                     ({radius:.4e}), against the size {size:.4e} of body `{}`: {why}; give the \
+                     stage more steps \
+                     (`stages.{si}.steps` = {}) or the partner less turn \
+                     (`contact.{i}.rigid.rotation_deg`)",
+                    pair.name,
+                    stage.name,
+                    first_step + n - 1,
+                    turn.to_degrees(),
+                    turn * radius,
+                    s.name,
+                    body.name,
                     stage.steps
                 ));
             }
