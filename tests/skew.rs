@@ -430,17 +430,33 @@ fn a_refused_skew_condition_names_the_gmsh_node_by_its_tag() {
     );
     let err = stderr(&out);
     // "Gmsh node <tag> of body `block` at (x, y, z) of bcs.2 (block/zmin) is also prescribed..."
+    assert_names_a_gmsh_node(&err, &mesh);
+    assert!(
+        err.contains("of body `block`") && err.contains("bcs.2 (block/zmin)"),
+        "{err}"
+    );
+}
+
+/// `err` names a node as `Gmsh node <tag> ... at (x, y, z)` with the tag and position of one node
+/// of the Gmsh file `mesh`, a tag that is not the node's index in the file.
+fn assert_names_a_gmsh_node(err: &str, mesh: &Path) {
     let rest = &err[err
         .find("Gmsh node ")
         .unwrap_or_else(|| panic!("no Gmsh tag: {err}"))
         + 10..];
-    let tag: i64 = rest.split_whitespace().next().unwrap().parse().unwrap();
+    let tag: i64 = rest
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .trim_end_matches(',')
+        .parse()
+        .unwrap();
     let at = &rest[rest.find(" at (").expect("a position") + 5..];
     let x: Vec<f64> = at[..at.find(')').unwrap()]
         .split(", ")
         .map(|v| v.parse().unwrap())
         .collect();
-    let nodes = gmsh_nodes(&std::fs::read_to_string(&mesh).unwrap());
+    let nodes = gmsh_nodes(&std::fs::read_to_string(mesh).unwrap());
     let (_, y) = nodes
         .iter()
         .find(|(t, _)| *t == tag)
@@ -452,6 +468,23 @@ fn a_refused_skew_condition_names_the_gmsh_node_by_its_tag() {
     // the tag is not the solver's index of the node
     let index = nodes.iter().position(|(t, _)| *t == tag).unwrap();
     assert_ne!(tag, index as i64, "{err}");
+}
+
+#[test]
+fn contradicting_conditions_name_the_gmsh_node_by_its_tag() {
+    let text = std::fs::read_to_string(case("block_compression_gmsh_3d.toml")).unwrap();
+    let mesh = case("meshes/box_4x4x4.msh");
+    let text = text.replace("meshes/box_4x4x4.msh", mesh.to_str().unwrap())
+        + "\n[[bcs]]\nbody = \"block\"\nset = \"zmin\"\nkind = \"displacement\"\ncomponents = [\"z\"]\nvalue = [[0.1]]\n";
+    let file = write_case("conflict-gmsh-tag", &text);
+    let out = run(1, &["check", file.to_str().unwrap()]);
+    assert!(
+        !out.status.success(),
+        "check accepted a base both fixed and moved in z"
+    );
+    let err = stderr(&out);
+    assert!(err.contains("inconsistent boundary conditions"), "{err}");
+    assert_names_a_gmsh_node(&err, &mesh);
     assert!(
         err.contains("of body `block`") && err.contains("bcs.2 (block/zmin)"),
         "{err}"

@@ -42,10 +42,13 @@ pub struct DirichletBc {
 
 /// Two conditions prescribe different values to the same unknown.
 #[derive(Debug, Clone, thiserror::Error)]
-#[error("inconsistent boundary conditions: node {node} component {component} is prescribed {a} by {label_a} and {b} by {label_b} at load {lambda}")]
+#[error("inconsistent boundary conditions: {name}, component {component}, is prescribed {a} by {label_a} and {b} by {label_b} at load {lambda}")]
 pub struct ConflictError {
     /// Global node id.
     pub node: u32,
+    /// The node as messages name it: `node <id>` until [`ConflictError::named`] gives the name
+    /// the user knows (its mesh tag, body and position).
+    pub name: String,
     /// Component.
     pub component: usize,
     /// First condition and its value.
@@ -58,6 +61,16 @@ pub struct ConflictError {
     pub b: f64,
     /// Load parameter where they differ.
     pub lambda: f64,
+}
+
+impl ConflictError {
+    /// The same conflict with the node named by `name` (e.g. the model's node label).
+    pub fn named(self, name: &dyn Fn(u32) -> String) -> ConflictError {
+        ConflictError {
+            name: name(self.node),
+            ..self
+        }
+    }
 }
 
 /// Linear interpolation of per-stage end values at `lambda`; the value before stage 0 is `zero`.
@@ -151,6 +164,7 @@ pub fn prescribed_values(
                         if (v - v0).abs() > 1e-12 * scale {
                             return Err(ConflictError {
                                 node: n,
+                                name: format!("node {n}"),
                                 component: c,
                                 label_a: bcs[b0].label.clone(),
                                 a: v0,

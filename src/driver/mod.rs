@@ -270,7 +270,7 @@ fn number_and_check(
         prescribed_values(&model.bcs, &dofs, &model.coords, s as f64).map_err(|source| {
             Error::Conflict {
                 file: case.file.clone(),
-                source,
+                source: source.named(&|n| model.node_label(n)),
             }
         })?;
     }

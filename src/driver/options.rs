@@ -108,9 +108,9 @@ pub(super) fn set_up_solver<'p>(
         asm.set_couplings(offsets);
         let overlap = match asm.rigidly_coupled_loaded_node() {
             Some(n) => Err(Error::Usage(format!(
-                "{}: node {n} at {:?} moves with a free-translation rotation and carries contact points; the set's reaction moment would miss their force: keep the contact points off it (a contact `region`)",
+                "{}: {} moves with a free-translation rotation and carries contact points; the set's reaction moment would miss their force: keep the contact points off it (a contact `region`)",
                 case.file.display(),
-                &model.coords[n as usize * model.dim..(n as usize + 1) * model.dim]
+                model.node_label(n)
             ))),
             None => Ok(()),
         };

@@ -169,8 +169,9 @@ pub(super) fn restore(
                 local = Err(bad(
                     "displacement",
                     format!(
-                        "node {node}, component {}: {u:e} where the boundary conditions \
+                        "{}, component {}: {u:e} where the boundary conditions \
                          prescribe {v:e} at the checkpoint's load {lambda}",
+                        model.node_label(node as u32),
                         ["x", "y", "z"][c]
                     ),
                 ));

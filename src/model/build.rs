@@ -611,8 +611,8 @@ impl Model {
                     file: case.file.clone(),
                     key: c.label.split(' ').next().unwrap_or("bcs").to_string(),
                     msg: format!(
-                        "node {n} at {:?} moves with the free-translation rotation {} and is also constrained by {by}; a rigidly coupled set may not overlap other conditions or ties",
-                        &coords[n as usize * dim..(n as usize + 1) * dim],
+                        "{} moves with the free-translation rotation {} and is also constrained by {by}; a rigidly coupled set may not overlap other conditions or ties",
+                        super::data::node_label(&bodies, &coords, dim, n),
                         c.label
                     ),
                 });

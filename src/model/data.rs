@@ -156,26 +156,31 @@ impl Model {
     /// tag for a mesh read from a file, see [`Mesh::node_label`]) or its index among the enriched
     /// layer's nodes, and its reference position, e.g. ``Gmsh node 1 of body `ball` at (0, 0, 0)``.
     pub fn node_label(&self, n: u32) -> String {
-        let x = self
-            .coords
-            .get(n as usize * self.dim..(n as usize + 1) * self.dim)
-            .map(|x| {
-                let v: Vec<String> = x.iter().map(|v| format!("{v}")).collect();
-                format!(" at ({})", v.join(", "))
-            })
-            .unwrap_or_default();
-        for b in &self.bodies {
-            let local = n.wrapping_sub(b.node_offset) as usize;
-            if n < b.node_offset || local >= b.n_nodes() {
-                continue;
-            }
-            let what = if local < b.mesh.n_nodes() {
-                b.mesh.node_label(local as u32)
-            } else {
-                format!("enriched-layer node {}", local - b.mesh.n_nodes())
-            };
-            return format!("{what} of body `{}`{x}", b.name);
-        }
-        format!("node {n}{x}")
+        node_label(&self.bodies, &self.coords, self.dim, n)
     }
+}
+
+/// Global node `n` of `bodies` (reference positions `coords` [n_nodes][dim]) as messages name it;
+/// see [`Model::node_label`].
+pub(crate) fn node_label(bodies: &[Body], coords: &[f64], dim: usize, n: u32) -> String {
+    let x = coords
+        .get(n as usize * dim..(n as usize + 1) * dim)
+        .map(|x| {
+            let v: Vec<String> = x.iter().map(|v| format!("{v}")).collect();
+            format!(" at ({})", v.join(", "))
+        })
+        .unwrap_or_default();
+    for b in bodies {
+        let local = n.wrapping_sub(b.node_offset) as usize;
+        if n < b.node_offset || local >= b.n_nodes() {
+            continue;
+        }
+        let what = if local < b.mesh.n_nodes() {
+            b.mesh.node_label(local as u32)
+        } else {
+            format!("enriched-layer node {}", local - b.mesh.n_nodes())
+        };
+        return format!("{what} of body `{}`{x}", b.name);
+    }
+    format!("node {n}{x}")
 }
