@@ -42,13 +42,10 @@ pub struct DirichletBc {
 
 /// Two conditions prescribe different values to the same unknown.
 #[derive(Debug, Clone, thiserror::Error)]
-#[error("inconsistent boundary conditions: {name}, component {component}, is prescribed {a} by {label_a} and {b} by {label_b} at load {lambda}")]
+#[error("{}", self.describe(&|n| format!("node {n}")))]
 pub struct ConflictError {
     /// Global node id.
     pub node: u32,
-    /// The node as messages name it: `node <id>` until [`ConflictError::named`] gives the name
-    /// the user knows (its mesh tag, body and position).
-    pub name: String,
     /// Component.
     pub component: usize,
     /// First condition and its value.
@@ -64,12 +61,19 @@ pub struct ConflictError {
 }
 
 impl ConflictError {
-    /// The same conflict with the node named by `name` (e.g. the model's node label).
-    pub fn named(self, name: &dyn Fn(u32) -> String) -> ConflictError {
-        ConflictError {
-            name: name(self.node),
-            ..self
-        }
+    /// The message, with the node named by `name` (e.g. the model's node label, which knows its
+    /// mesh tag).
+    pub fn describe(&self, name: &dyn Fn(u32) -> String) -> String {
+        format!(
+            "inconsistent boundary conditions: {}, component {}, is prescribed {} by {} and {} by {} at load {}",
+            name(self.node),
+            self.component,
+            self.a,
+            self.label_a,
+            self.b,
+            self.label_b,
+            self.lambda
+        )
     }
 }
 
@@ -164,7 +168,6 @@ pub fn prescribed_values(
                         if (v - v0).abs() > 1e-12 * scale {
                             return Err(ConflictError {
                                 node: n,
-                                name: format!("node {n}"),
                                 component: c,
                                 label_a: bcs[b0].label.clone(),
                                 a: v0,

@@ -107,12 +107,12 @@ pub enum Error {
         message: String,
     },
     /// Boundary conditions that contradict each other.
-    #[error("{}: {source}", .file.display())]
+    #[error("{}: {message}", .file.display())]
     Conflict {
         /// The case file.
         file: PathBuf,
-        /// Which conditions.
-        source: crate::assembly::ConflictError,
+        /// Which conditions, and the node by its mesh tag.
+        message: String,
     },
     /// Writing results.
     #[error(transparent)]
@@ -270,7 +270,7 @@ fn number_and_check(
         prescribed_values(&model.bcs, &dofs, &model.coords, s as f64).map_err(|source| {
             Error::Conflict {
                 file: case.file.clone(),
-                source: source.named(&|n| model.node_label(n)),
+                message: source.describe(&|n| model.node_label(n)),
             }
         })?;
     }
