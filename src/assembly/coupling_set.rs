@@ -103,7 +103,7 @@ pub trait CouplingSet: Any + Send {
 
     /// Augmented Lagrangian: this rank's largest constraint violation per group of the set
     /// (contact: per pair) at the last evaluation; empty when the set does not augment.
-    fn augmentation_violations(&mut self) -> Vec<f64> {
+    fn augmentation_violations(&self) -> Vec<f64> {
         Vec::new()
     }
 

@@ -467,7 +467,7 @@ impl Assembler<'_> {
         // the same on every rank (the set's groups are replicated): no communication when off
         if self
             .coupled
-            .as_mut()
+            .as_ref()
             .is_none_or(|c| c.set.augmentation_violations().is_empty())
         {
             return Augment::Satisfied;

@@ -26,13 +26,10 @@ impl ContactSystem {
     /// This rank's largest violation of the contact conditions per pair at the last evaluation
     /// (0 for pairs without augmentation); empty when no pair is augmented.
     ///
-    /// With 3D segments (one-pass weighted gaps), the pairs' layout moves at the current positions
+    /// With 3D segments (one-pass weighted gaps), the pairs' layout moves
     /// ([`ContactSystem::segment_moves`]) follow, one per pair.
-    pub fn augmentation_violations(&mut self) -> Vec<f64> {
+    pub fn augmentation_violations(&self) -> Vec<f64> {
         let segments = self.has_segment_rounds();
-        if segments {
-            self.relayout();
-        }
         if !segments && self.pairs.iter().all(|p| p.def.augmented.is_none()) {
             return Vec::new();
         }

@@ -76,7 +76,7 @@ impl CouplingSet for ContactSystem {
         ContactSystem::rollback(self);
     }
 
-    fn augmentation_violations(&mut self) -> Vec<f64> {
+    fn augmentation_violations(&self) -> Vec<f64> {
         ContactSystem::augmentation_violations(self)
     }
 

@@ -102,6 +102,9 @@ pub(crate) struct Segments {
     /// such move.
     pending: Vec<Option<Vec<f64>>>,
     moved: f64,
+    /// 3D: pieces of each master element edge (straight in the slave coordinates), about half
+    /// the smallest slave element each (at most 8).
+    sub: usize,
 }
 
 impl Segments {
@@ -161,6 +164,19 @@ impl ContactSystem {
             .map(|c| c.1)
             .filter(|&h| h > 0.0)
             .fold(f64::INFINITY, f64::min);
+        let smallest_own = own
+            .iter()
+            .map(|c| c.1)
+            .filter(|&h| h > 0.0)
+            .fold(f64::INFINITY, f64::min);
+        let longest_partner = partner.iter().map(|c| c.0).fold(0.0, f64::max);
+        let sub = if smallest_own.is_finite() {
+            (2.0 * longest_partner / smallest_own)
+                .ceil()
+                .clamp(1.0, 8.0) as usize
+        } else {
+            1
+        };
         let ratio = if shortest.is_finite() {
             longest / shortest
         } else {
@@ -188,26 +204,13 @@ impl ContactSystem {
             overflow: 0,
             pending: Vec::new(),
             moved: 0.0,
+            sub,
         }
     }
 
-    /// At an update: splits every element of the segmented passes at its breakpoints on the
-    /// current positions and moves its points onto the segments (their basis, weights and weight
-    /// functions with them); in 3D only elements not placed yet (the others move between solves).
+    /// Splits every element of the segmented passes at its breakpoints on the current positions
+    /// and moves its points onto the segments (their basis, weights and weight functions with them).
     pub(super) fn segment_all(&mut self) {
-        self.segment_layouts(false);
-    }
-
-    /// 3D: the layouts of every element at the current positions, those that moved kept for
-    /// [`ContactSystem::place_pending`] (after a converged solve).
-    pub(super) fn relayout(&mut self) {
-        self.segment_layouts(true);
-    }
-
-    /// Places the points of the segmented passes: in 2D every element's, at every update; in 3D
-    /// those not placed yet, and with `relayout` every element's layout is computed and those
-    /// that moved are kept for [`ContactSystem::place_pending`].
-    fn segment_layouts(&mut self, relayout: bool) {
         for pi in 0..self.pairs.len() {
             for si in 0..self.pairs[pi].passes.len() {
                 let Some(mut seg) = self.pairs[pi].passes[si].segments.take() else {
@@ -224,15 +227,10 @@ impl ContactSystem {
                 let n_own = self.pairs[pi].passes[si].elems.len();
                 let n_all = n_own + self.pairs[pi].passes[si].halo.len();
                 seg.placed.resize(n_all, None);
-                if seg.m == 1 || relayout {
-                    seg.pending.clear();
-                    seg.pending.resize(n_all, None);
-                    seg.moved = 0.0;
-                }
+                seg.pending.clear();
+                seg.pending.resize(n_all, None);
+                seg.moved = 0.0;
                 for i in 0..n_all {
-                    if seg.m == 2 && !relayout && seg.placed[i].is_some() {
-                        continue;
-                    }
                     let e = self.pairs[pi].passes[si].elem(i).e as usize;
                     let layout = if self.dim == 2 {
                         let mut cuts = self.breakpoints(k, e, l, dist);
@@ -241,7 +239,7 @@ impl ContactSystem {
                         }
                         cuts
                     } else {
-                        let mut quads = self.quadrilaterals(k, e, l);
+                        let mut quads = self.quadrilaterals(k, e, l, dist, seg.sub);
                         if quads.len() > seg.slots {
                             seg.overflow += 1;
                             quads = vec![SQUARE];
@@ -396,10 +394,30 @@ impl ContactSystem {
 
     /// The quadrilaterals that the edges of surface `l`'s elements cut element `e` of surface `k`
     /// (3D) into, in its parameter square.
-    fn quadrilaterals(&mut self, k: usize, e: usize, l: usize) -> Vec<[[f64; 2]; 4]> {
+    fn quadrilaterals(
+        &mut self,
+        k: usize,
+        e: usize,
+        l: usize,
+        dist: f64,
+        sub: usize,
+    ) -> Vec<[[f64; 2]; 4]> {
         const N_S: usize = 4;
         let el = &self.surfaces[k].elements[e];
         let xe = self.pos[k].of(e);
+        // the element's centre and the radius of its corners about it: master points farther
+        // than that and the search distance are not projected
+        let centre = frame(el, 3, xe, &[0.0; 2]).0;
+        let radius = SQUARE
+            .iter()
+            .map(|c| {
+                let x = frame(el, 3, xe, c).0;
+                (0..3)
+                    .map(|d| (x[d] - centre[d]).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+            })
+            .fold(0.0, f64::max);
         let grid = self.grids[l].as_ref().expect("built by the caller");
         let mut cand = std::mem::take(&mut self.cand);
         let mut partners: Vec<u32> = Vec::new();
@@ -420,15 +438,36 @@ impl ContactSystem {
         for &f in &partners {
             let elf = &self.surfaces[l].elements[f as usize];
             let yf = self.pos[l].of(f as usize);
-            // the corners, each where the slave surface meets the master's normal line there;
-            // each edge a straight line between two in the slave coordinates
-            let corners = SQUARE.map(|c| {
-                let (y, a, _) = frame(elf, 3, yf, &c);
-                along_normal(el, xe, &y, &a, [0.0; 2])
-            });
             for c in 0..4 {
-                if let (Some(a), Some(b)) = (corners[c], corners[(c + 1) % 4]) {
-                    cut_pieces(&mut pieces, a, b);
+                let (p, q) = (SQUARE[c], SQUARE[(c + 1) % 4]);
+                // the edge's points, each where the slave surface meets the master's normal line
+                let mut prev: Option<([f64; 2], bool)> = None;
+                for j in 0..=sub {
+                    let f = j as f64 / sub as f64;
+                    let eta = [p[0] + f * (q[0] - p[0]), p[1] + f * (q[1] - p[1])];
+                    let (y, a, _) = frame(elf, 3, yf, &eta);
+                    let start = prev.map_or([0.0; 2], |(xi, _)| xi);
+                    let far = (0..3)
+                        .map(|d| (y[d] - centre[d]).powi(2))
+                        .sum::<f64>()
+                        .sqrt()
+                        > radius + dist;
+                    let here = if far {
+                        None
+                    } else {
+                        along_normal(el, xe, &y, &a, start)
+                    };
+                    let here = here.map(|xi| {
+                        let x = frame(el, 3, xe, &xi).0;
+                        let g = (0..3).map(|c| (x[c] - y[c]).powi(2)).sum::<f64>().sqrt();
+                        (xi, g <= dist && xi[0].abs().max(xi[1].abs()) <= 1.5)
+                    });
+                    if let (Some((a0, n0)), Some((a1, n1))) = (prev, here) {
+                        if n0 || n1 {
+                            cut_pieces(&mut pieces, a0, a1);
+                        }
+                    }
+                    prev = here;
                 }
             }
         }
@@ -566,7 +605,7 @@ fn along_normal(
             -(j00 * f[1] - j10 * f[0]) / det,
         ];
         xi = [xi[0] + d[0], xi[1] + d[1]];
-        if xi[0].abs().max(xi[1].abs()) > 16.0 {
+        if xi[0].abs().max(xi[1].abs()) > 4.0 {
             return None;
         }
         if d[0].abs().max(d[1].abs()) <= 1e-13 {
