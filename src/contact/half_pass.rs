@@ -163,13 +163,6 @@ pub(crate) struct Pass {
 }
 
 impl Pass {
-    /// Element `i` of the pass: its own elements, then its halo.
-    pub(crate) fn elem(&self, i: usize) -> &OwnElem {
-        self.elems
-            .get(i)
-            .unwrap_or_else(|| &self.halo[i - self.elems.len()])
-    }
-
     /// The elements whose points own element `i`'s rows couple with: itself, and under the mortar
     /// gap every element (own or halo) that shares a control point with it.
     pub(crate) fn coupled_elems(&self, i: usize) -> Vec<&OwnElem> {

@@ -25,16 +25,11 @@ use crate::assembly::Augment;
 impl ContactSystem {
     /// This rank's largest violation of the contact conditions per pair at the last evaluation
     /// (0 for pairs without augmentation); empty when no pair is augmented.
-    ///
-    /// With 3D segments (one-pass weighted gaps), the pairs' layout moves
-    /// ([`ContactSystem::segment_moves`]) follow, one per pair.
     pub fn augmentation_violations(&self) -> Vec<f64> {
-        let segments = self.has_segment_rounds();
-        if !segments && self.pairs.iter().all(|p| p.def.augmented.is_none()) {
+        if self.pairs.iter().all(|p| p.def.augmented.is_none()) {
             return Vec::new();
         }
-        let mut out: Vec<f64> = self
-            .pairs
+        self.pairs
             .iter()
             .map(|pair| {
                 if pair.def.augmented.is_none() {
@@ -55,27 +50,15 @@ impl ContactSystem {
                     })
                     .fold(0.0, f64::max)
             })
-            .collect();
-        if segments {
-            out.extend(self.segment_moves());
-        }
-        out
+            .collect()
     }
 
     /// After a converged solve, given each pair's largest violation over all ranks (`violations`,
     /// from [`augmentation_violations`](Self::augmentation_violations)) and the rounds this step
     /// has made: satisfied when every augmented pair is within its `tol`; else, unless a pair
     /// that is not has used its `max` rounds, every augmented point's multiplier becomes its
-    /// pressure at the last evaluation. Pairs integrated over 3D segments whose layouts moved by
-    /// more than [`super::segments::KEEP_3D`] in the solve get their points moved onto them and
-    /// another solve, for at most [`super::segments::ROUNDS`] rounds (then the points stay where
-    /// the last round put them). The same decision on every rank.
+    /// pressure at the last evaluation. The same decision on every rank.
     pub fn augment(&mut self, violations: &[f64], rounds: usize) -> Augment {
-        let n = self.pairs.len();
-        let moves = violations.get(n..).unwrap_or(&[]);
-        let due: Vec<usize> = (0..moves.len())
-            .filter(|&p| moves[p] > super::segments::KEEP_3D && rounds < super::segments::ROUNDS)
-            .collect();
         let mut satisfied = true;
         for (pair, &v) in self.pairs.iter().zip(violations) {
             let Some(a) = pair.def.augmented else {
@@ -95,15 +78,8 @@ impl ContactSystem {
                 ));
             }
         }
-        for &p in &due {
-            self.place_pending(p);
-        }
         if satisfied {
-            return if due.is_empty() {
-                Augment::Satisfied
-            } else {
-                Augment::Updated
-            };
+            return Augment::Satisfied;
         }
         for pair in self.pairs.iter_mut().filter(|p| p.def.augmented.is_some()) {
             for pass in &mut pair.passes {
