@@ -57,14 +57,15 @@ const UNSEEN_DEPTH: f64 = 0.01;
 /// sizes of its surface within one step is warned of.
 const SLIP_PER_STEP: f64 = 1.0;
 
-/// The deepest point of `d` (this rank's part of a reduced half-pass whose depth over all ranks
-/// is `depth`), from the lowest rank that holds it: its node and position [3]. Collective.
-fn deepest_point(
+/// `payload` as held by the lowest rank whose `value` equals `reduced` (the value reduced over all
+/// ranks, e.g. their maximum), on every rank. Collective.
+fn from_lowest_holder<const N: usize>(
     comm: &mpi::topology::SimpleCommunicator,
-    d: &crate::contact::system::PassDepth,
-    depth: f64,
-) -> [f64; 4] {
-    let mine = if d.depth == depth {
+    value: f64,
+    reduced: f64,
+    payload: [f64; N],
+) -> [f64; N] {
+    let mine = if value == reduced {
         comm.rank()
     } else {
         i32::MAX
@@ -72,13 +73,24 @@ fn deepest_point(
     let mut holder = 0i32;
     comm.all_reduce_into(&mine, &mut holder, SystemOperation::min());
     let local = if comm.rank() == holder {
-        [d.node as f64, d.position[0], d.position[1], d.position[2]]
+        payload
     } else {
-        [0.0; 4]
+        [0.0; N]
     };
-    let mut point = [0.0f64; 4];
-    comm.all_reduce_into(&local[..], &mut point[..], SystemOperation::sum());
-    point
+    let mut out = [0.0f64; N];
+    comm.all_reduce_into(&local[..], &mut out[..], SystemOperation::sum());
+    out
+}
+
+/// The deepest point of `d` (this rank's part of a reduced half-pass whose depth over all ranks
+/// is `depth`), from the lowest rank that holds it: its node and position [3]. Collective.
+fn deepest_point(
+    comm: &mpi::topology::SimpleCommunicator,
+    d: &crate::contact::system::PassDepth,
+    depth: f64,
+) -> [f64; 4] {
+    let p = d.position;
+    from_lowest_holder(comm, d.depth, depth, [d.node as f64, p[0], p[1], p[2]])
 }
 
 /// Coordinates as `(x, y[, z])` with five significant digits.
@@ -256,20 +268,7 @@ impl<'c, 'p> StepObserver<'c, 'p> {
                 continue;
             }
             self.slip_warned.push(i);
-            let mine = if s.slip == slip {
-                comm.rank()
-            } else {
-                i32::MAX
-            };
-            let mut holder = 0i32;
-            comm.all_reduce_into(&mine, &mut holder, SystemOperation::min());
-            let local = if comm.rank() == holder {
-                s.position
-            } else {
-                [0.0; 3]
-            };
-            let mut at = [0.0f64; 3];
-            comm.all_reduce_into(&local[..], &mut at[..], SystemOperation::sum());
+            let at = from_lowest_holder(comm, s.slip, slip, s.position);
             if comm.rank() == 0 {
                 let stage = self.case.stages.get(rec.load.ceil().max(1.0) as usize - 1);
                 let advice = match stage {

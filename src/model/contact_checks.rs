@@ -227,18 +227,7 @@ impl Model {
         }
         let mut out = Vec::new();
         for (what, key, angles, axis, center, nodes) in turns {
-            let radius = nodes
-                .iter()
-                .map(|&n| {
-                    let x = self.position(n);
-                    let d = [0, 1, 2].map(|c| x[c] - center[c]);
-                    let t: f64 = (0..3).map(|c| d[c] * axis[c]).sum();
-                    (0..3)
-                        .map(|c| (d[c] - t * axis[c]).powi(2))
-                        .sum::<f64>()
-                        .sqrt()
-                })
-                .fold(0.0, f64::max);
+            let radius = self.radius_about_axis(nodes.iter().copied(), center, axis);
             let mut first_step = 1;
             for (si, stage) in case.stages.iter().enumerate() {
                 let n = stage.steps.max(1);
@@ -469,20 +458,11 @@ impl Model {
         let s = &self.contact_surfaces[k];
         let body = &self.bodies[s.body];
         let (axis, center) = (motion.axis, motion.center);
-        let radius = s
-            .elements
-            .iter()
-            .flat_map(|e| e.nodes.iter())
-            .map(|&n| {
-                let x = self.position(n);
-                let d = [0, 1, 2].map(|c| x[c] - center[c]);
-                let t: f64 = (0..3).map(|c| d[c] * axis[c]).sum();
-                (0..3)
-                    .map(|c| (d[c] - t * axis[c]).powi(2))
-                    .sum::<f64>()
-                    .sqrt()
-            })
-            .fold(0.0, f64::max);
+        let radius = self.radius_about_axis(
+            s.elements.iter().flat_map(|e| e.nodes.iter().copied()),
+            center,
+            axis,
+        );
         let size = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
             .iter()
             .take(self.dim)
@@ -565,6 +545,27 @@ impl Model {
     }
 
     /// Reference position [3] of global node `n`.
+    /// The largest distance of `nodes` (reference positions) from the axis through `center`
+    /// along the unit vector `axis`.
+    fn radius_about_axis(
+        &self,
+        nodes: impl Iterator<Item = u32>,
+        center: [f64; 3],
+        axis: [f64; 3],
+    ) -> f64 {
+        nodes
+            .map(|n| {
+                let x = self.position(n);
+                let d = [0, 1, 2].map(|c| x[c] - center[c]);
+                let t: f64 = (0..3).map(|c| d[c] * axis[c]).sum();
+                (0..3)
+                    .map(|c| (d[c] - t * axis[c]).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+            })
+            .fold(0.0, f64::max)
+    }
+
     fn position(&self, n: u32) -> [f64; 3] {
         let mut x = [0.0; 3];
         let d = self.dim;
