@@ -165,10 +165,7 @@ impl Model {
 pub(crate) fn node_label(bodies: &[Body], coords: &[f64], dim: usize, n: u32) -> String {
     let x = coords
         .get(n as usize * dim..(n as usize + 1) * dim)
-        .map(|x| {
-            let v: Vec<String> = x.iter().map(|v| format!("{v}")).collect();
-            format!(" at ({})", v.join(", "))
-        })
+        .map(|x| format!(" at {}", position_text(x)))
         .unwrap_or_default();
     for b in bodies {
         let local = n.wrapping_sub(b.node_offset) as usize;
@@ -183,4 +180,38 @@ pub(crate) fn node_label(bodies: &[Body], coords: &[f64], dim: usize, n: u32) ->
         return format!("{what} of body `{}`{x}", b.name);
     }
     format!("node {n}{x}")
+}
+
+/// A position as messages print it, `(x, y[, z])`: ten significant digits, and a coordinate
+/// below 1e-12 of the largest (the round-off of a zero, such as a cosine of 90 degrees) as 0.
+pub(crate) fn position_text(x: &[f64]) -> String {
+    let scale = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let v: Vec<String> = x
+        .iter()
+        .map(|&v| {
+            let v = if v.abs() <= 1e-12 * scale {
+                0.0
+            } else {
+                format!("{v:.9e}").parse::<f64>().unwrap_or(v)
+            };
+            format!("{v}")
+        })
+        .collect();
+    format!("({})", v.join(", "))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::position_text;
+
+    #[test]
+    fn positions_print_round_off_as_zero_and_ten_digits() {
+        let c = (90f64).to_radians().cos();
+        assert_eq!(position_text(&[c, 1.0, 0.5]), "(0, 1, 0.5)");
+        assert_eq!(position_text(&[0.1 + 0.2, -2.0]), "(0.3, -2)");
+        assert_eq!(position_text(&[1.0 / 3.0]), "(0.3333333333)");
+        // a small body keeps its digits: only the round-off relative to its largest coordinate goes
+        assert_eq!(position_text(&[2e-6, 1e-7]), "(0.000002, 0.0000001)");
+        assert_eq!(position_text(&[0.0, 0.0]), "(0, 0)");
+    }
 }
