@@ -351,8 +351,7 @@ fn augmented(case: &Case, i: usize, spec: &ContactSpec) -> Result<Option<Augment
             "is implemented for the pointwise gap and `mortar`/`mortar_linear` only (not \
              `element_mean` or `mortar_mean`: with one multiplier per control point shifting \
              its points' laws inside the mean, the rounds' answer still depends on `eps_n` at \
-             the edge of the contact zone, BENCHMARKS.md \"Augmented Lagrangian on the mortar \
-             gaps\"; use `gap = \"mortar\"` for an answer free of `eps_n`)"
+             the edge of the contact zone; use `gap = \"mortar\"` for an answer free of `eps_n`)"
                 .to_string(),
         ))
     } else if !(a.tol.is_finite() && a.tol > 0.0) {
