@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Benchmark of the solver core (BENCHMARKS.md): a Neo-Hookean hex8 block compressed in 3 load steps
+"""Benchmark of the solver core (docs/performance/solver.md): a Neo-Hookean hex8 block compressed in 3 load steps
 at several sizes, on 1 and 2 ranks, COO vs MatSetValues assembly. Prints one markdown table row per
 run, with the per-Newton-iteration split taken from PETSc's -log_view and the peak memory per rank
 from /usr/bin/time. Usage: python3 ci/bench.py [SIZES...] (default 10 20 30)."""

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Augmented Lagrangian against the plain penalty on the 2D Hertz case (BENCHMARKS.md, issue 22).
+"""Augmented Lagrangian against the plain penalty on the 2D Hertz case (docs/verification/hertz.md, "Augmented Lagrangian").
 Usage: python3 ci/bench_augmented.py [FAMILY:N_ARC[:EPS,EPS...] ...] (default Q1C1:128 Q1N2:128,
 penalties 1e2 1e3 1e4 1e5 1e6)
 

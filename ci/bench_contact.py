@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Contact benchmarks (BENCHMARKS.md, issue 7). Usage: python3 ci/bench_contact.py [share|pattern|hertz|all]
+"""Contact benchmarks (docs/performance/contact.md, docs/verification/hertz.md). Usage: python3 ci/bench_contact.py [share|pattern|hertz|all]
 
 share   - contact (surface gather, search, projection, contact residual and tangent) as a share of the
           solve, per Newton iteration, on the 2D ironing case at 16 block elements per unit length

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Friction benchmarks (BENCHMARKS.md, issue 10).
+"""Friction benchmarks (docs/verification/friction.md).
 Usage: python3 ci/bench_friction.py [--families F1,F2,...] [cm] [SET ...]
 
 cm - Cattaneo-Mindlin, 2D (cases/cattaneo_mindlin_2d.toml): the Hertz half disk pressed onto a

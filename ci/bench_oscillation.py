@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Pointwise contact pressure of the Hertz case (BENCHMARKS.md, oscillation study).
+"""Pointwise contact pressure of the Hertz case (docs/verification/hertz.md).
 Usage: python3 ci/bench_oscillation.py FAMILY:N_ARC:EPS_N[:GAP] ...  (e.g. Q1N2:128:1e4, Q1N2:128:1e4:element_mean)
 Reads the grid `contact_points` of results.h5 (the law's pressure at every contact quadrature point).
 Odd-even index: max of |d(x) - (d(x - h) + d(x + h)) / 2| / p0, d = p - p_Hertz, h the arc element

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""The secant predictor against none on the shipped cases (BENCHMARKS.md, "The secant predictor
-as the default"). Usage: python3 ci/bench_predictor.py [--bin BIN] [CASE.toml ...]
+"""The secant predictor against none on the shipped cases (docs/user-guide/solvers.md,
+"Newton with contact"). Usage: python3 ci/bench_predictor.py [--bin BIN] [CASE.toml ...]
 
 Runs each case (default: every case in cases/) on 1 rank with `--set solver.predictor=none` and
 `=secant` one after the other and prints a markdown row per case: status, converged steps,

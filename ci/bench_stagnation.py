@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Stopping stagnant Newton solves (BENCHMARKS.md): each run with `solver.stagnation_window` = 0
+"""Stopping stagnant Newton solves (docs/user-guide/solvers.md): each run with `solver.stagnation_window` = 0
 (off: a failing attempt runs to the iteration limit, 30) and the values given, one after the other
 with one binary. Prints one table row per run: steps (rescued), cutbacks, Newton iterations of the
 converged attempts and of the failed ones, their sum (the work), user CPU seconds (getrusage of the

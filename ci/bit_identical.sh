@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Whether a refactoring changed any result: runs the same cases with two binaries (1 rank) and
-# compares every history.csv byte for byte, the wall_time column left out. Issue 20's check.
+# compares every history.csv byte for byte, the wall_time column left out.
 #   ci/bit_identical.sh OLD_BINARY NEW_BINARY [WORKDIR]
 # e.g. build the old tree into its own worktree, copy its target/release/nurbs-contact aside, then
 #   ci/bit_identical.sh /tmp/nurbs-contact.old target/release/nurbs-contact

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The tests that judge numbers (the bad-input corpus with its singular-tangent entries, Hertz and the
 # contact tests, finite-difference tangents, 1 = 2 ranks) once more under other BLAS/LAPACK kernels,
-# so that no result depends on the kernels of one machine (issue 19: a null pivot that MUMPS found
+# so that no result depends on the kernels of one machine (a null pivot that MUMPS found
 # on one CPU and not on another):
 #   1. OpenBLAS forced to its generic x86-64 kernel (OPENBLAS_CORETYPE=Prescott);
 #   2. Debian's reference BLAS/LAPACK, selected through update-alternatives and restored to the

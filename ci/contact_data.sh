@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # summary.json `contact_data` on 1, 2 and 4 ranks for the hemisphere pressed onto the block at
-# several sizes (BENCHMARKS.md "Scale: contact data per rank"). Usage: ci/contact_data.sh [n ...]
+# several sizes (docs/performance/contact.md, "Contact data per rank"). Usage: ci/contact_data.sh [n ...]
 # (default 4 8 16 24); one Markdown row per run (table nodes and ghost elements per rank, refreshes
 # of the ghost layer, surface / point / received kB per rank, evaluations, facing contact cell
 # pairs cut by the partition / all). PARTITION=cells runs `[solver] partition = "cells"` (default

@@ -27,7 +27,7 @@ Rows (the questions; `--list` prints the runs):
                     half-width c from the points' positions (as tests/friction.rs) against
                     Cattaneo-Mindlin's c = a sqrt(1 - Q / (mu P)) with Hertz's a for the
                     computed load, and c/a with a from the active points as the test does
-  ironing4/8/16     ironing, REPRODUCTION.md 4.1's 4-unit slide on meshes 4, 8, 16: eq. (22)
+  ironing4/8/16     ironing, docs/verification/paper.md 4.1's 4-unit slide on meshes 4, 8, 16: eq. (22)
                     DeltaP_x, DeltaP_y (both half-passes together) and eq. (23) DeltaP_ece (per
                     half-pass) over the sliding window s >= 1, relative to the mean P_y; the
                     cylinder's P_y range over its mean in that window; cutbacks and rescued steps
@@ -261,8 +261,7 @@ def m_cm(d, cols):
     a, c = 0.5 * (a_in + a_out), 0.5 * (c_in + c_out)
     cm = math.sqrt(1.0 - ratio)
     # against Hertz's a for the computed load: the weighted gaps' interpolated pressure reaches
-    # past the contact edge, which widens the active points' a (BENCHMARKS.md, "Friction on the
-    # mortar gaps"), so c/a from the points measures that spread as well
+    # past the contact edge, which widens the active points' a (docs/verification/friction.md), so c/a from the points measures that spread as well
     a_hertz = math.sqrt(4 * p / (math.pi * E_STAR))
     return {"stick_err": (c / a) / cm - 1.0, "c_err_hertz": c / (cm * a_hertz) - 1.0,
             "a_err_hertz": a / a_hertz - 1.0, "Q_over_muP": ratio}

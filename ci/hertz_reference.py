@@ -1,6 +1,5 @@
 #!/usr/bin/env python3
-"""Hertz, 2D, against the finite body's own converged answer (BENCHMARKS.md, "Hertz against the
-finite body's converged answer"). Hertz's half-space formulas differ from the finite half disk by
+"""Hertz, 2D, against the finite body's own converged answer (docs/verification/hertz.md). Hertz's half-space formulas differ from the finite half disk by
 a few tenths of a percent, so errors of that size are measured against a reference computed here:
 Q1C1 pointwise with the augmented Lagrangian (penalty-free) refined to n_arc 2048 and extrapolated.
 

@@ -1,5 +1,5 @@
 #!/bin/bash
-# One row of BENCHMARKS.md "Scale: direct against iterative": runs CASE with one --set and further
+# One row of docs/performance/solver.md, "Direct against iterative": runs CASE with one --set and further
 # arguments under /usr/bin/time, then prints Newton and Krylov counts, solve and assembly seconds per
 # Newton iteration (summary.json) and the peak RSS (KiB).
 # usage: ci/linear_route.sh TAG CASE SET [ARGS...]   e.g.

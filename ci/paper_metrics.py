@@ -1,13 +1,13 @@
 #!/usr/bin/env python3
 """Section 4 metrics of Corbett & Sauer (2014) from nurbs-contact output folders (history.csv,
-summary.json), as REPRODUCTION.md reports them. Standard library only.
+summary.json), as docs/verification/paper.md reports them. Standard library only.
 
     ci/paper_metrics.py ironing  DIR...   # eq. (22)/(23) over the sliding window s >= 1
     ci/paper_metrics.py peeling  DIR...   # end moment over the steady window theta >= 100 deg
     ci/paper_metrics.py dcb      DIR...   # pin force over the crack-growth window opening >= 8
     ci/paper_metrics.py twisting DIR...   # P_z (eq. 22) and max |M_z| over the rotation
 
-Definitions (stated in REPRODUCTION.md):
+Definitions (stated in docs/verification/paper.md):
 - DeltaP (eq. 22) = max(P1, P2) - min(P1, P2) over the window, both half-passes' series together;
   DeltaP_ece (eq. 23) = max(max P1 - min P1, max P2 - min P2).
 - Oscillation amplitude (peeling, DCB) = max - min of the curve minus its least-squares quadratic
@@ -98,7 +98,7 @@ def run_info(cols, summ):
 
 def ironing(d):
     cols, summ = read(d)
-    # stage 1 slides 4 units from load 1 to 2 (REPRODUCTION.md's runs): s = 4 (lambda - 1) >= 1
+    # stage 1 slides 4 units from load 1 to 2 (docs/verification/paper.md's runs): s = 4 (lambda - 1) >= 1
     w = window(cols, lambda lam: lam >= 1.25 - 1e-9)
     out = run_info(cols, summ)
     for c in "xy":

@@ -1,5 +1,5 @@
 #!/bin/bash
-# One row of BENCHMARKS.md "Scale: a 3D contact scene at 10^4-10^6 unknowns": runs
+# One row of docs/performance/scale.md: runs
 # cases/hemisphere_twist_scale_3d.toml at one size on one route and NP ranks under /usr/bin/time,
 # then prints from summary.json the Newton and Krylov counts, seconds per Newton iteration (newton =
 # solve + assembly; assembly includes contact = gather + search + projection + contact blocks, and

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Frictional twisting table rows (BENCHMARKS.md): M_z / P_z of the rim reaction at the published
+"""Frictional twisting table rows (docs/verification/friction.md): M_z / P_z of the rim reaction at the published
 angles, deviations from Sauer & De Lorenzis 2015, Newton its per twist step, cutbacks, wall time.
 Usage: python3 ci/twisting_friction_table.py RUNDIR [RUNDIR ...]"""
 import csv, json, sys
@@ -30,7 +30,7 @@ for d in sys.argv[1:]:
         m, p = at(ang, M, a), at(ang, P, a)
         if m is None:
             cells.append("-"); continue
-        # sign: the rim reaction's moment and force as in BENCHMARKS (magnitudes compared)
+        # sign: the rim reaction's moment and force as in the docs' table (magnitudes compared)
         m, p = abs(m), abs(p)
         em = "" if a == 0 else f" ({100*(m/PUB_M[a]-1):+.0f} %)"
         cells.append(f"{m:.3f}{em} / {p:.3f} ({100*(p/PUB_P[a]-1):+.1f} %)")

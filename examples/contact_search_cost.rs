@@ -1,4 +1,4 @@
-//! Cost of the global contact search against the size of the partner surface, for BENCHMARKS.md:
+//! Cost of the global contact search against the size of the partner surface (docs/performance/contact.md):
 //!
 //! ```text
 //! cargo run --release --example contact_search_cost -- [sizes...]   (default 16 32 64 128)

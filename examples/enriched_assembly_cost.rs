@@ -1,5 +1,5 @@
 //! Assembly cost per element (residual + tangent) of the linear Q1C1 elements and of the enriched
-//! elements of the half-cylinder case, for BENCHMARKS.md:
+//! elements of the half-cylinder case (docs/performance/contact.md):
 //!
 //! ```text
 //! cargo run --release --example enriched_assembly_cost -- [n_arc] [repeats]

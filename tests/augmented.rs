@@ -1,4 +1,4 @@
-//! Augmented Lagrangian enforcement of penalty contact (issue 22, `augmented = { tol, max }`): on
+//! Augmented Lagrangian enforcement of penalty contact (`augmented = { tol, max }`): on
 //! the Hertz case (a half disk pressed onto a rigid flat) the contact force no longer depends on
 //! the penalty, the penetration ends below `tol`, the rounds are counted in history.csv and
 //! summary.json, 2 ranks give the 1-rank answer, a pair that runs out of rounds is cut back and

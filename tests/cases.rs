@@ -123,7 +123,7 @@ fn run_killed_while_writing_leaves_no_truncated_results() {
     );
 }
 
-/// Issue 23: the shipped block pushed down by 5 (500 % of its height) used to end "converged" with
+/// The shipped block pushed down by 5 (500 % of its height) used to end "converged" with
 /// its top face below the clamped base (det J < 0 at element corners, > 0 at every Gauss point).
 /// Now the run stops at the first step whose converged states are all folded over, naming the
 /// element and the corner, and the output directory holds complete results that end at the last

@@ -353,7 +353,7 @@ fn hertz_peaks(family: &str, n_arc: usize) -> (f64, f64, f64) {
 fn hertz_2d_nominal_peak_pressure_converges_to_hertz() {
     // Hertz's theory is geometrically linear: its pressure is the force per reference area. The
     // pressure per current area is larger by the inverse surface stretch (about 2.3 % at the
-    // centre, where the surface is compressed). BENCHMARKS.md, "Hertz, 2D".
+    // centre, where the surface is compressed). docs/verification/hertz.md, "Hertz contact".
     let (peak_c, peak_n, p) = hertz_peaks("Q1C1", 128);
     let (e_c, e_n) = (hertz_error(peak_c, p), hertz_error(peak_n, p));
     assert!(
@@ -379,7 +379,7 @@ fn hertz_2d_nominal_peak_pressure_converges_to_hertz() {
 fn hertz_2d_element_mean_gap_meets_one_percent_at_eight_elements_across_the_contact() {
     // `gap = "element_mean"` (one pressure per surface element) removes the point-to-point
     // pressure oscillation of Q1N2 that the pointwise law shows at this mesh (+1.95 %, asserted
-    // above) and with it the dependence on the penalty (BENCHMARKS.md, "Hertz, 2D")
+    // above) and with it the dependence on the penalty (docs/verification/hertz.md)
     for (eps, np) in [("1e4", 1), ("1e4", 2), ("1e5", 1)] {
         let eps_set = format!("contact.0.eps_n={eps}");
         let (_, peak, p) =
@@ -465,8 +465,7 @@ fn element_mean_gap_outside_its_scope_is_refused_with_the_key() {
 /// slide in 4 nominal steps: attempts use up their rebuilds and steps are cut back. When the budget
 /// was per step, an attempt after a cutback started with it used up and failed at its first
 /// outdated pattern after 1-2 Newton iterations (10 cutbacks in this run instead of 4; the
-/// 1e5-unknown scale scene's first step needed 7 cutbacks for that reason, BENCHMARKS.md "The
-/// contact pattern's rebuild budget"). An attempt that fails on the budget says so, and has had
+/// 1e5-unknown scale scene's first step needed 7 cutbacks for that reason). An attempt that fails on the budget says so, and has had
 /// at least 5 solves.
 #[test]
 fn every_attempt_of_a_step_has_its_own_pattern_rebuild_budget() {

@@ -1,5 +1,5 @@
 //! summary.json `contact_data`: what each rank holds for contact and receives per evaluation (the
-//! measure of issue 21's distributed contact surfaces), consistent between 1, 2 and 4 ranks; the
+//! measure of distributed contact surfaces), consistent between 1, 2 and 4 ranks; the
 //! ghost layer (each rank gathers only its own surface elements and the partner elements within
 //! reach) changes no result and is refreshed as surfaces slide.
 

@@ -252,7 +252,7 @@ fn cattaneo_mindlin_stick_zone_of_the_hertz_half_disk() {
     let c_a = c / a;
     let cm = (1.0 - ratio).sqrt();
     let err = c_a / cm - 1.0;
-    // measured -9.7 % (BENCHMARKS.md; the counts stick/active give -8.7 %): half a point spacing
+    // measured -9.7 % (docs/verification/friction.md; the counts stick/active give -8.7 %): half a point spacing
     // is 5 % of a here, and with eps_t = eps_n / 10 the same mesh gives +5.4 %: the issue's 5 % is
     // not met at this mesh and penalty
     assert!(
@@ -638,8 +638,8 @@ fn a_rescued_frictional_step_is_one_increment_from_the_last_equilibrium() {
 fn friction_onset_after_a_frictionless_press_converges_without_rescue_with_one_pressure_per_element(
 ) {
     // cases/sliding_flat_2d.toml pressed without friction, then slid with mu = 0.3: with the
-    // pointwise law the first frictional steps need the damped rescue (BENCHMARKS.md, "Frictional
-    // sliding of two deformable blocks"); with `gap = "element_mean"` every step converges by plain
+    // pointwise law the first frictional steps need the damped rescue (docs/verification/friction.md,
+    // "Frictional sliding of two deformable blocks"); with `gap = "element_mean"` every step converges by plain
     // Newton without a cutback, on 1 and 2 ranks alike, and the block slides at mu
     for fam in ["Q1C1", "Q1N2"] {
         let element = [

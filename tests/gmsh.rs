@@ -112,7 +112,7 @@ fn gmsh_graded_half_disk_with_a_tied_cell_presses_like_hertz() {
         "contact {p} vs reaction {r}"
     );
     // Hertz's peak pressure for the load the run reports, against the nominal pressure (force per
-    // reference area, BENCHMARKS.md "Hertz, 2D"): measured +1.65 % on these 330 quads
+    // reference area, docs/verification/hertz.md): measured +1.65 % on these 330 quads
     let e_star = 1.0 / (1.0 - 0.3f64 * 0.3);
     let a = (4.0 * p / (std::f64::consts::PI * e_star)).sqrt();
     let p0 = 2.0 * p / (std::f64::consts::PI * a);

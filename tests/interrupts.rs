@@ -1,4 +1,4 @@
-//! Clean interrupts (issue 9, class 6): a SIGINT or SIGTERM during a run stops it after the step in
+//! Clean interrupts: a SIGINT or SIGTERM during a run stops it after the step in
 //! progress, every converged step is in valid results, `summary.json` says `interrupted`, the exit
 //! code is the signal's (130, 143), and on 2 ranks all ranks agree on where to stop.
 

@@ -1,4 +1,4 @@
-//! Issue 22, the cylinder's sawtooth on ironing (BENCHMARKS.md, "Cylinder sawtooth on ironing"):
+//! The cylinder's sawtooth on ironing (the two-half-pass cylinder pass's P_x):
 //! the defects it could have come from, checked where they would live. The block's enriched top
 //! (Q1N2, Q1N3, Q1N4) is exactly flat in the reference configuration and C1 across every element
 //! joint (position and unit normal agree on both sides) when deformed; the cylinder's arc is C1

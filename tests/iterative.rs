@@ -106,8 +106,7 @@ fn iterative_equals_direct_on_the_3d_hemisphere_on_a_block_on_1_and_2_ranks() {
 /// The scale scene (`hemisphere_twist_scale_3d.toml`) pressed 0.3 in one step, press only, on a
 /// thin mesh (9,402 unknowns): at the first Newton iterate the shell stands 0.3 deep in the
 /// undeformed cube, the GAMG-preconditioned contact tangent is indefinite, and GMRES(100)
-/// stagnates (400 iterations, `DIVERGED_ITS`; BENCHMARKS.md, "Scale: a 3D contact scene",
-/// 2026-11-26).
+/// stagnates (400 iterations, `DIVERGED_ITS`; the 3D contact scene, docs/performance/scale.md).
 const PRESS_IN_ONE_STEP: &[&str] = &[
     "meshes.cube.divisions=[20,20,4]",
     "meshes.shell.n_surface=20",

@@ -181,7 +181,7 @@ fn one_pass_mortar_passes_the_contact_patch_test_alike_on_1_and_2_ranks() {
 fn one_pass_mortar_slides_without_the_cylinders_sawtooth() {
     // ironing at 8 block elements per unit length, two block elements of sliding in 20 steps
     // (the frictionless sliding state is periodic in the block element): the cylinder's
-    // horizontal force, max - min (measured, BENCHMARKS.md "One-pass mortar gap": 1.06e-4 with the
+    // horizontal force, max - min (measured: 1.06e-4 with the
     // mortar gap, 2.10e-3 with the pointwise one-pass, 7.49e-3 for the two-half-pass cylinder pass
     // and 1.90e-3 for its block pass)
     let mut amp = Vec::new();
@@ -224,7 +224,7 @@ fn one_pass_mortar_slides_without_the_cylinders_sawtooth() {
 
 #[test]
 fn mortar_gap_hertz_at_eight_elements_across_the_contact_on_1_and_2_ranks() {
-    // measured (BENCHMARKS.md, "Mortar gap"): nominal peak +0.54 % (Q1C1) and +2.07 % (Q1N2) from
+    // measured: nominal peak +0.54 % (Q1C1) and +2.07 % (Q1N2) from
     // Hertz at n_arc 128; the pointwise gap gives +0.77 % and +1.95 %
     for (fam, lo, hi) in [("Q1C1", 0.0, 0.01), ("Q1N2", 0.01, 0.03)] {
         let (_, peak1, p1) = hertz_peaks_with(fam, 128, 1, &["contact.0.gap=mortar"]);
@@ -243,7 +243,7 @@ fn mortar_gap_hertz_at_eight_elements_across_the_contact_on_1_and_2_ranks() {
 
 #[test]
 fn mortar_mean_meets_hertz_at_eight_elements_across_the_contact_on_1_and_2_ranks() {
-    // measured (BENCHMARKS.md, "Mortar gap"): Q1N2 nominal peak +0.35 % from Hertz at n_arc 128
+    // measured: Q1N2 nominal peak +0.35 % from Hertz at n_arc 128
     // (pointwise +1.95 %, mortar +2.07 %), at eps_n 1e5 +0.56 %
     for (eps, hi) in [("1e4", 0.005), ("1e5", 0.007)] {
         let sets = [
@@ -303,8 +303,7 @@ fn mortar_gap_3d_hemisphere_is_the_same_on_1_and_2_ranks() {
 fn mortar_gap_augmented_does_not_depend_on_the_penalty() {
     // one multiplier per control point: the rounds drive every pressed control point's weighted
     // gap to within tol, so the load no longer depends on eps_n (measured, Q1N2 at n_arc 32:
-    // 8.476193e-3 at eps_n 1e2 in 16 rounds, 8.476150e-3 at 1e4 in 3, 5e-6 apart; BENCHMARKS.md
-    // "Mortar gap")
+    // 8.476193e-3 at eps_n 1e2 in 16 rounds, 8.476150e-3 at 1e4 in 3, 5e-6 apart)
     let mut loads = Vec::new();
     for eps in ["1e2", "1e4"] {
         let d = run_case(

@@ -1,4 +1,4 @@
-//! Property-based tests (issue 9): the case loader (read, validate, build the model) and the Gmsh
+//! Property-based tests: the case loader (read, validate, build the model) and the Gmsh
 //! reader, called in-process on mutated copies of valid files (lines or bytes deleted or
 //! duplicated, lines swapped, numbers replaced by others, truncations), return a model or an
 //! error with a message, and never panic. A bounded number of cases per property keeps the suite

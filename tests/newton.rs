@@ -137,7 +137,7 @@ fn the_secant_predictor_reaches_the_same_states_in_fewer_iterations() {
 /// Two-half-pass pointwise ironing at mesh 8 (Table 2's Q1N2 run, three block elements of
 /// sliding): once per block element a predicted start makes Newton's first iteration raise the
 /// residual norm, and from there Newton took 14 iterations where the converged start takes 5-6
-/// (BENCHMARKS.md, "The secant predictor as the default"). Such a start is given up after that
+/// (docs/user-guide/solvers.md, "Newton with contact"). Such a start is given up after that
 /// iteration (`DIVERGED_PREDICTED_START`) and the step starts again from the converged state, so
 /// the predictor costs no more sliding iterations than the converged start, failed ones included
 /// (measured here: 154 + 3 against 165; over the whole 4-unit slide 1639 + 31 against 1760,
@@ -221,7 +221,7 @@ fn a_predicted_start_that_raises_the_residual_is_given_up_at_once() {
     );
 }
 
-/// Newton at the kink of the penalty law (REPRODUCTION.md 4.1): a faceted (Q1C1) block pressed by
+/// Newton at the kink of the penalty law (docs/verification/paper.md, "4.1 Ironing"): a faceted (Q1C1) block pressed by
 /// a smooth (Q1N2) cylinder with two-half-pass penalty contact has block points that sit at
 /// `g_n = 0` during the depression (the ironing scene, mesh 4, pressed to 0.4 of its depth in 8
 /// steps, Newton started from the converged state). Newton cycles there (active, inactive,

@@ -2,7 +2,7 @@
 //! same answer (1e-10), and the balances that make their reported forces and moments trustworthy.
 //! Also the building blocks they need: a rigid end with a prescribed rotation and a free
 //! translation (pure end moment), Q1E4 bulk below an enriched layer, a contact region.
-//! The full runs are benchmarks (BENCHMARKS.md, REPRODUCTION.md), not tests.
+//! The full runs are benchmarks (docs/verification/paper.md), not tests.
 
 mod common;
 use common::*;
@@ -274,7 +274,7 @@ fn a_snapping_peel_front_is_carried_through_by_the_pseudo_transient_rescue() {
         "stages.0.steps=104",
         "output.every=104",
         // Newton from the converged state: the secant predictor crosses this snap without the
-        // rescue (BENCHMARKS.md, "The secant predictor as the default")
+        // rescue (docs/user-guide/solvers.md, "Newton with contact")
         "solver.predictor=none",
     ];
     let d = scratch("rescue-off");

@@ -18,7 +18,7 @@ fn imbalance(v: &[u64]) -> f64 {
 #[test]
 fn contact_points_and_cells_are_balanced_on_two_ranks() {
     // The hemisphere pressed onto the block: with the cells balanced alone, one rank held 1.5x
-    // the mean of the contact points at this size (BENCHMARKS.md, "Scale: contact data per rank").
+    // the mean of the contact points at this size (docs/performance/contact.md, "Contact data per rank").
     let sets = [
         "meshes.block.divisions=[8,8,8]",
         "meshes.shell.n_surface=8",

@@ -1,4 +1,4 @@
-//! Checkpoint and restart (issue 9): a run killed with SIGKILL after a checkpoint and restarted
+//! Checkpoint and restart: a run killed with SIGKILL after a checkpoint and restarted
 //! with `--restart` ends with the same history.csv and results.h5 as a run that was never
 //! interrupted (to 1e-12), on 1 and 2 ranks, for a Q1E4 body (enhanced-strain history) and a
 //! frictional contact case (anchors, warm starts); a checkpoint written on 2 ranks continues on 1;
@@ -334,7 +334,7 @@ fn a_checkpoint_written_on_2_ranks_restarts_on_1() {
     assert!(d <= TWO_RANK_CONTACT, "difference {d:e}");
 }
 
-/// A 3D contact case with the distributed contact surface (issue 21): a checkpoint written on 2
+/// A 3D contact case with the distributed contact surface: a checkpoint written on 2
 /// ranks continues on 4 (oversubscribed). Each rank rebuilds its own surface pieces and ghost
 /// layer from the global state, and the answer agrees with the uninterrupted 2-rank run to the
 /// Newton tolerance, as for 2 -> 1 above.

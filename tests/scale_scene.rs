@@ -1,14 +1,14 @@
-//! The 3D contact scene that scales (`cases/hemisphere_twist_scale_3d.toml`, issue 21 part 3):
+//! The 3D contact scene that scales (`cases/hemisphere_twist_scale_3d.toml`):
 //! the documented one-command sizes give the announced unknowns, and its small size (press, then
 //! twist) converges with the same answer on 1 and 2 ranks, the rim balancing the contact.
-//! The large sizes are benchmarks (BENCHMARKS.md "Scale: a 3D contact scene ..."), not tests.
+//! The large sizes are benchmarks (docs/performance/scale.md), not tests.
 
 mod common;
 use common::*;
 
 const CASE: &str = "hemisphere_twist_scale_3d.toml";
 
-/// The `--set`s of the documented sizes (cases/README.md, BENCHMARKS.md), with the range their
+/// The `--set`s of the documented sizes (cases/README.md, docs/performance/scale.md), with the range their
 /// unknowns must fall in.
 const SIZES: [(&[&str], u64, u64); 3] = [
     (&[], 8_000, 15_000),

@@ -63,7 +63,7 @@ kind = "radial"
 axis = [0.0, 0.0, 1.0]
 center = [0.0, 0.0, -2.0]"#;
 
-/// FORMULATION.md's base: line supports on x = 0 and y = 0.
+/// The line-support base of twisting_3d.toml: line supports on x = 0 and y = 0.
 const LINES: &str = r#"[[bcs]]
 body = "cube"
 set = "base_x0"
@@ -157,7 +157,7 @@ fn a_radial_base_expands_without_turning_and_balances_the_twist_on_1_and_2_ranks
 
 #[test]
 fn line_supports_let_the_base_turn_where_a_radial_base_does_not() {
-    // the distinction the radial condition exists for (REPRODUCTION.md, frictional twisting)
+    // the distinction the radial condition exists for (docs/verification/friction.md, "Frictional twisting")
     let lines = run_file(&write_case("skew-lines", &cube(LINES)), "skew-lines", 1);
     let (circ, _) = base_motion(&lines);
     assert!(circ > 1e-3, "line-supported base turns by only {circ:e}");

@@ -203,7 +203,7 @@ pub(crate) const TOUCH: f64 = 1e-12;
 /// `coords` [n_global_nodes][dim]: a control point of one element lies within the pair's search
 /// distance of the other's control-point box. The partitioner adds them to the dual graph, so
 /// that METIS keeps facing surface pieces on one rank where it can (each such cut edge is a
-/// partner element a rank must gather; BENCHMARKS.md, "Scale: contact data per rank").
+/// partner element a rank must gather; docs/performance/contact.md, "Contact data per rank").
 /// Rigid partners add none.
 pub fn facing_cells(
     surfaces: &[crate::contact::surface::ContactSurface],
@@ -265,7 +265,7 @@ pub fn facing_cells(
 /// active) is many times that of a point with none (a bin lookup that finds no candidate), so
 /// balancing all points let one rank take every facing piece and the other the far ones: on the
 /// 1e5 scale scene one rank did 74 % of the projections' time and 82 % of the contact blocks'
-/// (BENCHMARKS.md, "The 1e6 twist's line search, balancing the contact work, per-rank timers").
+/// (docs/user-guide/parallel-and-clusters.md, "How a run is split").
 /// When no cell faces a partner (rigid partners only, or surfaces farther apart than the search
 /// distance), every point counts.
 pub fn facing_points(points: &[u32], facing: &[[u32; 2]]) -> Vec<u32> {

@@ -4,8 +4,7 @@
 //! current displacement of the surface nodes this rank holds and takes residual entries and matrix
 //! blocks out.
 //!
-//! Parallel design (issue 21, part 2, first stage; measured in BENCHMARKS.md "Scale: contact data
-//! per rank"): a rank holds the current positions of its own surface elements, of the elements that
+//! Parallel design (measured in docs/performance/contact.md, "Contact data per rank"): a rank holds the current positions of its own surface elements, of the elements that
 //! hold its points and of a *ghost layer* of partner elements within reach of its points
 //! (`ghost.rs`); the gather before every evaluation (`table_dofs` feeds a PETSc scatter) carries
 //! only their nodes, and `update_positions` touches only them. The layer is refreshed
@@ -234,7 +233,7 @@ impl ContactSystem {
                     let walked = p.filter(|p| p.dist <= dist);
                     // an interior projection the walk found stays (as for the pointwise gap; a
                     // closer interior point elsewhere took partners from converging runs of the
-                    // 3D twist, BENCHMARKS.md "Mortar gaps at the partner's end")
+                    // 3D twist: two-half-pass `mortar_mean` then failed on meshes 4 and 8)
                     (p, edge) = match (beyond, walked) {
                         (true, _) => (None, best),
                         (false, Some(w)) => (Some(w), None),

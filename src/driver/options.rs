@@ -469,7 +469,7 @@ pub(super) const CODE_DEFAULT_OPTIONS: [&str; 2] = ["-mat_mumps_icntl_24", "-sne
 
 /// The iterative route's defaults (`[solver] linear = "iterative"`), before the case's and the
 /// command line's options, which override them. Measured on the 3D block and the 3D contact
-/// scene (BENCHMARKS.md, "Scale: direct against iterative", one loaded session):
+/// scene (docs/performance/solver.md, "Direct against iterative"):
 /// - unsmoothed aggregation (`-pc_gamg_agg_nsmooths 0`): smoothed aggregation (PETSc's default)
 ///   keeps the Krylov count flat (16-17 per Newton iteration from 12^3 to 30^3) but its Galerkin
 ///   products with six modes per aggregate cost 5x more per Newton iteration at 30^3 (14.0 s
@@ -494,7 +494,7 @@ pub(super) const ITERATIVE_DEFAULT_OPTIONS: &str = "-ksp_type gmres -ksp_gmres_r
 /// the undeformed cube, pressure eps_n g = 10 E of the cube) the GAMG-preconditioned contact
 /// tangent is indefinite: on the scale scene at 54,252 unknowns 61 of its 162 Ritz values have a
 /// negative real part (down to -30), none of the 33 of the contact-free solve before it
-/// (BENCHMARKS.md "Scale: a 3D contact scene", 2026-11-26). Restarted GMRES(100) stagnates there
+/// (the 3D contact scene, docs/performance/scale.md). Restarted GMRES(100) stagnates there
 /// (relative true residual 2.8e-2 after 100 iterations, 4.1e-3 after 400: `DIVERGED_ITS`, fallback
 /// to MUMPS), GMRES(200) and unrestarted GMRES converge in 162; smoothed aggregation and an
 /// FGMRES/GMRES(3) smoother stagnate as GMRES(100) does. At 103,449 unknowns the first two contact
@@ -503,7 +503,7 @@ pub(super) const CONTACT_ITERATIVE_OPTIONS: &str = "-ksp_gmres_restart 400";
 
 /// Rows of constrained unknowns (identity rows of the Jacobian) are zeroed in the rigid-body
 /// modes given to GAMG: 35.5 Krylov iterations per Newton iteration against 45.8 with them kept,
-/// 2.1 s against 2.6 s (30^3 block, BENCHMARKS.md, "Scale: direct against iterative"); the environment
+/// 2.1 s against 2.6 s (30^3 block, docs/performance/solver.md, "Direct against iterative"); the environment
 /// variable `NURBS_CONTACT_FLIP_CONSTRAINED_MODES` flips it, for that measurement.
 const ZERO_CONSTRAINED_MODES: bool = true;
 
@@ -528,7 +528,7 @@ pub(super) fn case_petsc_options(case: &Case, model: &Model, route: LinearSolver
     };
     // With contact, PETSc's backtracking line search creeps where the penalty switches points between
     // active and inactive, and full steps invert elements that a cutback must then repair; the l2
-    // line search (a secant minimisation of |F|^2 along the step) does best (BENCHMARKS.md: ironing_2d
+    // line search (a secant minimisation of |F|^2 along the step) does best (measured: ironing_2d
     // 454 Newton iterations and no cutbacks vs 506 with bt and 663 + 35 cutbacks with full steps;
     // hertz_2d 10 vs 36 with bt). The case or the command line can override it.
     // MUMPS counts null pivots (INFOG(28)) instead of failing or pivoting around them, so a

@@ -306,7 +306,7 @@ pub fn q1c2_2d(xi: f64, eta: f64, N: &mut [f64], dN: &mut [f64]) {
     dN[9] = 0.25 * (1.0 - xi);
 }
 
-/// Q1CH basis (Sauer 2011; FORMULATION.md): cubic Hermite along `eta = -1`. Pseudo-node order:
+/// Q1CH basis (Sauer 2011; docs/theory/formulation.md): cubic Hermite along `eta = -1`. Pseudo-node order:
 /// positions at xi = -1, +1; tangents `dx/ds` (w.r.t. reference arc length s) at xi = -1, +1; bulk
 /// nodes (1,1), (-1,1). A tangent's basis function is the Hermite slope function times `h`, the
 /// element half-length in reference arc length (`ds/dxi = h`), so `x = sum_a N_a x_a` holds with

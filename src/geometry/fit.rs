@@ -1,4 +1,4 @@
-//! Smooth spline fits of an exact curve or surface (issue 8, "surface geometry"): a polynomial
+//! Smooth spline fits of an exact curve or surface (`enriched_geometry = "smooth"`): a polynomial
 //! B-spline of order `p` with single interior knots (C^{p-1} everywhere), fitted in least squares to
 //! many points of the exact geometry with its ends interpolated, and the largest geometric distance
 //! between fit and exact geometry.

@@ -183,7 +183,7 @@ pub struct ContactPatternStats {
     pub ring: usize,
 }
 
-/// What each rank holds for contact and what it receives per evaluation (issue 21's measure of
+/// What each rank holds for contact and what it receives per evaluation (the measure of
 /// distributed contact surfaces). Per-rank lists, in rank order.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ContactDataStats {

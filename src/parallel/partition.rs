@@ -28,7 +28,7 @@ pub enum PartitionError {
 /// `contact_points` (empty, or one count per cell) is the number of contact quadrature points a
 /// cell's rank integrates. When some are non-zero METIS balances two constraints at once: the
 /// cells (bulk work) and the contact points (contact work), so that the ranks owning a contact
-/// surface do not carry all of its points (BENCHMARKS.md, "Scale: contact data per rank").
+/// surface do not carry all of its points (docs/performance/contact.md, "Contact data per rank").
 ///
 /// `facing` (cell pairs `[a, b]`, e.g. [`crate::contact::pair::facing_cells`]) are added to the
 /// dual graph as edges of weight 1 beside the shared faces: cells whose contact surfaces face each

@@ -229,8 +229,8 @@ unsafe extern "C" fn jacobian_trampoline(
 /// domain (an inverted element, a failed projection), the step it settled on, `w = x - lambda y`,
 /// is evaluated before SNES takes it, and halved while it is outside the domain too. PETSc's `l2`
 /// search cuts lambda after a failed evaluation but then takes its secant step unchecked, which
-/// can land in the failed region again (from 1 to 0.5 and 0.25, then the secant 0.80: BENCHMARKS.md,
-/// "The iterative route on the contact tangent"), and SNES then stops with
+/// can land in the failed region again (from 1 to 0.5 and 0.25, then the secant 0.80, measured on
+/// the 3D contact scene at 54,252 unknowns), and SNES then stops with
 /// `DIVERGED_FUNCTION_DOMAIN` although a shorter step reduced the residual. Costs nothing in a
 /// line search without a domain error. Every rank takes the same branch: the problem raises a
 /// domain error on every rank alike.

@@ -11,7 +11,7 @@
 //!
 //! - the linear solver of the route that runs (`[solver] linear`, see [`linear_solver_bytes`]):
 //!   the MUMPS factors (direct), or GAMG's hierarchy and the Krylov vectors (iterative), fitted
-//!   to peak memory measured on the 3D block (BENCHMARKS.md, "Scale: direct against iterative").
+//!   to peak memory measured on the 3D block (docs/performance/solver.md, "Direct against iterative").
 //!
 //! A case refused by it cannot run here.
 
@@ -21,7 +21,7 @@ use crate::scene::schema::{Case, Generator, MeshSpec};
 pub const MAX_UNKNOWNS: f64 = i32::MAX as f64;
 
 /// `[solver] linear = "auto"` takes the iterative route from this many unknowns on. Measured
-/// (BENCHMARKS.md, "Scale: direct against iterative", one loaded session, 1 rank): per Newton
+/// (docs/performance/solver.md, "Direct against iterative", 1 rank): per Newton
 /// iteration the iterative route is 1.5x slower than MUMPS on the hemisphere scene at 2,937
 /// unknowns, 1.4x faster on the 12^3 block (6,591), and at least 2x faster from the 20^3 block
 /// (27,783) on, 4x at 30^3 (89,373); between about 5e3 and 2e4 the gain is small and MUMPS is
@@ -39,7 +39,7 @@ pub const CONTACT_KRYLOV_VECTORS: f64 = 400.0;
 /// each). Fitted to peaks measured on the 3D block, less the mesh, matrix and ~100 MB of
 /// process: direct 20^3 and 30^3 (644 MB, 2337 MB: 480 and 440 bytes per `n^(4/3)`, taken
 /// low, 360, so that the estimate stays a lower bound), iterative 20^3 to 40^3 (312 MB, 768 MB,
-/// 1821 MB; BENCHMARKS.md, "Scale: direct against iterative").
+/// 1821 MB; docs/performance/solver.md, "Direct against iterative").
 ///
 /// With `contact`, the iterative route's GMRES runs without restart up to 400 iterations (the
 /// contact defaults of `src/driver/options.rs`), and PETSc keeps every Krylov vector it allocated:

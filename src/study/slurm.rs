@@ -194,7 +194,7 @@ pub struct Resources {
 const BASE_MIB: f64 = 256.0;
 /// Peak memory above [`BASE_MIB`] over `check`'s estimate (mesh arrays + matrix + the linear
 /// solver of the route that runs, [`CaseSize`]), measured on the 3D contact scene
-/// (`cases/hemisphere_twist_scale_3d.toml`, 1 rank, BENCHMARKS.md "Scale: a 3D contact scene"):
+/// (`cases/hemisphere_twist_scale_3d.toml`, 1 rank, docs/performance/scale.md):
 /// 2.8 (1.2e4 unknowns, MUMPS), 2.1 (1.0e5, MUMPS), 1.2 (1.0e5, GMRES + GAMG), 1.5 (1.0e6, GMRES
 /// + GAMG); the largest, rounded up. The test `the_memory_request_covers_the_scale_scenes_
 /// measured_peaks` holds the measurements.
@@ -209,12 +209,12 @@ const MIN_MINUTES: f64 = 15.0;
 /// Seconds of one Newton iteration (assembly, contact, MUMPS factorisation) on one rank, fitted to
 /// runs on this project's 2-core test machine (shared, so on the slow side): 2D Hertz contact
 /// 0.115 s at 1.26e4 and 0.57 s at 4.97e4 unknowns; 3D block 1.4 s at 1.47e4 and 11 s at 4.69e4
-/// unknowns. Against the paper's studies (BENCHMARKS.md, REPRODUCTION.md) the resulting estimate
+/// unknowns. Against the paper's studies (docs/verification/paper.md) the resulting estimate
 /// is high: ironing mesh 16 (1.2e4 unknowns, 660 steps) 766 s estimated, 100-111 s measured;
 /// twisting mesh 8 on 2 ranks 98 s estimated, 48 s measured.
 ///
-/// On the iterative route in 3D (GMRES + GAMG), the 3D contact scene on 1 rank (BENCHMARKS.md
-/// "Scale: a 3D contact scene"): 1.05 s at 1.2e4 and 187.6 s at 1.01e6 unknowns, the fit through
+/// On the iterative route in 3D (GMRES + GAMG), the 3D contact scene on 1 rank
+/// (docs/performance/scale.md): 1.05 s at 1.2e4 and 187.6 s at 1.01e6 unknowns, the fit through
 /// them (exponent 1.17, the Krylov iterations per Newton iteration growing from 35 to 119; at
 /// `check`'s unknown counts, which are 2 % low); it gives 13 s at 1.03e5, where 6.05 s was
 /// measured.
@@ -665,10 +665,10 @@ mod tests {
     }
 
     /// The 3D contact scene's measured peaks (`/usr/bin/time -f %M`, 1 rank, MiB) and seconds per
-    /// Newton iteration (BENCHMARKS.md, "Scale: a 3D contact scene": the table, and the sessions
-    /// of 2026-11-26 for e5 iterative, 1,499,880 KB, and the 1e6 press, 16,793,676 KB) lie under
-    /// the Slurm request and the time estimate, and within 2.5x and 3x of them: a request below
-    /// the peak has Slurm kill the run, one far above it waits for nodes it does not need.
+    /// Newton iteration (docs/performance/scale.md; e5 iterative 1,499,880 KB and the 1e6 press
+    /// 16,793,676 KB) lie under the Slurm request and the time estimate, and within 2.5x and 3x
+    /// of them: a request below the peak has Slurm kill the run, one far above it waits for nodes
+    /// it does not need.
     #[test]
     fn the_memory_request_covers_the_scale_scenes_measured_peaks() {
         let case =

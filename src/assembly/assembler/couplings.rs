@@ -205,8 +205,8 @@ impl<'p> Assembler<'p> {
     /// Before a Newton solve from `x`: if the blocks needed at `x` (or those a Jacobian of the
     /// last solves needed) are not all in the sparsity pattern, builds a new pattern reserving a
     /// band around them, on a new matrix that replaces `jac` (and, in `snes`, the matrix the last
-    /// solves used, which is freed before the new pattern is built: [`Snes::release_operators`];
-    /// BENCHMARKS.md "Peak memory at a pattern rebuild"). PETSc's COO preallocation is set once
+    /// solves used, which is freed before the new pattern is built to keep the peak memory of a
+    /// rebuild down: [`Snes::release_operators`]). PETSc's COO preallocation is set once
     /// per matrix (setting it again on a parallel matrix corrupted memory in PETSc 3.18), and
     /// never inside a Newton solve. Returns whether the pattern was rebuilt.
     ///

@@ -29,7 +29,7 @@ mod pattern;
 use couplings::CouplingHook;
 use pattern::PetscSink;
 
-/// How the Jacobian is put into PETSc (both are exact-preallocated; BENCHMARKS.md compares them).
+/// How the Jacobian is put into PETSc (both are exact-preallocated; docs/performance/solver.md compares them).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum MatrixAssembly {
     /// `MatSetPreallocationCOO` once per pattern, then one `MatSetValuesCOO` per Jacobian.

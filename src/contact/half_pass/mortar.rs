@@ -29,7 +29,7 @@
 //!
 //! The current area (not the reference one) keeps the two half-passes' forces alike when a
 //! surface stretches: on ironing the reference-area version gave the cylinder's pass 14 % more
-//! force than the block's (BENCHMARKS.md, "Mortar gap").
+//! force than the block's.
 //!
 //! `gap = "mortar_mean"` (`mean`): the same weights applied to the points' penalty pressures
 //! instead of their gaps, `p_A = sum_q R_A(xi_q) c_q p_q / W_A`, `p_q = -eps_n g_N,q` where

@@ -10,8 +10,8 @@
 //! The pointwise constraints are more than the surfaces can always meet: two deformable surfaces
 //! each drive their own points' gaps to zero against the other's (non-matching) surface, and an
 //! enriched surface has more contact points than control points. The rounds then stall at a
-//! violation set by that mismatch, and `tol` must lie above it (BENCHMARKS.md, "Augmented
-//! Lagrangian on the pointwise gap").
+//! violation set by that mismatch, and `tol` must lie above it (docs/user-guide/contact.md,
+//! "Augmented Lagrangian").
 //!
 //! Under the mortar gap the multipliers and the violations are the control points'
 //! ([`crate::contact::half_pass::mortar`]).

@@ -1,5 +1,5 @@
 //! What the contact system holds on this rank, in bytes (summary.json `contact_data`): the
-//! measure of issue 21's distributed surfaces. Today every rank holds every contact surface's
+//! measure of distributed contact surfaces. Every rank holds every contact surface's
 //! topology and basis data and every surface node's reference coordinates, the current positions
 //! and search grids of the elements it holds (own and ghost layer), and its own points; the counts are the
 //! arrays' lengths times their element sizes (what the allocator hands out beyond that, and

@@ -1,4 +1,4 @@
-//! The ghost layer (issue 21, part 2, first stage): which surface elements this rank holds current
+//! The ghost layer: which surface elements this rank holds current
 //! positions of, so that the gather before every evaluation carries only their nodes.
 //!
 //! A rank holds its *own* elements (those of the cells of its bulk partition, on every surface),
