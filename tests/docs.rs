@@ -243,20 +243,28 @@ fn shell_words(line: &str) -> Vec<String> {
     words
 }
 
-/// The `nurbs-contact check ...` commands of the pages' fenced code blocks (continued lines
+/// Whether a fenced code block with this info string holds shell commands (a block of another
+/// language, e.g. `text` for a usage synopsis, holds none).
+fn is_shell(info: &str) -> bool {
+    matches!(info.trim(), "" | "sh" | "bash" | "shell" | "console")
+}
+
+/// The `nurbs-contact check ...` commands of the pages' fenced shell code blocks (continued lines
 /// joined), with the page and line where each starts.
 fn check_commands() -> Vec<(String, Vec<String>)> {
     let mut out = Vec::new();
     for page in pages() {
         let text = read(&page);
         let mut fenced = false;
+        let mut shell = false;
         let mut pending: Option<(usize, String)> = None;
         for (i, line) in text.lines().enumerate() {
-            if line.trim_start().starts_with("```") {
+            if let Some(info) = line.trim_start().strip_prefix("```") {
                 fenced = !fenced;
+                shell = fenced && is_shell(info);
                 continue;
             }
-            if !fenced {
+            if !shell {
                 continue;
             }
             let (start, joined) = match pending.take() {
@@ -281,6 +289,12 @@ fn check_commands() -> Vec<(String, Vec<String>)> {
         }
     }
     out
+}
+
+#[test]
+fn only_shell_blocks_hold_commands() {
+    assert!(is_shell("") && is_shell("sh") && is_shell("bash "));
+    assert!(!is_shell("text") && !is_shell("toml"));
 }
 
 #[test]
