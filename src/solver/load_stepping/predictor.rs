@@ -6,8 +6,8 @@ use crate::petsc::{PetscError, Vector};
 
 /// The secant predictor is given up for the rest of a stage once at least
 /// [`PREDICTION_TRIALS`] predicted starts were tried and more than [`PREDICTION_FAILURES`] of
-/// them failed: a failed start costs its iterations and a second solve (BENCHMARKS.md, "A secant
-/// predictor": two-half-pass pointwise ironing at mesh 4 fails one in three).
+/// them failed: a failed start costs its iterations and a second solve (two-half-pass pointwise
+/// ironing at mesh 4 fails one in three).
 const PREDICTION_TRIALS: usize = 8;
 const PREDICTION_FAILURES: f64 = 0.2;
 

@@ -150,9 +150,9 @@ pub(super) enum Rescue {
 /// it speeds up (the snap) and slows down again as it nears the next equilibrium. So an undamped
 /// solve is tried only while the flow slows down after having sped up at least once, or once it
 /// has nearly stopped (the force below [`Self::NEAR_REST`] of its first value: an equilibrium
-/// close by, no snap), and at the last pseudo-step. (Trying at every slowing pseudo-step, as
-/// before, spent up to a third of a hard run's Newton iterations in undamped solves that failed,
-/// for the same equilibria: BENCHMARKS.md, "The pseudo-transient rescue".)
+/// close by, no snap), and at the last pseudo-step. (Trying at every slowing pseudo-step spent up
+/// to a third of a hard run's Newton iterations in undamped solves that failed, for the same
+/// equilibria.)
 #[derive(Debug, Clone, Default)]
 struct UndampedTrigger {
     first: Option<f64>,
