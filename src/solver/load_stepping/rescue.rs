@@ -59,19 +59,18 @@ impl<'c> PseudoTransient<'c> {
         }
         let mut u_prev = x_conv.duplicate()?;
         x_conv.copy_to(&mut u_prev)?;
-        let mut c = 1.0;
+        let mut c = Damping::default();
         let mut total_iterations = 0;
         let mut outcome = Rescue::Failed;
         let mut trigger = UndampedTrigger::default();
         for k in 1..=max_steps {
-            sys.asm.set_damping(c, &u_prev)?;
+            sys.asm.set_damping(c.0, &u_prev)?;
             u_prev.copy_to(sys.x)?;
             let damped = solve_resuming(sys)?;
             total_iterations += damped.iterations;
             if !damped.converged {
                 sys.asm.rollback();
-                c *= 8.0;
-                if c > 1e8 {
+                if !c.stiffen() {
                     break;
                 }
                 continue;
@@ -82,13 +81,11 @@ impl<'c> PseudoTransient<'c> {
             let force = sys.asm.damping_force_norm(sys.x)?;
             sys.asm.commit_intermediate();
             sys.x.copy_to(&mut u_prev)?;
-            if damped.iterations <= 4 {
-                c = (c * 0.5).max(1e-10);
-            }
+            c.relax(damped.iterations);
             if debug {
                 eprintln!(
-                    "rescue {k}: c {c:.2e}, damped solve {} iterations, damping force {force:.3e}",
-                    damped.iterations
+                    "rescue {k}: c {:.2e}, damped solve {} iterations, damping force {force:.3e}",
+                    c.0, damped.iterations
                 );
             }
             if !trigger.observe(force, k == max_steps) {
@@ -131,6 +128,36 @@ impl<'c> PseudoTransient<'c> {
             x_conv.copy_to(sys.x)?;
         }
         Ok(outcome)
+    }
+}
+
+/// The damping factor `c` of the rescue's pseudo-steps: 1 at first, 8 times larger after a damped
+/// solve fails, half as large (down to 1e-10) after one converges easily.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Damping(f64);
+
+impl Default for Damping {
+    fn default() -> Self {
+        Damping(1.0)
+    }
+}
+
+impl Damping {
+    /// A damped solve at most this many Newton iterations long converged easily.
+    const EASY: usize = 4;
+
+    /// A damped solve failed: damps 8 times more. False once `c` exceeds 1e8: no damping makes
+    /// the flow converge, the rescue ends.
+    fn stiffen(&mut self) -> bool {
+        self.0 *= 8.0;
+        self.0 <= 1e8
+    }
+
+    /// A damped solve converged in `iterations` Newton iterations: an easy one halves `c`.
+    fn relax(&mut self, iterations: usize) {
+        if iterations <= Self::EASY {
+            self.0 = (self.0 * 0.5).max(1e-10);
+        }
     }
 }
 
@@ -205,5 +232,22 @@ mod tests {
         assert_eq!(tries(&creep), vec![3]);
         // a single pseudo-step is the last one
         assert_eq!(tries(&[1e-3]), vec![0]);
+    }
+
+    #[test]
+    fn the_damping_grows_8_fold_after_failures_until_1e8_and_halves_after_easy_solves() {
+        let mut c = Damping::default();
+        // 8^8 = 1.7e7 is allowed, 8^9 = 1.3e8 ends the rescue: the ninth failure in a row
+        let failures = (1..=20).find(|_| !c.stiffen()).unwrap();
+        assert_eq!(failures, 9);
+        let mut c = Damping(0.5);
+        c.relax(5);
+        assert_eq!(c, Damping(0.5), "a hard solve keeps it");
+        c.relax(4);
+        assert_eq!(c, Damping(0.25));
+        for _ in 0..100 {
+            c.relax(1);
+        }
+        assert_eq!(c, Damping(1e-10), "down to 1e-10, not to 0");
     }
 }
