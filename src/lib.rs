@@ -30,6 +30,8 @@
 //!   body's contact surface, `model::enrich`); [`solver`], [`driver`], [`io`].
 //! - [`study`]: `nurbs-contact study`, refinement studies over many runs of one case, with metrics,
 //!   tables and plots.
+//! - [`reference`]: `nurbs-contact reference`, the generated reference pages (the case file's JSON
+//!   Schema, its keys, the command line) in `docs/reference/`.
 //!
 //! ## Where the paper's concepts live (Corbett & Sauer 2014)
 //! | concept | where |
@@ -62,6 +64,7 @@ pub mod mesh;
 pub mod model;
 pub mod parallel;
 pub mod petsc;
+pub mod reference;
 pub mod scene;
 pub mod solver;
 pub mod study;

@@ -1,7 +1,7 @@
 //! `nurbs-contact`: run or check a case file, or run a study. CLI only: parse, initialise MPI and PETSc, hand over to
 //! [`nurbs_contact::driver`], report.
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, Parser, Subcommand};
 use nurbs_contact::driver::{self, RunOptions, Verbosity};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -92,6 +92,13 @@ enum Command {
         #[arg(long, conflicts_with_all = ["check", "dry_run"])]
         collect: bool,
     },
+    /// Write the generated reference pages: the case file's JSON Schema (case-schema.json), its
+    /// keys (case-keys.md) and this command line (cli.md).
+    Reference {
+        /// Output directory (created if missing).
+        #[arg(long, short = 'o', value_name = "DIR", default_value = nurbs_contact::reference::DEFAULT_DIR)]
+        out: PathBuf,
+    },
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -163,6 +170,20 @@ fn main() -> ExitCode {
             restart,
         }),
         Command::Check { case, sets } => driver::check_main(&case, &sets, petsc_args),
+        Command::Reference { out } => {
+            return match nurbs_contact::reference::write_pages(&out, &Cli::command()) {
+                Ok(paths) => {
+                    for p in paths {
+                        println!("wrote {}", p.display());
+                    }
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+            };
+        }
         Command::Study {
             study,
             out,

@@ -1,6 +1,7 @@
 //! `[[contact]]`: contact pairs of a case. Checked against the model (bodies, face sets, stages)
 //! where the pairs are built, `crate::model::contact`.
 
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 /// `[[contact]]`: a contact pair between two surfaces `body.face_set`, or one surface and a rigid
@@ -27,7 +28,7 @@ use serde::{Deserialize, Serialize};
 /// mu = 0.3
 /// friction_stages = [false, true]
 /// ```
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ContactSpec {
     /// Name used in `history.csv` columns. Default: `contact<index>`.
@@ -71,6 +72,7 @@ pub struct ContactSpec {
     /// `element_mean`), interpolated by the surface basis; the scope of `mortar`, without
     /// `augmented`.
     #[serde(default, skip_serializing_if = "GapMode::is_pointwise")]
+    #[schemars(extend("default" = "pointwise"))]
     pub gap: GapMode,
     /// `penalty`: augmented Lagrangian enforcement, `{ tol = ..., max = ... }`. After each converged
     /// Newton solve of a load step, every quadrature point's multiplier is updated to its pressure
@@ -88,18 +90,23 @@ pub struct ContactSpec {
     /// Penalty parameter (> 0; force per length^3 in 3D, per length^2 in 2D): `penalty`, and the
     /// penalty against penetration of `cohesive`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-unit" = "force/length^3 (3D), force/length^2 (2D)", "exclusiveMinimum" = 0))]
     pub eps_n: Option<f64>,
     /// Hamaker's constant `A_H` (> 0) of `van_der_waals`, in the case's units of energy.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-unit" = "energy", "exclusiveMinimum" = 0))]
     pub a_h: Option<f64>,
     /// Equilibrium spacing `r0` (> 0) of the Lennard-Jones potential, `van_der_waals`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-unit" = "length", "exclusiveMinimum" = 0))]
     pub r0: Option<f64>,
     /// Peak traction `T0` (> 0) of `cohesive`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-unit" = "traction", "exclusiveMinimum" = 0))]
     pub t0: Option<f64>,
     /// Characteristic opening `g0` (> 0) of `cohesive`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-unit" = "length", "exclusiveMinimum" = 0))]
     pub g0: Option<f64>,
     /// `cohesive`: the form of its penalty against penetration, `linear` (default, `t = -eps_n g_n
     /// n` like `penalty`) or `quadratic` (`t = eps_n g_n^2 n`, continuous tangent at `g_n = 0`
@@ -118,6 +125,7 @@ pub struct ContactSpec {
     /// Points farther than this from the partner are not paired (> 0). Default: twice the largest
     /// mean element length of the pair's surfaces.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-unit" = "length", "exclusiveMinimum" = 0))]
     pub search_distance: Option<f64>,
     /// Coulomb friction coefficient (> 0) of `penalty`, and of the penalty against penetration of
     /// `cohesive` (Sauer & De Lorenzis 2015: each quadrature point sticks to an anchor on the
@@ -125,10 +133,12 @@ pub struct ContactSpec {
     /// Default: frictionless. With `algorithm = "one_pass"` the slave's points stick and slip and
     /// the master takes the opposite traction.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("exclusiveMinimum" = 0))]
     pub mu: Option<f64>,
     /// Tangential penalty (> 0, units of `eps_n`) of the stick law `t_T = -eps_t g_T`. Default:
     /// `eps_n` (a `cohesive` pair with the quadratic penetration penalty must give it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-unit" = "units of eps_n", "exclusiveMinimum" = 0))]
     pub eps_t: Option<f64>,
     /// `[n_stages]`: friction on (`true`) or off in each stage, e.g. `[false, true]` to indent
     /// without friction and then slide with it. Default: every stage.
@@ -137,21 +147,24 @@ pub struct ContactSpec {
     /// `[dim]`: point about which `history.csv` reports the moment of the contact forces.
     /// Default: the origin.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-unit" = "length"))]
     pub moment_point: Option<Vec<f64>>,
 }
 
 /// `augmented = { tol = ..., max = ... }` of a `[[contact]]` pair.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct AugmentedSpec {
     /// Largest penetration accepted (a length, > 0).
+    #[schemars(extend("x-unit" = "length", "exclusiveMinimum" = 0))]
     pub tol: f64,
     /// Most augmentation rounds per load step (>= 1).
+    #[schemars(range(min = 1))]
     pub max: usize,
 }
 
 /// Where the penalty law's normal gap is taken (`gap`).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum GapMode {
     /// At every quadrature point (eq. 5).
@@ -175,7 +188,7 @@ impl GapMode {
 }
 
 /// Contact algorithms.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Algorithm {
     #[default]
@@ -184,7 +197,7 @@ pub enum Algorithm {
 }
 
 /// Forms of the cohesive law's penalty against penetration.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum PenaltyForm {
     Linear,
@@ -192,7 +205,7 @@ pub enum PenaltyForm {
 }
 
 /// Contact laws.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum LawKind {
     Penalty,
@@ -201,15 +214,19 @@ pub enum LawKind {
 }
 
 /// An axis-aligned box `{ min = [...], max = [...] }`, `[dim]` each.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct BoxSpec {
+    /// `[dim]`: lower corner.
+    #[schemars(extend("x-unit" = "length"))]
     pub min: Vec<f64>,
+    /// `[dim]`: upper corner.
+    #[schemars(extend("x-unit" = "length"))]
     pub max: Vec<f64>,
 }
 
 /// A rigid contact partner and its motion. Normals point out of the rigid body.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RigidSpec {
     /// `plane` (a line in 2D; `point`, `normal`), `circle` (2D) / `sphere` (3D) (`center`,
@@ -217,15 +234,18 @@ pub struct RigidSpec {
     pub shape: RigidShapeKind,
     /// `[dim]`: a point of the plane.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-unit" = "length"))]
     pub point: Option<Vec<f64>>,
     /// `[dim]`: the plane's normal, towards the deformable body (need not be normalised).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub normal: Option<Vec<f64>>,
     /// `[dim]`: centre of the circle/sphere, a point on the cylinder's axis.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-unit" = "length"))]
     pub center: Option<Vec<f64>>,
     /// Radius (> 0).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-unit" = "length", "exclusiveMinimum" = 0))]
     pub radius: Option<f64>,
     /// Cylinder axis (3D).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -236,13 +256,16 @@ pub struct RigidSpec {
     /// `[n_stages][dim]`: translation reached at the end of each stage (linear in a stage).
     /// Default: none.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[schemars(extend("x-unit" = "length"))]
     pub translation: Vec<Vec<f64>>,
     /// `[n_stages]`: rotation angle in degrees reached at the end of each stage, about
     /// `rotation_axis` (3D; 2D rotates in the plane) through `rotation_center`. Default: none.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[schemars(extend("x-unit" = "degrees"))]
     pub rotation_deg: Vec<f64>,
     /// `[dim]`: centre of the rotation. Default: the origin.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-unit" = "length"))]
     pub rotation_center: Option<Vec<f64>>,
     /// Rotation axis (3D). Default: `[0, 0, 1]`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -250,7 +273,7 @@ pub struct RigidSpec {
 }
 
 /// Rigid shapes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum RigidShapeKind {
     Plane,

@@ -8,11 +8,13 @@
 //! - [`size`]: node, cell and memory estimates of generated meshes, checked before building them.
 //! - [`error`]: [`SceneError`], whose messages name the file, the key path and (when known) the line.
 //! - [`examples`]: three complete case files, used as test fixtures and as templates.
+//! - [`json_schema`]: the JSON Schema of a case file, from the schema's types and doc comments.
 
 pub mod contact_spec;
 pub mod element_family;
 pub mod error;
 pub mod examples;
+pub mod json_schema;
 mod keypath;
 pub mod load;
 pub mod schema;

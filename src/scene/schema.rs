@@ -6,6 +6,7 @@
 
 use crate::scene::element_family::ElementFamily;
 use crate::scene::keypath::{nest_message, split_toml_error};
+use schemars::JsonSchema;
 use serde::de::{self, DeserializeOwned, Deserializer};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -13,7 +14,7 @@ use std::path::{Path, PathBuf};
 
 /// A whole case: `[case]`, `[meshes.*]`, `[bodies.*]`, `[[bcs]]`, `[[ties]]`, `[[stages]]`, `[steps]`,
 /// `[solver]`, `[output]`, `[[contact]]`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Case {
     /// The case file this was read from (not part of the TOML); error messages and relative mesh
@@ -31,12 +32,12 @@ pub struct Case {
     /// Periodic ties. Default: none.
     #[serde(default)]
     pub ties: Vec<TieSpec>,
-    /// Contact pairs (see [`crate::scene::contact_spec`]). Default: none.
+    /// Contact pairs, `[[contact]]`. Default: none.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub contact: Vec<crate::scene::contact_spec::ContactSpec>,
     /// Load stages, applied in order; at least one.
     pub stages: Vec<StageSpec>,
-    /// Step size control. Default: see [`StepControl`].
+    /// Step size control, `[steps]`. Default: the defaults of its keys.
     #[serde(default)]
     pub steps: StepControl,
     #[serde(default)]
@@ -89,14 +90,16 @@ impl Case {
 }
 
 /// `[case]`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CaseInfo {
+    /// Name of the case: the default output directory is `out/<name>/`.
     pub name: String,
     /// Free text. Default: empty.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub description: String,
     /// Spatial dimension, 2 or 3.
+    #[schemars(range(min = 2, max = 3))]
     pub dim: usize,
 }
 
@@ -109,7 +112,7 @@ pub enum MeshSpec {
 }
 
 /// A mesh read from disk.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct FileMesh {
     /// Gmsh 4.1 `.msh`, relative to the case file (see [`Case::resolve_path`]).
@@ -179,21 +182,29 @@ impl Generator {
 }
 
 /// `generator = "rectangle"`: axis-aligned `size[0] x size[1]` from `origin`, `divisions[0] x divisions[1]` quads.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RectangleParams {
     /// Default: `[0, 0]`.
     #[serde(default)]
+    #[schemars(extend("x-unit" = "length"))]
     pub origin: [f64; 2],
+    /// `[width, height]`.
+    #[schemars(extend("x-unit" = "length"))]
     pub size: [f64; 2],
+    /// `[n_x, n_y]`: elements along x and y.
     pub divisions: [usize; 2],
 }
 
 /// `generator = "half_disk"`: the lower half disk (flat side up) of `radius` around `center`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct HalfDiskParams {
+    /// `[x, y]`: centre of the disk.
+    #[schemars(extend("x-unit" = "length"))]
     pub center: [f64; 2],
+    /// Radius (> 0).
+    #[schemars(extend("x-unit" = "length"))]
     pub radius: f64,
     /// Elements along the arc.
     pub n_arc: usize,
@@ -202,26 +213,40 @@ pub struct HalfDiskParams {
 }
 
 /// `generator = "sector"`: annular sector `r_inner..r_outer`, `theta0_deg..theta1_deg` around `center`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SectorParams {
+    /// `[x, y]`: centre of the annulus.
+    #[schemars(extend("x-unit" = "length"))]
     pub center: [f64; 2],
+    /// Inner radius.
+    #[schemars(extend("x-unit" = "length"))]
     pub r_inner: f64,
+    /// Outer radius (> `r_inner`).
+    #[schemars(extend("x-unit" = "length"))]
     pub r_outer: f64,
+    /// Start angle, in degrees from the x axis.
+    #[schemars(extend("x-unit" = "degrees"))]
     pub theta0_deg: f64,
+    /// End angle, in degrees from the x axis (> `theta0_deg`).
+    #[schemars(extend("x-unit" = "degrees"))]
     pub theta1_deg: f64,
     /// `[n_r, n_theta]`.
     pub divisions: [usize; 2],
 }
 
 /// `generator = "box"`: axis-aligned brick from `origin`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct BoxParams {
     /// Default: `[0, 0, 0]`.
     #[serde(default)]
+    #[schemars(extend("x-unit" = "length"))]
     pub origin: [f64; 3],
+    /// `[size_x, size_y, size_z]`.
+    #[schemars(extend("x-unit" = "length"))]
     pub size: [f64; 3],
+    /// `[n_x, n_y, n_z]`: elements along x, y and z.
     pub divisions: [usize; 3],
 }
 
@@ -230,11 +255,17 @@ pub struct BoxParams {
 /// parameters and builds the shell from the exact NURBS outer surface (`n_surface` even: elements
 /// per parametric direction, i.e. along a half great circle; see `crate::mesh::hemisphere_nurbs`),
 /// whose `outer` face set carries the exact geometry for an enriched layer.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct HemisphereParams {
+    /// `[x, y, z]`: centre of the sphere.
+    #[schemars(extend("x-unit" = "length"))]
     pub center: [f64; 3],
+    /// Outer radius (> 0).
+    #[schemars(extend("x-unit" = "length"))]
     pub outer_radius: f64,
+    /// Wall thickness, in (0, `outer_radius`).
+    #[schemars(extend("x-unit" = "length"))]
     pub thickness: f64,
     /// `hemisphere`: elements along a side of the square parametrisation; `hemisphere_nurbs`:
     /// elements per parametric direction (even).
@@ -246,13 +277,18 @@ pub struct HemisphereParams {
 /// `generator = "quarter_sphere"`: the quarter (x >= cx, y >= cy) of the lowest cap of the ball of
 /// `radius` around `center`, between the exact spherical patch `sphere` and the plane z = cz (a
 /// sphere pressed on a flat with two symmetry planes; see `crate::mesh::quarter_sphere`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct QuarterSphereParams {
+    /// `[x, y, z]`: centre of the ball.
+    #[schemars(extend("x-unit" = "length"))]
     pub center: [f64; 3],
+    /// Radius of the ball (> 0).
+    #[schemars(extend("x-unit" = "length"))]
     pub radius: f64,
     /// How far the patch reaches from the symmetry planes (x - cx on y = cy, y - cy on x = cx),
     /// in (0, radius).
+    #[schemars(extend("x-unit" = "length"))]
     pub extent: f64,
     /// `[n_u, n_v, n_z]`: cells along the arc from the lowest point, around the x axis, and from
     /// the sphere up to the plane.
@@ -268,7 +304,7 @@ fn unit_grading() -> [f64; 3] {
 }
 
 /// `[bodies.<name>]`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct BodySpec {
     /// Name of a `[meshes.*]` table.
@@ -289,6 +325,7 @@ pub struct BodySpec {
     /// ignored with a note by Q1C2 and Q1CH.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub enriched_geometry: Option<EnrichedGeometry>,
+    /// The material law and its parameters.
     pub material: MaterialSpec,
     /// Node sets selected from the mesh by position, by name (see [`NodeSelection`]), added to the
     /// mesh's own sets. Default: none.
@@ -297,7 +334,7 @@ pub struct BodySpec {
 }
 
 /// `bodies.<name>.enriched_geometry`: which geometry a Q1Np(.t) enriched layer interpolates.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum EnrichedGeometry {
     /// `"exact"` (default): the exact NURBS of the surface (line, circular arc, plane, or the
@@ -319,34 +356,44 @@ pub enum EnrichedGeometry {
 /// nearest to `nearest` (`[dim]`). E.g. the base nodes on the plane x = 0:
 /// `base_x0 = { within = "zmin", min = [-1e-9, -9, -9], max = [1e-9, 9, 9] }`; the midpoint of
 /// a strip's end: `pin = { within = "right", nearest = [20.0, 0.5] }`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct NodeSelection {
+    /// A node or face set of the mesh to choose from. Default: all nodes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub within: Option<String>,
+    /// `[dim]`: lower corner of the box (with `max`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-unit" = "length"))]
     pub min: Option<Vec<f64>>,
+    /// `[dim]`: upper corner of the box (with `min`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-unit" = "length"))]
     pub max: Option<Vec<f64>>,
+    /// `[dim]`: choose the one node nearest to this point (instead of a box).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-unit" = "length"))]
     pub nearest: Option<Vec<f64>>,
 }
 
 /// `[bodies.<name>.material]`.
 #[allow(non_snake_case)]
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct MaterialSpec {
+    /// The material law.
     pub model: MaterialModel,
     /// Young's modulus, > 0.
+    #[schemars(extend("x-unit" = "stress", "exclusiveMinimum" = 0))]
     pub E: f64,
     /// Poisson's ratio, in (-1, 0.5).
+    #[schemars(extend("exclusiveMinimum" = -1, "exclusiveMaximum" = 0.5))]
     pub nu: f64,
 }
 
 /// Material laws, both parametrised by `E` and `nu`; a model with other parameters would turn
 /// [`MaterialSpec`] into a tagged table like [`Generator`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum MaterialModel {
     /// `"neo_hookean"`: the compressible Neo-Hookean law of eq. (21) of Corbett & Sauer 2014.
@@ -358,7 +405,9 @@ pub enum MaterialModel {
 }
 
 /// A displacement component name.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize, JsonSchema,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum Component {
     X,
@@ -416,10 +465,12 @@ impl BcSpec {
 }
 
 /// `kind = "fixed"`: zero displacement of `components`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct FixedBc {
+    /// Name of a `[bodies.*]` table.
     pub body: String,
+    /// A node set (or the nodes of a face set) of the body.
     pub set: String,
     /// Default: all components.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -436,15 +487,18 @@ impl FixedBc {
 }
 
 /// `kind = "displacement"`: prescribed displacement of `components`, linear in each stage.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct DisplacementBc {
+    /// Name of a `[bodies.*]` table.
     pub body: String,
+    /// A node set (or the nodes of a face set) of the body.
     pub set: String,
     /// Default: all components.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub components: Option<Vec<Component>>,
     /// `[n_stages][n_components]`: the displacement reached at the end of each stage.
+    #[schemars(extend("x-unit" = "length"))]
     pub value: Vec<Vec<f64>>,
 }
 
@@ -458,22 +512,27 @@ impl DisplacementBc {
 }
 
 /// `kind = "rotation"`: rigid rotation of the set about `center` (and `axis` in 3D); all components.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RotationBc {
+    /// Name of a `[bodies.*]` table.
     pub body: String,
+    /// A node set (or the nodes of a face set) of the body.
     pub set: String,
     /// Rotation axis, 3D only (2D rotates in the plane); need not be normalised, must be non-zero.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub axis: Option<[f64; 3]>,
     /// `[dim]`: a point on the axis (3D) / the centre of rotation (2D).
+    #[schemars(extend("x-unit" = "length"))]
     pub center: Vec<f64>,
     /// `[n_stages]`: total rotation angle in degrees reached at the end of each stage.
+    #[schemars(extend("x-unit" = "degrees"))]
     pub angle_deg: Vec<f64>,
     /// `[n_stages][dim]`: rigid translation reached at the end of each stage (linear in a stage),
     /// applied with the rotation: `x = center + t + R (X - center)`, so the axis moves with the
     /// set (a rim pressed down, then twisted). Default: none.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[schemars(extend("x-unit" = "length"))]
     pub translation: Vec<Vec<f64>>,
     /// The rotation is prescribed but the translation is free: the set moves rigidly, as a rigid
     /// end loaded by a pure moment (the peeling strip's end, which must lift as the strip peels).
@@ -488,40 +547,50 @@ pub struct RotationBc {
 /// condition, `e_theta . u = 0` at each node, in every stage). A base that may expand about its
 /// centre but neither turn nor (with the other nodes) translate. Nodes on the axis are left free.
 /// Combine with `fixed` on the axial component to stop the set moving along the axis.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RadialBc {
+    /// Name of a `[bodies.*]` table.
     pub body: String,
+    /// A node set (or the nodes of a face set) of the body.
     pub set: String,
     /// The axis, 3D only (2D: the out-of-plane axis); need not be normalised, must be non-zero.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub axis: Option<[f64; 3]>,
     /// `[dim]`: a point on the axis.
+    #[schemars(extend("x-unit" = "length"))]
     pub center: Vec<f64>,
 }
 
 /// `kind = "sliding"`: the nodes slide on a plane with normal `normal`: their displacement along
 /// it is zero (a skew condition, `n . u = 0`, in every stage; a roller on an inclined support).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SlidingBc {
+    /// Name of a `[bodies.*]` table.
     pub body: String,
+    /// A node set (or the nodes of a face set) of the body.
     pub set: String,
     /// `[dim]`: the normal; need not be normalised, must be non-zero.
     pub normal: Vec<f64>,
 }
 
 /// `[[ties]]`: periodic tie of a slave node set to a master node set of one body.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TieSpec {
+    /// Name of a `[bodies.*]` table.
     pub body: String,
+    /// The master node set (or the nodes of a face set).
     pub master: String,
+    /// The slave node set (or the nodes of a face set), tied to the master one.
     pub slave: String,
     /// `[dim]`: slave node `x_s` matches master node `x_m` where `x_s - offset == x_m`.
+    #[schemars(extend("x-unit" = "length"))]
     pub offset: Vec<f64>,
     /// Absolute matching tolerance on coordinates. Default: 1e-8.
     #[serde(default = "default_tie_tolerance")]
+    #[schemars(extend("x-unit" = "length"))]
     pub tolerance: f64,
 }
 
@@ -530,16 +599,18 @@ fn default_tie_tolerance() -> f64 {
 }
 
 /// `[[stages]]`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct StageSpec {
+    /// Name of the stage, used in messages about it.
     pub name: String,
     /// Number of equal load increments in this stage, > 0 (cutback may subdivide them).
+    #[schemars(range(min = 1))]
     pub steps: usize,
 }
 
 /// `[steps]`: cutback control.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct StepControl {
     /// Halvings of one increment before the run fails. Default: 8.
@@ -547,6 +618,7 @@ pub struct StepControl {
     pub max_cutbacks: u32,
     /// Factor (>= 1) by which a cut increment grows back after an easy step. Default: 1.5.
     #[serde(default = "default_growth")]
+    #[schemars(range(min = 1))]
     pub growth: f64,
     /// A step converging in at most this many Newton iterations is easy. Default: 4.
     #[serde(default = "default_easy_iterations")]
@@ -587,7 +659,7 @@ impl Default for StepControl {
 }
 
 /// `[solver]`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SolverOptions {
     /// Passed verbatim to the PETSc options database after the code's defaults (newtonls + MUMPS), so
@@ -619,7 +691,7 @@ pub struct SolverOptions {
     /// configuration; every point when none does), where the contact work is, and joins facing
     /// cells, so that facing pieces stay on one rank where the balance allows;
     /// `"points"` balances cells and contact points without the joins; `"cells"` balances the
-    /// cells alone (the split of versions before 2026-11-26). All in BENCHMARKS.md, "Scale:
+    /// cells alone. All in BENCHMARKS.md, "Scale:
     /// contact data per rank". Results agree to round-off on every one. Default: `"contact"`.
     #[serde(default)]
     pub partition: PartitionKind,
@@ -630,14 +702,16 @@ pub struct SolverOptions {
     /// deeper is cut back. Choose it several times the penetration the penalty gives at the
     /// solution. Default: none (BENCHMARKS.md, "A penetration bound on Newton's iterates").
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-unit" = "length"))]
     pub max_penetration: Option<f64>,
     /// The iterative route: a Krylov solve stopped by its iteration limit (`-ksp_max_it`) whose
     /// true residual `|b - A x|` is at most this fraction of `|b|` is taken as an inexact Newton
     /// direction (forcing term) instead of a failed linear solve (which retries the attempt with
     /// MUMPS); Newton's own residual still decides convergence. 0 disables it (every solve that
     /// reaches the limit fails). In [0, 1). Default: 1e-3 (BENCHMARKS.md, "Scale: a 3D contact
-    /// scene", session 17).
+    /// scene").
     #[serde(default = "default_krylov_accept")]
+    #[schemars(range(min = 0), extend("exclusiveMaximum" = 1))]
     pub krylov_accept: f64,
     /// Where Newton starts a load step: `"none"` (the last converged state; its first iteration
     /// lifts the new boundary values into the interior through the tangent) or `"secant"` (the
@@ -653,11 +727,12 @@ pub struct SolverOptions {
     /// step of a stage starts from the converged state; a restart continues the predictor
     /// exactly (checkpoints keep the state before the last). Default: `"secant"`.
     #[serde(default, skip_serializing_if = "Predictor::is_default")]
+    #[schemars(extend("default" = "secant"))]
     pub predictor: Predictor,
 }
 
 /// `[solver] predictor`: where Newton starts a load step.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum Predictor {
     /// The last converged state.
@@ -674,7 +749,7 @@ impl Predictor {
 }
 
 /// `[solver] partition`: what METIS balances and keeps together.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum PartitionKind {
     /// Cells and contact points balanced; facing contact cells joined in the graph.
@@ -705,7 +780,7 @@ impl SolverOptions {
 }
 
 /// `[solver] linear`: which linear solver the Newton iterations use.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum LinearSolver {
     /// MUMPS LU (`-ksp_type preonly -pc_type lu`).
@@ -767,11 +842,12 @@ impl Default for SolverOptions {
 }
 
 /// `[output]`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct OutputSpec {
     /// Write every n-th converged step (> 0); the last step is always written. Default: 1.
     #[serde(default = "default_every")]
+    #[schemars(range(min = 1))]
     pub every: usize,
     /// Fields written to results.h5. Default: `["displacement"]`.
     #[serde(default = "default_fields")]
@@ -809,7 +885,7 @@ impl Default for OutputSpec {
 }
 
 /// Known output fields.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, JsonSchema)]
 pub enum OutputField {
     /// Point field, `[n_nodes][3]`.
     #[serde(rename = "displacement")]
@@ -838,15 +914,18 @@ impl OutputField {
 }
 
 /// `{ body = "...", set = "..." }` in `output.reactions`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ReactionSpec {
+    /// Name of a `[bodies.*]` table.
     pub body: String,
+    /// A node set (or the nodes of a face set) of the body whose reaction forces are summed.
     pub set: String,
     /// `[dim]`: also report the moment of the reaction forces about this point (2D: about the z
     /// axis through it; 3D: the moment vector), from the nodes' current positions: the peeling
     /// moment at a rotated end, the torque on a twisted rim. Default: no moment.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("x-unit" = "length"))]
     pub moment_about: Option<Vec<f64>>,
 }
 
