@@ -43,7 +43,7 @@ pub struct ContactSpec {
     /// `penalty` (eq. 5), `van_der_waals` (eq. 6) or `cohesive` (eq. 7).
     pub law: LawKind,
     /// `two_half_pass` (default: each surface integrated on its own points, traction on its own
-    /// body only) or `one_pass` (classic master/slave, kept for comparison: the first surface is
+    /// body only) or `one_pass` (classic master/slave, the smoother choice in sliding: the first surface is
     /// the slave whose points are integrated, the opposite force goes to the second, the master,
     /// through its shape functions).
     #[serde(default)]
@@ -55,7 +55,7 @@ pub struct ContactSpec {
     /// point-to-point pressure oscillation (more contact points than control points) and with it
     /// the penalty dependence of the peak pressure (Hertz, Q1N2: -0.22 % instead of +1.95 % at 8
     /// elements across the contact); it makes Q1C1 worse and steps the force in sliding at the
-    /// element scale (BENCHMARKS.md, "One pressure per surface element"). Two-half-pass penalty
+    /// element scale (docs/user-guide/contact-settings.md). Two-half-pass penalty
     /// contact (deformable or rigid partners, with or without friction: the cone uses the
     /// element's pressure). `mortar`: the gap weighted by each surface control point's basis
     /// function, `g_A = int R_A g_N da / int R_A da` over the surface's own points (current

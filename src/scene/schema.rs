@@ -674,7 +674,7 @@ pub struct SolverOptions {
     /// Stop a Newton solve early when its best residual norm has not fallen by 10 % within this
     /// many iterations (a solve cycling at the kink of a penalty law, or creeping): the step is cut
     /// back at once instead of after the iteration limit (30). 0 disables it. Default: 10
-    /// (BENCHMARKS.md, "Stopping stagnant Newton solves").
+    /// (docs/user-guide/solvers.md, "Newton with contact").
     #[serde(default = "default_stagnation_window")]
     pub stagnation_window: usize,
     /// The linear solver of the Newton iterations: `"direct"` (MUMPS LU), `"iterative"` (GMRES
@@ -691,8 +691,7 @@ pub struct SolverOptions {
     /// configuration; every point when none does), where the contact work is, and joins facing
     /// cells, so that facing pieces stay on one rank where the balance allows;
     /// `"points"` balances cells and contact points without the joins; `"cells"` balances the
-    /// cells alone. All in BENCHMARKS.md, "Scale:
-    /// contact data per rank". Results agree to round-off on every one. Default: `"contact"`.
+    /// cells alone. Measured in docs/performance/contact.md, "Contact data per rank". Results agree to round-off on every one. Default: `"contact"`.
     #[serde(default)]
     pub partition: PartitionKind,
     /// Contact: a state in which a contact point penetrates its partner by more than this length
@@ -700,7 +699,7 @@ pub struct SolverOptions {
     /// step that goes deeper (the first iterate of a press step, which lifts the whole increment
     /// into the partner before any contact force acts), and a step whose converged state would be
     /// deeper is cut back. Choose it several times the penetration the penalty gives at the
-    /// solution. Default: none (BENCHMARKS.md, "A penetration bound on Newton's iterates").
+    /// solution. Default: none (docs/user-guide/solvers.md, "Newton with contact").
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schemars(extend("x-unit" = "length"))]
     pub max_penetration: Option<f64>,
@@ -708,8 +707,8 @@ pub struct SolverOptions {
     /// true residual `|b - A x|` is at most this fraction of `|b|` is taken as an inexact Newton
     /// direction (forcing term) instead of a failed linear solve (which retries the attempt with
     /// MUMPS); Newton's own residual still decides convergence. 0 disables it (every solve that
-    /// reaches the limit fails). In [0, 1). Default: 1e-3 (BENCHMARKS.md, "Scale: a 3D contact
-    /// scene").
+    /// reaches the limit fails). In [0, 1). Default: 1e-3 (docs/user-guide/solvers.md,
+    /// "Iterative linear solver").
     #[serde(default = "default_krylov_accept")]
     #[schemars(range(min = 0), extend("exclusiveMaximum" = 1))]
     pub krylov_accept: f64,
@@ -723,7 +722,7 @@ pub struct SolverOptions {
     /// where each step moves the deformed state along (ironing at mesh 16, one-pass mortar: 16 %
     /// less time; peeling 36 %); where the pressure oscillates from step to step (two-half-pass
     /// pointwise Q1N2 at mesh 4) predicted starts fail every few steps and the stage gives it up
-    /// (BENCHMARKS.md, "A secant predictor", "The secant predictor as the default"). The first
+    /// (docs/user-guide/solvers.md, "Newton with contact"). The first
     /// step of a stage starts from the converged state; a restart continues the predictor
     /// exactly (checkpoints keep the state before the last). Default: `"secant"`.
     #[serde(default, skip_serializing_if = "Predictor::is_default")]
