@@ -64,7 +64,7 @@ enum Command {
         sets: Vec<String>,
     },
     /// Run a refinement study: a case over every combination of a study file's axes, with metrics,
-    /// `study.csv`, `study.md` and SVG plots (file format: see cases/studies/README.md).
+    /// `study.csv`, `study.md` and SVG plots (file format: docs/user-guide/studies.md).
     Study {
         /// The study file (TOML).
         study: PathBuf,
