@@ -46,7 +46,8 @@
 //! | gap modes (pointwise, element mean) | `contact::half_pass::gap` |
 //! | Coulomb friction (Sauer & De Lorenzis 2015) | return mapping in [`contact::kernel`], anchors in `contact::half_pass::friction` |
 //! | rigid partners | [`contact::rigid`] |
-//! | a pair's declaration (law, passes, friction) | [`contact::pair`] |
+//! | a pair's formulation (passes, pressure distribution, enforcement, law) | [`contact::formulation`], composed by `model::formulation` |
+//! | a pair's declaration (formulation, partners, friction) | [`contact::pair`] |
 //! | pair state on a rank, commit/rollback, coupling pattern, L2 pressure (Sauer 2013) | [`contact::system`] |
 //! | contact in the global residual and tangent (the seam) | [`assembly::CouplingSet`], implemented in `contact::system::coupling` |
 //! | Neo-Hookean bulk, eq. (21) | [`material`] |

@@ -19,13 +19,14 @@ pub(crate) mod gap;
 pub(crate) mod mortar;
 
 use crate::assembly::MatrixSink;
+use crate::contact::formulation::{Enforcement, Formulation};
 use crate::contact::kernel::{
     contact_point_pass, gap_and_normal, Area, OwnPoint, PartnerPoint, PointIn, PointResult,
     Scratch, SlipState,
 };
 use crate::contact::law::{self, Traction};
 use crate::contact::pair::{
-    law_traction, Anchor, BlockKey, Coupling, Friction, GapKind, Law, Partner, SlotOf,
+    law_traction, Anchor, BlockKey, Coupling, Friction, Law, Partner, SlotOf,
 };
 use crate::contact::projection::{BasisAt, Positions, Projection};
 use crate::contact::rigid::{RigidMotion, RigidShape};
@@ -195,19 +196,15 @@ pub(crate) struct Geometry<'a> {
 
 /// What a half-pass reads of its pair.
 pub(crate) struct PairView<'a> {
-    pub law: Law,
+    /// Passes, pressure distribution, enforcement and law.
+    pub formulation: Formulation,
     /// Moments are taken about this point [3].
     pub moment_point: [f64; 3],
     pub search_distance: f64,
-    pub one_pass: bool,
     /// Friction acting at the current load (`None`: frictionless, or off in this stage).
     pub friction: Option<&'a Friction>,
     /// The pair has friction in some stage (its points keep stick/slip and anchors).
     pub has_friction: bool,
-    /// Where the penalty law's gap is taken (`gap`).
-    pub gap: GapKind,
-    /// Augmented Lagrangian enforcement (the points' multipliers shift the penalty law).
-    pub augmented: bool,
     /// Load parameter (rigid partners' motion).
     pub lambda: f64,
 }
@@ -324,7 +321,7 @@ pub(crate) fn run(
         touch: crate::contact::pair::TOUCH * geo.surfaces[*k].h,
         jacobian: jac.is_some(),
     };
-    let mut gap = Gap::new(pair.gap, mortar.as_mut());
+    let mut gap = Gap::new(pair.formulation.pressure, mortar.as_mut());
     let all: Vec<&OwnElem> = elems.iter().chain(halo.iter()).collect();
     gap.begin_pass(&hp, &all, points);
     let mut res = PassResult::default();
@@ -410,7 +407,7 @@ impl HalfPass<'_> {
                 }
             }
         }
-        let area = area_of(&self.pair.law);
+        let area = area_of(&self.pair.formulation.law);
         // (mortar gaps: a point beyond the partner's end carries its interpolated pressure along
         // its distance to the end, as its gap weighs in: no jump where it passes the end)
         let first = self
@@ -498,7 +495,9 @@ impl HalfPass<'_> {
         g: &[f64; 3],
         n: &[f64; 3],
     ) -> Traction {
-        let law = self.pair.law;
+        let Formulation {
+            law, enforcement, ..
+        } = self.pair.formulation;
         if cohesive {
             match law {
                 Law::Cohesive { t0, g0, .. } => law::cohesive(t0, g0, g),
@@ -508,7 +507,7 @@ impl HalfPass<'_> {
             mortar::pressure_traction(p, n)
         } else if let (Some(gm), Law::Penalty { eps_n }) = (g_mean, law) {
             gap::mean_penalty(eps_n, self.touch, gm, g, n)
-        } else if let (true, Law::Penalty { eps_n }) = (self.pair.augmented, law) {
+        } else if let (Enforcement::Augmented(_), Law::Penalty { eps_n }) = (enforcement, law) {
             law::penalty_augmented(eps_n, lambda, self.touch, g, n)
         } else {
             law_traction(&law, self.touch, g, n)
@@ -541,13 +540,17 @@ impl HalfPass<'_> {
             }
         };
         let nc = (nk + nl) * dim;
-        let rows = if self.pair.one_pass { nc } else { nk * dim };
+        let rows = if self.pair.formulation.one_pass() {
+            nc
+        } else {
+            nk * dim
+        };
         let kb = self.jacobian.then(|| work.block(le, rows * nc));
         let at: Option<AnchorAt> = match (self.pair.friction, cohesive, qp.anchor) {
             (Some(f), false, Some(a)) => friction::anchor_at(self, f, a),
             _ => None,
         };
-        let master = self.pair.one_pass && nl > 0;
+        let master = self.pair.formulation.one_pass() && nl > 0;
         work.rc.clear();
         work.rc.resize(nc, 0.0);
         let lawf =
@@ -671,11 +674,12 @@ impl HalfPass<'_> {
                 };
                 // one-pass: a partner block's rows are the own element's and the partner's (an
                 // own-columns block of the mortar gap keeps the own rows)
-                let rows = if self.pair.one_pass && matches!(key, BlockKey::Partner(_)) {
-                    &cols
-                } else {
-                    own_rows
-                };
+                let rows =
+                    if self.pair.formulation.one_pass() && matches!(key, BlockKey::Partner(_)) {
+                        &cols
+                    } else {
+                        own_rows
+                    };
                 if let Some(slot) = slot_of(&c) {
                     sink.add_block(slot, rows, &cols, kb);
                 }

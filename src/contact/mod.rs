@@ -9,7 +9,9 @@
 //!   corner projections on faceted surfaces).
 //! - [`law`]: pointwise laws, eqs. (5)-(7); [`rigid`]: rigid partners.
 //! - [`kernel`]: one quadrature point's residual and consistent tangent.
-//! - [`pair`]: a declared pair as plain data: law, friction, partners, coupling blocks.
+//! - [`formulation`]: a pair's formulation as one value composed at set-up: passes, pressure
+//!   distribution, enforcement, law.
+//! - [`pair`]: a declared pair as plain data: formulation, friction, partners, coupling blocks.
 //! - [`half_pass`]: one pass over a surface's own points (gather -> partner -> law -> kernel ->
 //!   scatter), with the gap mode and friction as parts.
 //! - [`system`]: all pairs on a rank: state, evaluation, resultants (no PETSc, no MPI).
@@ -17,6 +19,7 @@
 
 pub mod basis;
 mod fault;
+pub mod formulation;
 pub mod half_pass;
 pub mod kernel;
 pub mod law;
@@ -27,8 +30,9 @@ pub mod search;
 pub mod surface;
 pub mod system;
 
+pub use formulation::{Enforcement, Formulation, Passes, Pressure, WeightBasis};
 pub use half_pass::PassResult;
-pub use pair::{Anchor, Augmented, Coupling, Friction, GapKind, Law, PairDef, Partner};
+pub use pair::{Anchor, Augmented, Coupling, Friction, Law, PairDef, Partner};
 pub use system::ContactSystem;
 
 #[cfg(test)]

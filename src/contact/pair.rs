@@ -2,6 +2,7 @@
 //! half-passes, and the coupling blocks it adds to the Jacobian. Plain data, shared by the
 //! half-pass ([`crate::contact::half_pass`]) and the system ([`crate::contact::system`]).
 
+use crate::contact::formulation::Formulation;
 use crate::contact::law::{self, Traction};
 use crate::contact::rigid::{RigidMotion, RigidShape};
 use crate::contact::search::Aabb;
@@ -70,8 +71,10 @@ pub enum Partner {
 pub struct PairDef {
     /// Name (history columns).
     pub name: String,
-    pub law: Law,
-    /// Half-passes: (integrated surface, partner). Two-half-pass: both ways; rigid: one.
+    /// Passes, pressure distribution, enforcement and law ([`Formulation`]).
+    pub formulation: Formulation,
+    /// Half-passes: (integrated surface, partner). Two-half-pass: both ways; one-pass and rigid:
+    /// one.
     pub passes: Vec<(usize, Partner)>,
     /// Points farther than this from the partner are not paired.
     pub search_distance: f64,
@@ -81,35 +84,8 @@ pub struct PairDef {
     pub debonded: Option<Aabb>,
     /// Reference-configuration box outside which the pair's quadrature points are not integrated.
     pub region: Option<Aabb>,
-    /// One-pass (master/slave): the single half-pass also applies the opposite force to the
-    /// partner (master) surface.
-    pub one_pass: bool,
     /// Coulomb friction (penalty law, and the cohesive law's penalty against penetration).
     pub friction: Option<Friction>,
-    /// Where the penalty law's normal gap is taken (`gap`).
-    pub gap: GapKind,
-    /// Augmented Lagrangian enforcement of the penalty law (`augmented`).
-    pub augmented: Option<Augmented>,
-}
-
-/// Where a penalty pair's normal gap is taken.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub enum GapKind {
-    /// At every quadrature point (eq. 5 of the paper).
-    #[default]
-    Pointwise,
-    /// One pressure per surface element, the mean over its points (two-half-pass only).
-    ElementMean,
-    /// Weighted by each surface control point's basis function, `g_A = int R_A g_n dA / int R_A
-    /// dA`: one pressure per control point, interpolated by the surface basis (two-half-pass or
-    /// rigid partner; non-negative bases only).
-    Mortar,
-    /// As `Mortar`, weighted by the linear parent's corner functions instead of the surface
-    /// basis: one pressure per element corner (any surface family).
-    MortarLinear,
-    /// The control points' weights applied to the points' penalty pressures instead of their
-    /// gaps, `p_A = int R_A eps_n <-g_n> da / int R_A da`, interpolated by the surface basis.
-    MortarMean,
 }
 
 /// Augmented Lagrangian (Uzawa) enforcement of a penalty pair: after each converged solve every

@@ -18,7 +18,7 @@
 use crate::assembly::{DofMap, MatrixSink};
 use crate::contact::half_pass::{self, Pass, PassResult};
 use crate::contact::kernel::SlipState;
-use crate::contact::pair::{Anchor, GapKind, PairDef, Partner, SlotOf};
+use crate::contact::pair::{Anchor, PairDef, Partner, SlotOf};
 use crate::contact::projection::{off_the_edge, surface_grid, walk_from, Absent, Positions};
 use crate::contact::search::BinGrid;
 use crate::contact::surface::ContactSurface;
@@ -211,10 +211,7 @@ impl ContactSystem {
                 // lies beyond its end (the gaps then depended on the states evaluated before),
                 // and a point beyond the end keeps its distance there (`edge`) so that its gap
                 // does not jump as it passes the end. The walk's point seeds the search.
-                let mortar = matches!(
-                    sys.pairs[pair].def.gap,
-                    GapKind::Mortar | GapKind::MortarLinear | GapKind::MortarMean
-                );
+                let mortar = sys.pairs[pair].def.formulation.pressure.is_nodal();
                 // (a penetrating point keeps its walk's projection, as the pointwise gap does: the
                 // closest point of a deep one may lie elsewhere, even beyond the end)
                 let penetrating = p.filter(|p| p.dist <= dist).is_some_and(|p| {
@@ -289,14 +286,11 @@ impl ContactSystem {
         for pair in &mut self.pairs {
             let def = &pair.def;
             let view = half_pass::PairView {
-                law: def.law,
+                formulation: def.formulation,
                 moment_point: def.moment_point,
                 search_distance: def.search_distance,
-                one_pass: def.one_pass,
                 friction: def.friction.as_ref().filter(|f| f.on_at(self.lambda)),
                 has_friction: def.friction.is_some(),
-                gap: def.gap,
-                augmented: def.augmented.is_some(),
                 lambda: self.lambda,
             };
             for pass in &mut pair.passes {
@@ -433,7 +427,9 @@ impl ContactSystem {
                 for oe in pass.elems.iter().filter(|oe| oe.n > 0) {
                     out.extend_from_slice(&self.surfaces[pass.k].elements[oe.e as usize].nodes);
                 }
-                if let (true, Partner::Surface(l)) = (pair.def.one_pass, &pass.partner) {
+                if let (true, Partner::Surface(l)) =
+                    (pair.def.formulation.one_pass(), &pass.partner)
+                {
                     for el in &self.surfaces[*l].elements {
                         out.extend_from_slice(&el.nodes);
                     }
@@ -447,7 +443,7 @@ impl ContactSystem {
 
     /// True when some pair is one-pass (its master rows go back through the table).
     pub fn has_one_pass(&self) -> bool {
-        self.pairs.iter().any(|p| p.def.one_pass)
+        self.pairs.iter().any(|p| p.def.formulation.one_pass())
     }
 
     /// Indices in [`ContactSystem::all_surface_nodes`] of the nodes of surface `s`, sorted.

@@ -350,7 +350,11 @@ impl<'c, 'p> StepObserver<'c, 'p> {
         extra_columns.extend(contact_history(asm, model.dim));
         self.warn_unseen_contact(model, asm, rec);
         self.warn_step_slip(asm, rec);
-        if model.contact_pairs.iter().any(|p| p.augmented.is_some()) {
+        if model
+            .contact_pairs
+            .iter()
+            .any(|p| p.formulation.augmented().is_some())
+        {
             extra_columns.push(rec.augmentation_rounds as f64);
         }
         if super::options::linear_route(self.case, &asm.dofs)

@@ -67,7 +67,11 @@ pub(super) fn contact_history_labels(model: &Model) -> Vec<String> {
             }
         }
     }
-    if model.contact_pairs.iter().any(|p| p.augmented.is_some()) {
+    if model
+        .contact_pairs
+        .iter()
+        .any(|p| p.formulation.augmented().is_some())
+    {
         out.push("augmentation_rounds".to_string());
     }
     out

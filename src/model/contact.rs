@@ -5,15 +5,13 @@
 
 use super::data::Body;
 use super::error::ModelError;
+use super::formulation::{formulation, gap_name};
 use crate::contact::basis::FaceBasis;
 use crate::contact::rigid::{RigidMotion, RigidShape};
 use crate::contact::search::Aabb;
 use crate::contact::surface::ContactSurface;
-use crate::contact::{Augmented, Friction, GapKind, Law, PairDef, Partner};
-use crate::scene::GapMode;
-use crate::scene::{
-    Algorithm, BoxSpec, Case, ContactSpec, LawKind, PenaltyForm, RigidShapeKind, RigidSpec,
-};
+use crate::contact::{Friction, Law, PairDef, Partner, Passes};
+use crate::scene::{BoxSpec, Case, ContactSpec, GapMode, RigidShapeKind, RigidSpec, SceneError};
 
 fn err(case: &Case, key: String, msg: impl Into<String>) -> ModelError {
     ModelError::Contact {
@@ -67,6 +65,21 @@ pub fn build_contact(
     let mut surfaces: Vec<ContactSurface> = Vec::new();
     let mut pairs = Vec::new();
     let mut seen: Vec<(Vec<usize>, usize)> = Vec::new();
+    // every pair's formulation first, with all their incompatibilities at once
+    let mut formulations = Vec::new();
+    let mut issues = Vec::new();
+    for (i, spec) in case.contact.iter().enumerate() {
+        match formulation(spec, i) {
+            Ok(f) => formulations.push(f),
+            Err(mut e) => issues.append(&mut e),
+        }
+    }
+    if !issues.is_empty() {
+        return Err(ModelError::Scene(SceneError::Invalid {
+            file: case.file.clone(),
+            issues,
+        }));
+    }
     for (i, spec) in case.contact.iter().enumerate() {
         let key = |k: &str| format!("contact.{i}.{k}");
         // surfaces
@@ -145,49 +158,8 @@ pub fn build_contact(
             }
             seen.push((sorted, i));
         }
-        // law and its parameters
-        let used: &[&str] = match spec.law {
-            LawKind::Penalty => &["eps_n"],
-            LawKind::VanDerWaals => &["a_h", "r0"],
-            LawKind::Cohesive => &["t0", "g0", "eps_n", "debonded", "penetration_penalty"],
-        };
-        let given = [
-            ("eps_n", spec.eps_n.is_some()),
-            ("a_h", spec.a_h.is_some()),
-            ("r0", spec.r0.is_some()),
-            ("t0", spec.t0.is_some()),
-            ("g0", spec.g0.is_some()),
-            ("debonded", spec.debonded.is_some()),
-            ("penetration_penalty", spec.penetration_penalty.is_some()),
-        ];
-        for (k, g) in given {
-            if g && !used.contains(&k) {
-                return Err(err(
-                    case,
-                    key(k),
-                    format!(
-                        "not a parameter of law `{}` (its parameters: {})",
-                        law_name(spec.law),
-                        used.join(", ")
-                    ),
-                ));
-            }
-        }
-        let law = match spec.law {
-            LawKind::Penalty => Law::Penalty {
-                eps_n: positive(case, key("eps_n"), spec.eps_n, "the penalty parameter")?,
-            },
-            LawKind::VanDerWaals => Law::VanDerWaals {
-                a_h: positive(case, key("a_h"), spec.a_h, "Hamaker's constant")?,
-                r0: positive(case, key("r0"), spec.r0, "the equilibrium spacing")?,
-            },
-            LawKind::Cohesive => Law::Cohesive {
-                t0: positive(case, key("t0"), spec.t0, "the peak traction")?,
-                g0: positive(case, key("g0"), spec.g0, "the characteristic opening")?,
-                eps_n: positive(case, key("eps_n"), spec.eps_n, "the penalty parameter")?,
-                quadratic: spec.penetration_penalty == Some(PenaltyForm::Quadratic),
-            },
-        };
+        let formulation = formulations[i];
+        let law = formulation.law;
         let reference_box = |name: &str, b: &Option<BoxSpec>| -> Result<Option<Aabb>, ModelError> {
             match b {
                 None => Ok(None),
@@ -218,30 +190,10 @@ pub fn build_contact(
             Some(p) => vec3(case, key("moment_point"), p, dim)?,
         };
         let friction = friction(case, i, spec, &law)?;
-        let gap = gap_kind(case, i, spec, &idx, &surfaces)?;
-        if gap == GapKind::ElementMean {
-            let why = if !matches!(spec.law, LawKind::Penalty) {
-                Some("goes with the `penalty` law only")
-            } else if spec.algorithm == Algorithm::OnePass && spec.rigid.is_none() {
-                Some("is implemented for the two-half-pass algorithm only")
-            } else {
-                None
-            };
-            if let Some(why) = why {
-                return Err(err(case, key("gap"), format!("`element_mean` {why}")));
-            }
-        }
-        let augmented = augmented(case, i, spec)?;
+        nonnegative_basis(case, i, spec, &idx, &surfaces)?;
         // partners
         let passes = match (&spec.rigid, idx.len()) {
             (Some(r), 1) => {
-                if matches!(spec.law, LawKind::Cohesive) {
-                    return Err(err(
-                        case,
-                        key("law"),
-                        "the cohesive law pairs material points of two deformable surfaces; it needs two surfaces",
-                    ));
-                }
                 let (shape, motion) = rigid(case, i, r, dim)?;
                 vec![(idx[0], Partner::Rigid(shape, motion))]
             }
@@ -252,7 +204,7 @@ pub fn build_contact(
                     "a rigid partner goes with exactly one surface",
                 ))
             }
-            (None, 2) if spec.algorithm == Algorithm::OnePass => {
+            (None, 2) if formulation.passes == Passes::OnePass => {
                 vec![(idx[0], Partner::Surface(idx[1]))]
             }
             (None, 2) => vec![
@@ -269,113 +221,50 @@ pub fn build_contact(
         };
         pairs.push(PairDef {
             name: pair_name(spec, i),
-            law,
+            formulation,
             passes,
             search_distance,
             moment_point,
             debonded,
             region,
-            one_pass: spec.algorithm == Algorithm::OnePass && spec.rigid.is_none(),
             friction,
-            gap,
-            augmented,
         });
     }
     Ok((surfaces, pairs))
 }
 
-/// The gap of pair `i` (`gap`), with the mortar gap's scope checked: the penalty law, surfaces
-/// with a non-negative basis (`mortar`, `mortar_mean`).
-fn gap_kind(
+/// The surface basis as the weights of pair `i`'s nodal pressure (`mortar`, `mortar_mean`) needs
+/// a non-negative basis on the pair's surfaces `idx`.
+fn nonnegative_basis(
     case: &Case,
     i: usize,
     spec: &ContactSpec,
     idx: &[usize],
     surfaces: &[ContactSurface],
-) -> Result<GapKind, ModelError> {
-    let kind = match spec.gap {
-        GapMode::Pointwise => return Ok(GapKind::Pointwise),
-        GapMode::ElementMean => return Ok(GapKind::ElementMean),
-        GapMode::Mortar => GapKind::Mortar,
-        GapMode::MortarLinear => GapKind::MortarLinear,
-        GapMode::MortarMean => GapKind::MortarMean,
-    };
-    let name = match kind {
-        GapKind::Mortar => "mortar",
-        GapKind::MortarMean => "mortar_mean",
-        _ => "mortar_linear",
-    };
+) -> Result<(), ModelError> {
+    if !matches!(spec.gap, GapMode::Mortar | GapMode::MortarMean) {
+        return Ok(());
+    }
     let negative = idx.iter().find(|&&s| {
         surfaces[s]
             .elements
             .iter()
             .any(|e| matches!(e.basis, FaceBasis::Lagrange2 | FaceBasis::Hermite { .. }))
     });
-    let why = if !matches!(spec.law, LawKind::Penalty) {
-        Some("goes with the `penalty` law only".to_string())
-    } else if let (Some(&s), GapKind::Mortar | GapKind::MortarMean) = (negative, kind) {
-        Some(format!(
-            "needs a non-negative basis on the surface: `{}` is a Q1C2 or Q1CH surface, whose \
-             basis functions go negative (Q1C2) or carry slopes (Q1CH), so the weighted gap is \
-             no average of the point gaps (use Q1C1, Q1Np or Q1Np.t there, or \
-             `mortar_linear`)",
-            surfaces[s].name
-        ))
-    } else {
-        None
-    };
-    match why {
-        Some(why) => Err(err(
+    match negative {
+        Some(&s) => Err(err(
             case,
             format!("contact.{i}.gap"),
-            format!("`{name}` {why}"),
-        )),
-        None => Ok(kind),
-    }
-}
-
-/// Augmented Lagrangian enforcement of pair `i`: `augmented = { tol, max }`.
-fn augmented(case: &Case, i: usize, spec: &ContactSpec) -> Result<Option<Augmented>, ModelError> {
-    let Some(a) = spec.augmented else {
-        return Ok(None);
-    };
-    let key = |k: &str| format!("contact.{i}.augmented{k}");
-    let why = if !matches!(spec.law, LawKind::Penalty) {
-        Some((
-            String::new(),
-            "goes with the `penalty` law only".to_string(),
-        ))
-    } else if matches!(spec.gap, GapMode::ElementMean | GapMode::MortarMean) {
-        Some((
-            String::new(),
-            "is implemented for the pointwise gap and `mortar`/`mortar_linear` only (not \
-             `element_mean` or `mortar_mean`: with one multiplier per control point shifting \
-             its points' laws inside the mean, the rounds' answer still depends on `eps_n` at \
-             the edge of the contact zone; use `gap = \"mortar\"` for an answer free of `eps_n`)"
-                .to_string(),
-        ))
-    } else if !(a.tol.is_finite() && a.tol > 0.0) {
-        Some((
-            ".tol".to_string(),
             format!(
-                "must be a positive length (the largest penetration accepted), got {}",
-                a.tol
+                "`{}` needs a non-negative basis on the surface: `{}` is a Q1C2 or Q1CH surface, \
+                 whose basis functions go negative (Q1C2) or carry slopes (Q1CH), so the \
+                 weighted gap is no average of the point gaps (use Q1C1, Q1Np or Q1Np.t there, \
+                 or `mortar_linear`)",
+                gap_name(spec.gap),
+                surfaces[s].name
             ),
-        ))
-    } else if a.max == 0 {
-        Some((
-            ".max".to_string(),
-            "must be at least 1 (rounds of augmentation per load step)".to_string(),
-        ))
-    } else {
-        None
-    };
-    match why {
-        Some((k, why)) => Err(err(case, key(&k), why)),
-        None => Ok(Some(Augmented {
-            tol: a.tol,
-            max: a.max,
-        })),
+        )),
+        None => Ok(()),
     }
 }
 
@@ -451,14 +340,6 @@ fn friction(
 /// The history name of pair `i`.
 pub fn pair_name(spec: &ContactSpec, i: usize) -> String {
     spec.name.clone().unwrap_or_else(|| format!("contact{i}"))
-}
-
-fn law_name(l: LawKind) -> &'static str {
-    match l {
-        LawKind::Penalty => "penalty",
-        LawKind::VanDerWaals => "van_der_waals",
-        LawKind::Cohesive => "cohesive",
-    }
 }
 
 fn rigid(

@@ -70,7 +70,7 @@ impl Model {
                     pair.name, pair.search_distance, SEARCH_FRACTION
                 ));
             }
-            let eps_n = match pair.law {
+            let eps_n = match pair.formulation.law {
                 Law::Penalty { eps_n } | Law::Cohesive { eps_n, .. } => Some(eps_n),
                 _ => None,
             };

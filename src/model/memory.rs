@@ -25,7 +25,7 @@
 //! The constants are fitted to peaks measured on this kind of machine (the performance pages'
 //! memory table, `ci/memory_estimate.py`); the fit's residuals are asserted in the tests below.
 
-use crate::contact::pair::{GapKind, Partner};
+use crate::contact::pair::Partner;
 use crate::contact::surface::ContactSurface;
 use crate::model::Model;
 use crate::scene::size::MeshSize;
@@ -134,9 +134,10 @@ fn contact_band_entries(model: &Model) -> f64 {
                     dim as f64 * ring * ratio
                 }
             };
-            let weighted = match pair.gap {
-                GapKind::Pointwise | GapKind::ElementMean => 0.0,
-                _ => dim as f64 * (2.0 * nodes_per_direction(own) - 1.0).powi(dim as i32 - 1),
+            let weighted = if pair.formulation.pressure.is_nodal() {
+                dim as f64 * (2.0 * nodes_per_direction(own) - 1.0).powi(dim as i32 - 1)
+            } else {
+                0.0
             };
             entries += own.elements.len() as f64 * rows * (cols + weighted);
         }

@@ -15,6 +15,7 @@ pub mod enrich;
 #[cfg(test)]
 mod enrich_tests;
 mod error;
+pub mod formulation;
 mod holds;
 pub mod memory;
 mod sampling;

@@ -83,7 +83,7 @@ pub(super) fn anchor_block(
     let dim = hp.geo.dim;
     let nk = own.N.len();
     let nca = (nk + na) * dim;
-    let one_pass = hp.pair.one_pass && hp.l.is_some();
+    let one_pass = hp.pair.formulation.one_pass() && hp.l.is_some();
     let nrows = if one_pass { nca } else { nk * dim };
     let ib = work.block(la, nrows * nca);
     let kb = &mut work.blocks[ib].1;

@@ -8,9 +8,10 @@
 use super::element_mean::{ElementMean, MeanPoint};
 use super::mortar::MortarNet;
 use super::{block_slot, point_area, HalfPass, OwnElem, QPoint, Work};
+use crate::contact::formulation::Pressure;
 use crate::contact::kernel::{gap_and_normal, OwnPoint, PointResult, SlipState};
 use crate::contact::law::{self, Traction};
-use crate::contact::pair::{GapKind, Law};
+use crate::contact::pair::Law;
 
 /// How a half-pass takes the penalty law's normal gap.
 pub(crate) enum Gap<'a> {
@@ -24,12 +25,10 @@ pub(crate) enum Gap<'a> {
 
 impl<'a> Gap<'a> {
     /// The gap part of `kind`; the mortar gap uses the pass's control net `net`.
-    pub(super) fn new(kind: GapKind, net: Option<&'a mut MortarNet>) -> Gap<'a> {
+    pub(super) fn new(kind: Pressure, net: Option<&'a mut MortarNet>) -> Gap<'a> {
         match (kind, net) {
-            (GapKind::ElementMean, _) => Gap::ElementMean(ElementMean::default()),
-            (GapKind::Mortar | GapKind::MortarLinear | GapKind::MortarMean, Some(net)) => {
-                Gap::Mortar(net)
-            }
+            (Pressure::ElementMean, _) => Gap::ElementMean(ElementMean::default()),
+            (Pressure::NodalWeights { .. }, Some(net)) => Gap::Mortar(net),
             _ => Gap::Pointwise,
         }
     }
@@ -37,7 +36,7 @@ impl<'a> Gap<'a> {
     /// Before the elements of an evaluation (`all`: the pass's own elements, then its halo): the
     /// mortar gap's control-point pressures.
     pub(super) fn begin_pass(&mut self, hp: &HalfPass, all: &[&OwnElem], points: &[QPoint]) {
-        if let (Gap::Mortar(net), Law::Penalty { eps_n }) = (self, hp.pair.law) {
+        if let (Gap::Mortar(net), Law::Penalty { eps_n }) = (self, hp.pair.formulation.law) {
             net.begin(hp, all, points, eps_n);
         }
     }
@@ -61,7 +60,9 @@ impl<'a> Gap<'a> {
         points: &[QPoint],
         work: &mut Work,
     ) {
-        if let (Gap::Mortar(net), Law::Penalty { eps_n }, true) = (self, hp.pair.law, hp.jacobian) {
+        if let (Gap::Mortar(net), Law::Penalty { eps_n }, true) =
+            (self, hp.pair.formulation.law, hp.jacobian)
+        {
             net.end_element(hp, i, all, points, eps_n, work);
         }
     }
@@ -133,7 +134,7 @@ impl<'a> Gap<'a> {
         work: &mut Work,
     ) {
         let (Gap::ElementMean(mean), Some(gm), Law::Penalty { eps_n }) =
-            (self, g_mean, hp.pair.law)
+            (self, g_mean, hp.pair.formulation.law)
         else {
             return;
         };

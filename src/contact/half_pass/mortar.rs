@@ -381,7 +381,7 @@ impl MortarNet {
         let nk = oe.N.len() / oe.n;
         let rows = nk * dim;
         // one-pass: the master element's rows carry the opposite force, `-c N^l t`
-        let one_pass = hp.pair.one_pass && hp.l.is_some();
+        let one_pass = hp.pair.formulation.one_pass() && hp.l.is_some();
         let mut G = [0.0; 3 * MAX_FACE_NODES];
         for b in 0..self.elem_cps[i].len() {
             let a = self.elem_cps[i][b] as usize;

@@ -26,13 +26,17 @@ impl ContactSystem {
     /// This rank's largest violation of the contact conditions per pair at the last evaluation
     /// (0 for pairs without augmentation); empty when no pair is augmented.
     pub fn augmentation_violations(&self) -> Vec<f64> {
-        if self.pairs.iter().all(|p| p.def.augmented.is_none()) {
+        if self
+            .pairs
+            .iter()
+            .all(|p| p.def.formulation.augmented().is_none())
+        {
             return Vec::new();
         }
         self.pairs
             .iter()
             .map(|pair| {
-                if pair.def.augmented.is_none() {
+                if pair.def.formulation.augmented().is_none() {
                     return 0.0;
                 }
                 pair.passes
@@ -61,7 +65,7 @@ impl ContactSystem {
     pub fn augment(&mut self, violations: &[f64], rounds: usize) -> Augment {
         let mut satisfied = true;
         for (pair, &v) in self.pairs.iter().zip(violations) {
-            let Some(a) = pair.def.augmented else {
+            let Some(a) = pair.def.formulation.augmented() else {
                 continue;
             };
             if v <= a.tol {
@@ -81,7 +85,11 @@ impl ContactSystem {
         if satisfied {
             return Augment::Satisfied;
         }
-        for pair in self.pairs.iter_mut().filter(|p| p.def.augmented.is_some()) {
+        for pair in self
+            .pairs
+            .iter_mut()
+            .filter(|p| p.def.formulation.augmented().is_some())
+        {
             for pass in &mut pair.passes {
                 if let Some(net) = &mut pass.mortar {
                     net.augment();

@@ -201,7 +201,7 @@ impl ContactSystem {
                         Partner::Surface(l) => Some(l),
                         Partner::Rigid(..) => None,
                     };
-                    return (p.k, l, pair.def.one_pass && l.is_some());
+                    return (p.k, l, pair.def.formulation.one_pass() && l.is_some());
                 }
                 i += 1;
             }

@@ -27,7 +27,7 @@
 
 use super::ContactSystem;
 use crate::contact::half_pass::QPoint;
-use crate::contact::pair::{GapKind, PairDef, Partner};
+use crate::contact::pair::{PairDef, Partner};
 use crate::contact::surface::{frame, raw_normal, MAX_FACE_NODES};
 
 /// Samples per element at which the breakpoint functions are evaluated before bisection.
@@ -76,12 +76,9 @@ impl Segments {
 /// against another surface.
 pub(crate) fn segmented(def: &PairDef, dim: usize, partner: &Partner) -> bool {
     dim == 2
-        && def.one_pass
+        && def.formulation.one_pass()
         && def.friction.is_none()
-        && matches!(
-            def.gap,
-            GapKind::Mortar | GapKind::MortarLinear | GapKind::MortarMean
-        )
+        && def.formulation.pressure.is_nodal()
         && matches!(partner, Partner::Surface(_))
 }
 

@@ -4,9 +4,10 @@
 
 use super::{ContactSystem, Pair};
 use crate::assembly::DofMap;
+use crate::contact::formulation::Pressure;
 use crate::contact::half_pass::mortar::MortarNet;
 use crate::contact::half_pass::{OwnElem, Pass, PassResult, QPoint};
-use crate::contact::pair::{GapKind, Law, PairDef, Partner};
+use crate::contact::pair::{Law, PairDef, Partner};
 use crate::contact::projection::{basis_values, Positions};
 use crate::contact::surface::{raw_normal, ContactSurface, MAX_FACE_NODES};
 use crate::fem::quadrature::tensor_rule;
@@ -114,7 +115,7 @@ impl ContactSystem {
                             .map(|el| el.basis.quadrature_counts()[0])
                             .max()
                             .unwrap_or(1);
-                        let linear = def.gap == GapKind::MortarLinear;
+                        let linear = def.formulation.pressure.linear_parent();
                         Some(sys.segment_rule(k, *l, n_g, linear))
                     }
                     _ => None,
@@ -125,27 +126,25 @@ impl ContactSystem {
                         elems.extend(sys.surface_points(&def, k, e, dofs, per, &mut points)?);
                     }
                 }
-                let (halo, mortar) = if matches!(
-                    def.gap,
-                    GapKind::Mortar | GapKind::MortarLinear | GapKind::MortarMean
-                ) {
-                    let linear = def.gap == GapKind::MortarLinear;
-                    let halo = sys.halo(&def, k, linear, &elems, dofs, per, &mut points)?;
-                    let all: Vec<&OwnElem> = elems.iter().chain(&halo).collect();
-                    let nodes: Vec<Vec<u32>> = all
-                        .iter()
-                        .map(|o| sys.weight_nodes(k, o.e, linear))
-                        .collect();
-                    let phi = all
-                        .iter()
-                        .map(|o| weight_values(dim, o, &points, linear))
-                        .collect();
-                    let mut net = MortarNet::new(&nodes, phi, &elems, &halo, &points);
-                    net.mean = def.gap == GapKind::MortarMean;
-                    (halo, Some(net))
-                } else {
-                    (Vec::new(), None)
-                };
+                let (halo, mortar) =
+                    if let Pressure::NodalWeights { mean, .. } = def.formulation.pressure {
+                        let linear = def.formulation.pressure.linear_parent();
+                        let halo = sys.halo(&def, k, linear, &elems, dofs, per, &mut points)?;
+                        let all: Vec<&OwnElem> = elems.iter().chain(&halo).collect();
+                        let nodes: Vec<Vec<u32>> = all
+                            .iter()
+                            .map(|o| sys.weight_nodes(k, o.e, linear))
+                            .collect();
+                        let phi = all
+                            .iter()
+                            .map(|o| weight_values(dim, o, &points, linear))
+                            .collect();
+                        let mut net = MortarNet::new(&nodes, phi, &elems, &halo, &points);
+                        net.mean = mean;
+                        (halo, Some(net))
+                    } else {
+                        (Vec::new(), None)
+                    };
                 passes.push(Pass {
                     k,
                     partner: partner.clone(),
@@ -288,7 +287,7 @@ impl ContactSystem {
     /// Material point pairing of cohesive pairs, in the reference configuration (positions are
     /// still the reference ones).
     fn pair_cohesive(&mut self) -> Result<(), String> {
-        let cohesive = |d: &PairDef| matches!(d.law, Law::Cohesive { .. });
+        let cohesive = |d: &PairDef| matches!(d.formulation.law, Law::Cohesive { .. });
         // the partners' grids before any search, in pass order: the first pass that meets a
         // surface sizes its grid with its pair's search distance
         for pair in 0..self.pairs.len() {
