@@ -485,6 +485,10 @@ pub fn compare_cases(saved: &str, now: &str, started: usize) -> Result<Vec<Strin
         let mut case: crate::scene::Case =
             toml::from_str(t).map_err(|e| format!("the case does not parse: {e}"))?;
         case.truncate_stages(started);
+        // a formulation spelled as its name or as its keys is one formulation
+        for c in &mut case.contact {
+            *c = c.canonical();
+        }
         let mut v = toml::Value::try_from(&case).map_err(|e| e.to_string())?;
         let mut solver = toml::Value::Table(Default::default());
         if let Some(t) = v.as_table_mut() {

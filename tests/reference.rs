@@ -265,9 +265,13 @@ const SCHEMA_LAXER: [(&str, &str); 1] = [(
 
 /// Corpus entries that the parser takes but the schema rejects, with why: their bounds are
 /// checked where the contact pairs are built, after parsing (`check` refuses them too).
-const SCHEMA_STRICTER: [(&str, &str); 2] = [
+const SCHEMA_STRICTER: [(&str, &str); 3] = [
     ("contact_penalty_negative.toml", "eps_n > 0"),
     ("contact_search_distance_zero.toml", "search_distance > 0"),
+    (
+        "contact_several_incompatibilities.toml",
+        "augmented.tol > 0, augmented.max >= 1",
+    ),
 ];
 
 #[test]

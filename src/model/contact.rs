@@ -242,9 +242,16 @@ fn nonnegative_basis(
     idx: &[usize],
     surfaces: &[ContactSurface],
 ) -> Result<(), ModelError> {
-    if !matches!(spec.gap, GapMode::Mortar | GapMode::MortarMean) {
+    let gap = spec.algorithm_and_gap().1;
+    if !matches!(gap, GapMode::Mortar | GapMode::MortarMean) {
         return Ok(());
     }
+    // the key that chose the gap
+    let key = if spec.formulation.is_some() && spec.gap.is_none() {
+        "formulation"
+    } else {
+        "gap"
+    };
     let negative = idx.iter().find(|&&s| {
         surfaces[s]
             .elements
@@ -254,13 +261,13 @@ fn nonnegative_basis(
     match negative {
         Some(&s) => Err(err(
             case,
-            format!("contact.{i}.gap"),
+            format!("contact.{i}.{key}"),
             format!(
                 "`{}` needs a non-negative basis on the surface: `{}` is a Q1C2 or Q1CH surface, \
                  whose basis functions go negative (Q1C2) or carry slopes (Q1CH), so the \
                  weighted gap is no average of the point gaps (use Q1C1, Q1Np or Q1Np.t there, \
                  or `mortar_linear`)",
-                gap_name(spec.gap),
+                gap_name(gap),
                 surfaces[s].name
             ),
         )),

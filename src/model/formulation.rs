@@ -5,7 +5,7 @@
 //! is built, `crate::model::contact`.
 
 use crate::contact::{Augmented, Enforcement, Formulation, Law, Passes, Pressure, WeightBasis};
-use crate::scene::{Algorithm, ContactSpec, GapMode, Issue, LawKind, PenaltyForm};
+use crate::scene::{Algorithm, ContactSpec, FormulationName, GapMode, Issue, LawKind, PenaltyForm};
 
 /// The issues of one pair, each keyed `contact.<i>.<key>`.
 struct Issues {
@@ -42,21 +42,30 @@ impl Issues {
 }
 
 /// The formulation of pair `i` from its table `spec`, or every incompatibility between its keys
-/// (law parameters of another law or missing, a gap mode or enforcement the law or the passes do
-/// not support, a law the partner does not support, friction with a law without it).
+/// (a named `formulation` against `algorithm`, `gap` or `augmented`, law parameters of another
+/// law or missing, a gap mode or enforcement the law or the passes do not support, a law the
+/// partner does not support, friction with a law without it).
 pub fn formulation(spec: &ContactSpec, i: usize) -> Result<Formulation, Vec<Issue>> {
     let mut v = Issues {
         i,
         list: Vec::new(),
     };
+    named(spec, &mut v);
+    let (algorithm, gap) = spec.algorithm_and_gap();
+    // the key that chose the gap
+    let gap_key = if spec.formulation.is_some() && spec.gap.is_none() {
+        "formulation"
+    } else {
+        "gap"
+    };
     let law = law(spec, &mut v);
     let penalty = spec.law == LawKind::Penalty;
-    let passes = match (spec.rigid.is_some(), spec.algorithm) {
+    let passes = match (spec.rigid.is_some(), algorithm) {
         (true, _) => Passes::Rigid,
         (false, Algorithm::OnePass) => Passes::OnePass,
         (false, Algorithm::TwoHalfPass) => Passes::TwoHalfPass,
     };
-    let pressure = match spec.gap {
+    let pressure = match gap {
         GapMode::Pointwise => Pressure::Pointwise,
         GapMode::ElementMean => Pressure::ElementMean,
         GapMode::Mortar => Pressure::NodalWeights {
@@ -73,13 +82,16 @@ pub fn formulation(spec: &ContactSpec, i: usize) -> Result<Formulation, Vec<Issu
         },
     };
     if pressure != Pressure::Pointwise {
-        let name = gap_name(spec.gap);
+        let name = gap_name(gap);
         if !penalty {
-            v.push("gap", format!("`{name}` goes with the `penalty` law only"));
+            v.push(
+                gap_key,
+                format!("`{name}` goes with the `penalty` law only"),
+            );
         }
         if pressure == Pressure::ElementMean && passes == Passes::OnePass {
             v.push(
-                "gap",
+                gap_key,
                 "`element_mean` is implemented for the two-half-pass algorithm only",
             );
         }
@@ -90,7 +102,7 @@ pub fn formulation(spec: &ContactSpec, i: usize) -> Result<Formulation, Vec<Issu
             if !penalty {
                 v.push("augmented", "goes with the `penalty` law only");
             }
-            if matches!(spec.gap, GapMode::ElementMean | GapMode::MortarMean) {
+            if matches!(gap, GapMode::ElementMean | GapMode::MortarMean) {
                 v.push(
                     "augmented",
                     "is implemented for the pointwise gap and `mortar`/`mortar_linear` only (not \
@@ -143,6 +155,59 @@ pub fn formulation(spec: &ContactSpec, i: usize) -> Result<Formulation, Vec<Issu
             law,
         }),
         _ => Err(v.list),
+    }
+}
+
+/// A named `formulation` against the keys it sets: `algorithm` and `gap` given beside it must
+/// agree with it, and `paper` enforces by the penalty alone (no `augmented`).
+fn named(spec: &ContactSpec, v: &mut Issues) {
+    let Some(name) = spec.formulation else {
+        return;
+    };
+    let (algorithm, gap) = name.algorithm_and_gap();
+    let this = match name {
+        FormulationName::Paper => "paper",
+        FormulationName::WeightedGap => "weighted_gap",
+    };
+    let i = v.i;
+    if let Some(a) = spec.algorithm.filter(|&a| a != algorithm) {
+        v.push(
+            "formulation",
+            format!(
+                "`{this}` is `algorithm = \"{}\"`, which contradicts `contact.{i}.algorithm = \
+                 \"{}\"` (give one of the two keys)",
+                algorithm_name(algorithm),
+                algorithm_name(a)
+            ),
+        );
+    }
+    if let Some(g) = spec.gap.filter(|&g| g != gap) {
+        v.push(
+            "formulation",
+            format!(
+                "`{this}` is `gap = \"{}\"`, which contradicts `contact.{i}.gap = \"{}\"` (give \
+                 one of the two keys)",
+                gap_name(gap),
+                gap_name(g)
+            ),
+        );
+    }
+    if name == FormulationName::Paper && spec.augmented.is_some() {
+        v.push(
+            "formulation",
+            format!(
+                "`paper` enforces contact by the penalty alone, which contradicts \
+                 `contact.{i}.augmented` (drop one of the two keys)"
+            ),
+        );
+    }
+}
+
+/// The key value of an algorithm.
+fn algorithm_name(a: Algorithm) -> &'static str {
+    match a {
+        Algorithm::TwoHalfPass => "two_half_pass",
+        Algorithm::OnePass => "one_pass",
     }
 }
 
@@ -315,5 +380,94 @@ mod tests {
         let f = formulation(&rigid, 0).unwrap();
         assert_eq!((f.passes, f.one_pass()), (Passes::Rigid, false));
         assert_eq!(f.pressure, Pressure::ElementMean);
+    }
+
+    #[test]
+    fn each_named_formulation_equals_its_spelled_out_keys() {
+        for law in [
+            "law = \"penalty\"\neps_n = 10.0",
+            "law = \"van_der_waals\"\na_h = 1.0\nr0 = 0.1",
+        ] {
+            let named = formulation(&spec(&format!("{law}\nformulation = \"paper\"")), 0);
+            let keys = formulation(
+                &spec(&format!(
+                    "{law}\nalgorithm = \"two_half_pass\"\ngap = \"pointwise\""
+                )),
+                0,
+            );
+            assert_eq!(named.unwrap(), keys.clone().unwrap());
+            assert_eq!(keys, formulation(&spec(law), 0));
+        }
+        let law = "law = \"penalty\"\neps_n = 10.0\naugmented = { tol = 1e-6, max = 3 }";
+        let named = formulation(&spec(&format!("{law}\nformulation = \"weighted_gap\"")), 0);
+        let keys = formulation(
+            &spec(&format!(
+                "{law}\nalgorithm = \"one_pass\"\ngap = \"mortar\""
+            )),
+            0,
+        );
+        assert_eq!(named.clone().unwrap(), keys.unwrap());
+        assert_eq!(named.unwrap().passes, Passes::OnePass);
+        // the keys that agree with the name may be given beside it
+        let both = "formulation = \"weighted_gap\"\nalgorithm = \"one_pass\"\ngap = \"mortar\"";
+        assert!(formulation(&spec(&format!("{law}\n{both}")), 0).is_ok());
+        // and a restart sees one formulation however it is spelled
+        let a = spec(&format!("{law}\nformulation = \"weighted_gap\""));
+        let b = spec(&format!(
+            "{law}\nalgorithm = \"one_pass\"\ngap = \"mortar\""
+        ));
+        assert_eq!(a.canonical(), b.canonical());
+        let p = spec("law = \"penalty\"\neps_n = 1.0\nformulation = \"paper\"");
+        let d = spec("law = \"penalty\"\neps_n = 1.0\nalgorithm = \"two_half_pass\"");
+        assert_eq!(p.canonical(), d.canonical());
+        assert_ne!(a.canonical(), d.canonical());
+    }
+
+    #[test]
+    fn a_name_contradicted_by_a_key_is_refused_with_both_keys() {
+        let law = "law = \"penalty\"\neps_n = 10.0";
+        for (extra, other) in [
+            (
+                "formulation = \"paper\"\nalgorithm = \"one_pass\"",
+                "contact.2.algorithm",
+            ),
+            ("formulation = \"paper\"\ngap = \"mortar\"", "contact.2.gap"),
+            (
+                "formulation = \"paper\"\naugmented = { tol = 1e-6, max = 3 }",
+                "contact.2.augmented",
+            ),
+            (
+                "formulation = \"weighted_gap\"\nalgorithm = \"two_half_pass\"",
+                "contact.2.algorithm",
+            ),
+            (
+                "formulation = \"weighted_gap\"\ngap = \"pointwise\"",
+                "contact.2.gap",
+            ),
+        ] {
+            let e = formulation(&spec(&format!("{law}\n{extra}")), 2).unwrap_err();
+            assert_eq!(keys(&e), ["contact.2.formulation"], "{extra}");
+            assert!(e[0].message.contains(other), "{extra}: {}", e[0].message);
+        }
+        // both contradictions at once, and the law's issue at the key that chose the gap
+        let e = formulation(
+            &spec(
+                "law = \"cohesive\"\nt0 = 1.0\ng0 = 1.0\neps_n = 1.0\n\
+                 formulation = \"weighted_gap\"\nalgorithm = \"two_half_pass\"\n\
+                 gap = \"mortar_mean\"",
+            ),
+            0,
+        )
+        .unwrap_err();
+        assert_eq!(keys(&e).len(), 3, "{e:?}");
+        let e = formulation(
+            &spec("law = \"cohesive\"\nt0 = 1.0\ng0 = 1.0\neps_n = 1.0\nformulation = \"weighted_gap\""),
+            0,
+        )
+        .unwrap_err();
+        assert_eq!(keys(&e), ["contact.0.formulation"]);
+        assert!(e[0]
+            .message
+            .contains("`mortar` goes with the `penalty` law only"));
     }
 }

@@ -42,12 +42,20 @@ pub struct ContactSpec {
     pub rigid: Option<RigidSpec>,
     /// `penalty` (eq. 5), `van_der_waals` (eq. 6) or `cohesive` (eq. 7).
     pub law: LawKind,
+    /// A named formulation, `algorithm` and `gap` as one key: `paper` (the paper's: two-half-pass,
+    /// pointwise gap, the penalty alone, as the defaults of those keys) or `weighted_gap`
+    /// (`algorithm = "one_pass"` with `gap = "mortar"`: the slave's control points carry the
+    /// pressure of their weighted gap). `algorithm` or `gap` (with `paper`, `augmented` too) given
+    /// beside it must agree with it. Default: none (`algorithm` and `gap` with their defaults).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub formulation: Option<FormulationName>,
     /// `two_half_pass` (default: each surface integrated on its own points, traction on its own
     /// body only) or `one_pass` (classic master/slave, the smoother choice in sliding: the first surface is
     /// the slave whose points are integrated, the opposite force goes to the second, the master,
     /// through its shape functions).
-    #[serde(default)]
-    pub algorithm: Algorithm,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("default" = "two_half_pass"))]
+    pub algorithm: Option<Algorithm>,
     /// `penalty`: how the pressure is distributed. `pointwise` (default, eq. 5 at every quadrature
     /// point, the paper's) or `element_mean`: one pressure per surface element, the mean over the
     /// element of the pointwise pressures `eps_n <-g_N>` (weights `w J0`, over its reference
@@ -71,9 +79,9 @@ pub struct ContactSpec {
     /// function, `p_A = int R_A eps_n <-g_N> da / int R_A da` (points join one by one, as in
     /// `element_mean`), interpolated by the surface basis; the scope of `mortar`, without
     /// `augmented`.
-    #[serde(default, skip_serializing_if = "GapMode::is_pointwise")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schemars(extend("default" = "pointwise"))]
-    pub gap: GapMode,
+    pub gap: Option<GapMode>,
     /// `penalty`: augmented Lagrangian enforcement, `{ tol = ..., max = ... }`. After each converged
     /// Newton solve of a load step, every quadrature point's multiplier is updated to its pressure
     /// (Uzawa: `lambda <- <lambda - eps_n g_N>`, the traction being `<lambda - eps_n g_N> n`) and
@@ -151,6 +159,52 @@ pub struct ContactSpec {
     pub moment_point: Option<Vec<f64>>,
 }
 
+impl ContactSpec {
+    /// `algorithm` and `gap` as they act: a named `formulation` spelled out, else the keys with
+    /// their defaults (a contradiction between them is refused where the pair is built).
+    pub fn algorithm_and_gap(&self) -> (Algorithm, GapMode) {
+        match self.formulation {
+            Some(f) => f.algorithm_and_gap(),
+            None => (
+                self.algorithm.unwrap_or_default(),
+                self.gap.unwrap_or_default(),
+            ),
+        }
+    }
+
+    /// The same pair without `formulation` and without `algorithm` and `gap` at their defaults
+    /// (cases that differ only in how they spell a formulation compare equal on a restart).
+    pub fn canonical(&self) -> ContactSpec {
+        let (a, g) = self.algorithm_and_gap();
+        ContactSpec {
+            formulation: None,
+            algorithm: (a != Algorithm::default()).then_some(a),
+            gap: (g != GapMode::default()).then_some(g),
+            ..self.clone()
+        }
+    }
+}
+
+/// Named formulations (`formulation`), each a value of `algorithm` and `gap`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum FormulationName {
+    /// Two-half-pass, pointwise gap, the penalty alone (the paper's).
+    Paper,
+    /// One-pass with the gap weighted by the slave's control points (`mortar`).
+    WeightedGap,
+}
+
+impl FormulationName {
+    /// Its `algorithm` and `gap`.
+    pub fn algorithm_and_gap(self) -> (Algorithm, GapMode) {
+        match self {
+            FormulationName::Paper => (Algorithm::TwoHalfPass, GapMode::Pointwise),
+            FormulationName::WeightedGap => (Algorithm::OnePass, GapMode::Mortar),
+        }
+    }
+}
+
 /// `augmented = { tol = ..., max = ... }` of a `[[contact]]` pair.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
@@ -178,13 +232,6 @@ pub enum GapMode {
     MortarLinear,
     /// The points' penalty pressures weighted by each surface control point's basis function.
     MortarMean,
-}
-
-impl GapMode {
-    /// True for the default (kept out of the resolved case).
-    pub fn is_pointwise(&self) -> bool {
-        *self == GapMode::Pointwise
-    }
 }
 
 /// Contact algorithms.

@@ -22,8 +22,8 @@ pub mod size;
 pub mod validate;
 
 pub use contact_spec::{
-    Algorithm, AugmentedSpec, BoxSpec, ContactSpec, GapMode, LawKind, PenaltyForm, RigidShapeKind,
-    RigidSpec,
+    Algorithm, AugmentedSpec, BoxSpec, ContactSpec, FormulationName, GapMode, LawKind, PenaltyForm,
+    RigidShapeKind, RigidSpec,
 };
 pub use element_family::{ElementFamily, ElementFamilyError};
 pub use error::{Issue, SceneError};
