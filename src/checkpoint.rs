@@ -694,6 +694,29 @@ every = 1
     }
 
     #[test]
+    fn a_formulation_spelled_by_name_or_by_keys_continues_one_checkpoint() {
+        let law = "law = \"penalty\"\neps_n = 100.0";
+        for spelled in [
+            "algorithm = \"two_half_pass\"",
+            "formulation = \"paper\"",
+            "gap = \"pointwise\"",
+        ] {
+            let now = CASE.replacen(law, &format!("{law}\n{spelled}"), 1);
+            assert_ne!(now, CASE);
+            assert_eq!(compare_cases(CASE, &now, 1), Ok(vec![]), "{spelled}");
+        }
+        let keys = CASE.replacen(
+            law,
+            &format!("{law}\nalgorithm = \"one_pass\"\ngap = \"mortar\""),
+            1,
+        );
+        let named = CASE.replacen(law, &format!("{law}\nformulation = \"weighted_gap\""), 1);
+        assert_eq!(compare_cases(&keys, &named, 1), Ok(vec![]));
+        let err = compare_cases(CASE, &named, 1).unwrap_err();
+        assert!(err.contains("`contact.0.algorithm`"), "{err}");
+    }
+
+    #[test]
     fn positions_no_run_reaches_are_named() {
         let ok = |p: &[f64]| position_problem(p, 2);
         // mid-stage, at a stage's start, all done, and with the predictor's values
