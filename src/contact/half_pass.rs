@@ -43,10 +43,16 @@ pub(crate) struct QPoint {
     pub(crate) w: f64,
     /// Reference area element.
     pub(crate) J0: f64,
-    /// Last projection (trial state, updated by every evaluation).
-    pub(crate) warm: Option<(u32, [f64; 2])>,
-    /// Last converged projection.
-    pub(crate) committed: Option<(u32, [f64; 2])>,
+    /// The load-step history the current evaluations lead to: the last projection (updated by
+    /// every evaluation), the friction anchor and the augmented Lagrangian multiplier the current
+    /// solves use.
+    pub(crate) trial: PointState,
+    /// The history of the last converged step ([`ContactSystem::commit`] copies `trial` here,
+    /// [`ContactSystem::rollback`] back).
+    ///
+    /// [`ContactSystem::commit`]: crate::contact::ContactSystem::commit
+    /// [`ContactSystem::rollback`]: crate::contact::ContactSystem::rollback
+    pub(crate) committed: PointState,
     /// Projection of the current evaluation: partner element, coordinates, free flags.
     pub(crate) current: Option<Projection>,
     /// Mortar gaps: the closest point of the partner surface when it lies beyond the surface's
@@ -59,10 +65,6 @@ pub(crate) struct QPoint {
     pub(crate) force: [f64; 3],
     /// Normal gap to the partner at the last evaluation (`None`: no partner within reach).
     pub(crate) gap: Option<f64>,
-    /// Friction: the anchor of the last converged step (load-step history).
-    pub(crate) anchor: Option<Anchor>,
-    /// Friction: the anchor the last evaluation leads to (committed when its step converges).
-    pub(crate) anchor_trial: Option<Anchor>,
     /// Friction: stick or slip at the last evaluation.
     pub(crate) slip: SlipState,
     /// Friction: tangential traction and tangential gap to the anchor at the last evaluation
@@ -73,10 +75,18 @@ pub(crate) struct QPoint {
     pub(crate) X: [f64; 3],
     /// Normal pressure at the last evaluation (output, and the augmented Lagrangian's update).
     pub(crate) p_n: f64,
-    /// Augmented Lagrangian: the multiplier (a pressure) the current solves use, and the one of the
-    /// last converged step (load-step history). Zero without augmentation.
+}
+
+/// A quadrature point's load-step history: all of it is committed when a step converges and
+/// rolled back when it fails.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct PointState {
+    /// Projection onto the partner (element, surface coordinates): the next update's warm start.
+    pub(crate) projection: Option<(u32, [f64; 2])>,
+    /// Friction: where the point sticks on the partner.
+    pub(crate) anchor: Option<Anchor>,
+    /// Augmented Lagrangian: the multiplier (a pressure). Zero without augmentation.
     pub(crate) lambda: f64,
-    pub(crate) lambda_committed: f64,
 }
 
 /// A surface element this rank integrates.
@@ -381,7 +391,7 @@ impl HalfPass<'_> {
             let p = &mut points[q];
             p.force = po.force;
             p.gap = po.gap;
-            p.anchor_trial = po.anchor_trial;
+            p.trial.anchor = po.anchor_trial;
             p.slip = po.slip;
             p.t_t = po.t_t;
             p.g_t = po.g_t;
@@ -546,15 +556,16 @@ impl HalfPass<'_> {
             nk * dim
         };
         let kb = self.jacobian.then(|| work.block(le, rows * nc));
-        let at: Option<AnchorAt> = match (self.pair.friction, cohesive, qp.anchor) {
+        let at: Option<AnchorAt> = match (self.pair.friction, cohesive, qp.committed.anchor) {
             (Some(f), false, Some(a)) => friction::anchor_at(self, f, a),
             _ => None,
         };
         let master = self.pair.formulation.one_pass() && nl > 0;
         work.rc.clear();
         work.rc.resize(nc, 0.0);
-        let lawf =
-            |g: &[f64; 3], n: &[f64; 3]| self.traction(cohesive, p_mortar, g_mean, qp.lambda, g, n);
+        let lawf = |g: &[f64; 3], n: &[f64; 3]| {
+            self.traction(cohesive, p_mortar, g_mean, qp.trial.lambda, g, n)
+        };
         let input = PointIn {
             dim,
             own,

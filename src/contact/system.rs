@@ -184,7 +184,7 @@ impl ContactSystem {
                     (point.current, point.edge) = (None, None);
                     return Ok(());
                 }
-                let warm = ps.points[q].warm;
+                let warm = ps.points[q].trial.projection;
                 // the partner basis at the warm start is the one the last evaluation used
                 let known = warm.and_then(|(f, xi)| ps.bases.get(q).and_then(|b| b.get(f, &xi)));
                 let walked = warm.map(|w| walk_from(&sys.surfaces[l], &sys.pos[l], &x, w, known));
@@ -252,7 +252,7 @@ impl ContactSystem {
                 point.current = p;
                 point.edge = edge;
                 if let Some(p) = p {
-                    point.warm = Some((p.elem, p.xi));
+                    point.trial.projection = Some((p.elem, p.xi));
                     // the partner basis at the projection, for the evaluations (and the next
                     // update's warm start)
                     if ps.bases.len() < ps.points.len() {
@@ -475,11 +475,8 @@ impl ContactSystem {
 
     /// Keeps the current projections as warm starts of the next step.
     pub fn commit(&mut self) {
-        self.commit_warm_starts();
-        self.each_point_mut(|q| {
-            q.anchor = q.anchor_trial;
-            q.lambda_committed = q.lambda;
-        });
+        self.forget_trial();
+        self.each_point_mut(|q| q.committed = q.trial);
         for net in self.mortar_nets_mut() {
             net.lambda_committed.clone_from(&net.lambda);
         }
@@ -491,17 +488,13 @@ impl ContactSystem {
     /// frictional return mapping still starts from the previous step's anchors, as any step's does.
     pub fn commit_warm_starts(&mut self) {
         self.forget_trial();
-        self.each_point_mut(|q| q.committed = q.warm);
+        self.each_point_mut(|q| q.committed.projection = q.trial.projection);
     }
 
     /// Returns the warm starts to the last committed state.
     pub fn rollback(&mut self) {
         self.forget_trial();
-        self.each_point_mut(|q| {
-            q.warm = q.committed;
-            q.anchor_trial = q.anchor;
-            q.lambda = q.lambda_committed;
-        });
+        self.each_point_mut(|q| q.trial = q.committed);
         for net in self.mortar_nets_mut() {
             net.lambda.clone_from(&net.lambda_committed);
         }

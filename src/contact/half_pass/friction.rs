@@ -144,7 +144,7 @@ pub(super) fn record(
         SlipState::None => Some(xp),
     };
     po.anchor_trial = match (target, hp.l, hp.shape, hp.motion) {
-        (None, ..) => qp.anchor,
+        (None, ..) => qp.committed.anchor,
         (Some(t), Some(l), ..) => {
             let start = qp.current.map(|p| (p.elem, p.xi));
             let onto = if fo.state == SlipState::Slip {

@@ -96,7 +96,7 @@ impl ContactSystem {
                     continue;
                 }
                 for q in &mut pass.points {
-                    q.lambda = if q.gap.is_some() { q.p_n.max(0.0) } else { 0.0 };
+                    q.trial.lambda = if q.gap.is_some() { q.p_n.max(0.0) } else { 0.0 };
                 }
             }
         }

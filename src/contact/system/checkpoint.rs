@@ -6,6 +6,7 @@
 //! shared by ranks has a row from each, equal to round-off).
 
 use super::{Anchor, ContactSystem};
+use crate::contact::half_pass::PointState;
 
 /// Values per point row: key (pair, pass, element, point), warm start (tag, element, xi),
 /// friction anchor (tag, 3 values), cohesive pairing (tag, element, xi), augmented Lagrangian
@@ -33,14 +34,14 @@ impl ContactSystem {
                     for j in 0..el.n {
                         let q = &pass.points[el.first + j];
                         out.extend_from_slice(&[pi as f64, qi as f64, el.e as f64, j as f64]);
-                        out.extend_from_slice(&opt2(q.committed));
-                        out.extend_from_slice(&match q.anchor {
+                        out.extend_from_slice(&opt2(q.committed.projection));
+                        out.extend_from_slice(&match q.committed.anchor {
                             None => [0.0; 4],
                             Some(Anchor::Surface(e, xi)) => [1.0, e as f64, xi[0], xi[1]],
                             Some(Anchor::Rigid(x)) => [2.0, x[0], x[1], x[2]],
                         });
                         out.extend_from_slice(&opt2(q.pairing));
-                        out.push(q.lambda_committed);
+                        out.push(q.committed.lambda);
                     }
                 }
                 if let Some(net) = &pass.mortar {
@@ -97,17 +98,17 @@ impl ContactSystem {
                         };
                         let r = &rows[i * ROW..(i + 1) * ROW];
                         let q = &mut pass.points[el.first + j];
-                        q.committed = get2(&r[4..8]);
-                        q.warm = q.committed;
-                        q.anchor = match r[8] as u32 {
-                            1 => Some(Anchor::Surface(r[9] as u32, [r[10], r[11]])),
-                            2 => Some(Anchor::Rigid([r[9], r[10], r[11]])),
-                            _ => None,
+                        q.committed = PointState {
+                            projection: get2(&r[4..8]),
+                            anchor: match r[8] as u32 {
+                                1 => Some(Anchor::Surface(r[9] as u32, [r[10], r[11]])),
+                                2 => Some(Anchor::Rigid([r[9], r[10], r[11]])),
+                                _ => None,
+                            },
+                            lambda: r[16],
                         };
-                        q.anchor_trial = q.anchor;
+                        q.trial = q.committed;
                         q.pairing = get2(&r[12..16]);
-                        q.lambda_committed = r[16];
-                        q.lambda = r[16];
                     }
                 }
                 if let Some(net) = &mut pass.mortar {

@@ -211,7 +211,7 @@ impl ContactSystem {
                     continue;
                 };
                 for q in &pass.points {
-                    let anchor = match q.anchor {
+                    let anchor = match q.committed.anchor {
                         Some(Anchor::Surface(f, _)) if frictional => Some(f),
                         _ => None,
                     };

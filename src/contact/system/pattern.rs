@@ -36,7 +36,7 @@ impl ContactSystem {
                         if let Some((l, _)) = qp.pairing {
                             out.push((pass_id, oe.e, l));
                         }
-                        if let Some(Anchor::Surface(l, _)) = qp.anchor {
+                        if let Some(Anchor::Surface(l, _)) = qp.committed.anchor {
                             if pair.def.friction.is_some() {
                                 out.push((pass_id, oe.e, l));
                             }
@@ -81,7 +81,7 @@ impl ContactSystem {
                     };
                     for q in sources.iter().flat_map(|s| s.first..s.first + s.n) {
                         let qp = &pass.points[q];
-                        let anchor = match qp.anchor {
+                        let anchor = match qp.committed.anchor {
                             Some(Anchor::Surface(la, _)) if pair.def.friction.is_some() => Some(la),
                             _ => None,
                         };
