@@ -24,9 +24,23 @@ const PATCH_2D: &[&str] = &[
 /// The iterative runs on 1 and 2 ranks give the direct run's displacement and reactions to the
 /// Newton tolerance, with Krylov iterations actually taken and no fallback.
 fn iterative_equals_direct(tag: &str, case_file: &str, sets: &[&str], grid: &str, reaction: &str) {
+    iterative_with_pc_equals_direct(tag, case_file, sets, grid, reaction, "gamg");
+}
+
+/// As [`iterative_equals_direct`], with `[solver] preconditioner = pc`.
+fn iterative_with_pc_equals_direct(
+    tag: &str,
+    case_file: &str,
+    sets: &[&str],
+    grid: &str,
+    reaction: &str,
+    pc: &str,
+) {
     let direct = run_case_with(&format!("{tag}-direct"), case_file, 1, sets, &[]);
     let mut it_sets = sets.to_vec();
     it_sets.push("solver.linear=\"iterative\"");
+    let pc_set = format!("solver.preconditioner=\"{pc}\"");
+    it_sets.push(&pc_set);
     let u_d = h5_last(&direct, grid, "displacement");
     let r_d = history_col(&direct, reaction);
     assert!(u_d.iter().any(|u| u.abs() > 1e-3), "the case deforms");
@@ -90,6 +104,67 @@ fn iterative_equals_direct_on_the_2d_contact_patch_on_1_and_2_ranks() {
         "bulk",
         "R_upper_top_y",
     );
+}
+
+#[test]
+fn the_interface_correction_equals_direct_on_the_2d_contact_patch_on_1_and_2_ranks() {
+    for pc in ["gamg_interface", "gamg_interface_symmetric"] {
+        iterative_with_pc_equals_direct(
+            &format!("patch2d-{pc}"),
+            "contact_patch_2d.toml",
+            PATCH_2D,
+            "bulk",
+            "R_upper_top_y",
+            pc,
+        );
+    }
+}
+
+#[test]
+fn the_interface_correction_equals_direct_on_the_3d_hemisphere_on_1_and_2_ranks() {
+    for pc in ["gamg_interface", "gamg_interface_symmetric"] {
+        iterative_with_pc_equals_direct(
+            &format!("hemi3d-{pc}"),
+            "hemisphere_block_3d.toml",
+            HEMISPHERE,
+            "bulk",
+            "R_shell_rim_z",
+            pc,
+        );
+    }
+}
+
+/// Krylov iterations per Newton iteration on the coarse hemisphere on a block (621 unknowns):
+/// GAMG needs more than 25, GAMG with the exact interface solve fewer than 20, on 1 and 2 ranks.
+#[test]
+fn the_interface_correction_takes_fewer_krylov_iterations_than_gamg_on_the_3d_hemisphere() {
+    let per_newton = |tag: &str, np: usize, pc: &str| {
+        let mut sets = HEMISPHERE.to_vec();
+        sets.push("solver.linear=\"iterative\"");
+        let pc_set = format!("solver.preconditioner=\"{pc}\"");
+        sets.push(&pc_set);
+        let d = run_case_with(tag, "hemisphere_block_3d.toml", np, &sets, &[]);
+        let s = summary(&d);
+        assert_eq!(s["status"], "converged", "{tag}");
+        let n = &s["newton"];
+        assert_eq!(n["linear_fallbacks"].as_u64(), Some(0), "{tag}: a fallback");
+        let its =
+            n["total_iterations"].as_u64().unwrap() + n["failed_iterations"].as_u64().unwrap();
+        n["linear_iterations"].as_u64().unwrap() as f64 / its as f64
+    };
+    for np in [1, 2] {
+        let gamg = per_newton(&format!("hemi-kry-gamg-np{np}"), np, "gamg");
+        let corrected = per_newton(&format!("hemi-kry-if-np{np}"), np, "gamg_interface");
+        assert!(
+            gamg > 25.0,
+            "np {np}: GAMG took only {gamg} Krylov iterations per Newton iteration"
+        );
+        assert!(
+            corrected < 20.0,
+            "np {np}: the interface correction took {corrected} Krylov iterations per Newton \
+             iteration (GAMG {gamg})"
+        );
+    }
 }
 
 #[test]

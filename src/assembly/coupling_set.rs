@@ -63,6 +63,13 @@ pub trait CouplingSet: Any + Send {
     /// them, so that the pattern survives small changes of the coupling. Sorted.
     fn band_blocks(&mut self, ring: usize) -> Vec<Block>;
 
+    /// Global unknowns of the interface the set joins at its last [`update`](Self::update) (any
+    /// rank's; negative entries are ignored), for the iterative route's interface correction
+    /// (`[solver] preconditioner = "gamg_interface"`). Default: none.
+    fn interface_dofs(&self) -> Vec<i32> {
+        Vec::new()
+    }
+
     /// Whether this rank evaluates `block` (a pattern from another rank, e.g. a restart, is
     /// filtered by it).
     fn owns_block(&self, block: &Block) -> bool;

@@ -10,7 +10,7 @@ use crate::petsc::{
     options_missing_values, quiet_errors, tolerance_problems, Matrix, Petsc, PetscError, Snes,
     Vector,
 };
-use crate::scene::schema::LinearSolver;
+use crate::scene::schema::{LinearSolver, Preconditioner};
 use crate::scene::Case;
 use crate::solver::judge::{NEWTON_ATOL, NEWTON_MAX_IT, NEWTON_RTOL, NEWTON_STOL};
 use crate::solver::linear::rigid_body_null_space;
@@ -148,6 +148,15 @@ pub(super) fn set_up_solver<'p>(
         )?;
         snes.set_near_null_space(space);
         snes.set_iterative(true);
+        match case.solver.preconditioner {
+            Preconditioner::Gamg => {}
+            Preconditioner::GamgInterface => {
+                snes.set_interface_correction(INTERFACE_LAYERS, false);
+            }
+            Preconditioner::GamgInterfaceSymmetric => {
+                snes.set_interface_correction(INTERFACE_LAYERS, true);
+            }
+        }
         // a solve stopped by `-ksp_max_it` that has reduced its residual enough is an inexact
         // Newton direction, not a failure (`[solver] krylov_accept`)
         if case.solver.krylov_accept > 0.0 {
@@ -175,6 +184,10 @@ pub(super) fn set_up_solver<'p>(
         control,
     })
 }
+
+/// Layers of matrix neighbours `[solver] preconditioner = "gamg_interface"` adds around the
+/// contact couplings' unknowns.
+const INTERFACE_LAYERS: usize = 1;
 
 /// The linear solver that runs: `[solver] linear`, with `"auto"` resolved for the unknowns.
 pub(super) fn linear_route(case: &Case, dofs: &crate::assembly::DofMap) -> LinearSolver {

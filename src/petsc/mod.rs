@@ -11,6 +11,7 @@
 
 mod error;
 mod init;
+mod interface_pc;
 mod ksp;
 mod mat;
 mod nullspace;

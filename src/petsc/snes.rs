@@ -1,6 +1,7 @@
 //! PETSc's nonlinear solver (SNES) driving a Rust [`NonlinearProblem`] through `extern "C"` trampolines.
 
 use super::error::{call, PetscError};
+use super::interface_pc::{self, InterfaceCorrection};
 use super::{handle, quiet_errors, sys, Ksp, Matrix, NullSpace, Petsc, PetscInt, Vector};
 use mpi::raw::AsRaw;
 use std::ffi::{c_void, CStr};
@@ -32,6 +33,11 @@ pub trait NonlinearProblem {
     /// every rank. Collective only in that sense; must not communicate.
     fn stop_requested(&self) -> bool {
         false
+    }
+    /// Global unknowns of the contact interface at the last Jacobian (any rank's rows; a rank
+    /// may name rows another owns), for [`Snes::set_interface_correction`]. Default: none.
+    fn interface_dofs(&self) -> Vec<PetscInt> {
+        Vec::new()
     }
 }
 
@@ -84,6 +90,9 @@ pub struct Snes<'p> {
     iterative: bool,
     /// [`Snes::use_direct`] is in force.
     on_direct: bool,
+    /// The iterative route's preconditioner is GAMG with an exact solve on the contact
+    /// interface ([`Snes::set_interface_correction`]); boxed: the PC shell holds its address.
+    interface: Option<Box<InterfaceCorrection>>,
     _petsc: PhantomData<&'p Petsc>,
 }
 
@@ -127,6 +136,8 @@ struct Context<'a> {
     /// A residual evaluation since the last Jacobian (i.e. in this iteration's line search) raised
     /// a domain error: the line search's final step is checked ([`post_check_trampoline`]).
     line_search_domain: bool,
+    /// The interface correction to tell the problem's interface after each Jacobian (null: none).
+    interface: *mut InterfaceCorrection,
 }
 
 /// Halvings the line search's post-check tries before it leaves an inadmissible step to SNES.
@@ -204,7 +215,15 @@ unsafe extern "C" fn jacobian_trampoline(
         &mut borrowed
     };
     match catch_unwind(AssertUnwindSafe(|| ctx.problem.jacobian(&xv, jm))) {
-        Ok(Ok(())) => 0,
+        Ok(Ok(())) => {
+            if !ctx.interface.is_null() {
+                // SAFETY: the correction is owned by the Snes running this solve and not used
+                // elsewhere during it.
+                let interface = unsafe { &mut *ctx.interface };
+                interface.requested = ctx.problem.interface_dofs();
+            }
+            0
+        }
         Ok(Err(ProblemError::Domain(msg))) => {
             // Not `SNESSetJacobianDomainError`: PETSc 3.18 ignores that flag unless told to check
             // it (SNES then goes on with the previous matrix and its factorisation, a chord step),
@@ -399,6 +418,7 @@ impl<'p> Snes<'p> {
             near_null: None,
             iterative: false,
             on_direct: false,
+            interface: None,
             _petsc: PhantomData,
         })
     }
@@ -420,6 +440,9 @@ impl<'p> Snes<'p> {
             call!(SNESSetJacobian(self.raw, m, m, None, std::ptr::null_mut()))?;
         }
         let iterative = self.iterative && !self.on_direct;
+        if let Some(interface) = &mut self.interface {
+            interface.release()?;
+        }
         let mut ksp = self.ksp()?;
         if iterative {
             // KSPReset alone leaves GAMG's level solvers holding operators of the old sizes (the
@@ -486,6 +509,15 @@ impl<'p> Snes<'p> {
     /// matrix it is set up with.
     pub fn set_near_null_space(&mut self, space: NullSpace<'p>) {
         self.near_null = Some(space);
+    }
+
+    /// Preconditions the iterative route with GAMG followed by an exact (MUMPS LU) solve on the
+    /// unknowns of the contact interface, [`NonlinearProblem::interface_dofs`] widened by
+    /// `layers` layers of matrix neighbours (`z = AMG(r); z += P_I A_II^{-1} P_I^T (r - A z)`),
+    /// in place of the PC the options choose, from the next solve on; `symmetric`: then
+    /// `z += AMG(r - A z)` once more. Not with [`Snes::use_direct`] in force (its LU stays).
+    pub fn set_interface_correction(&mut self, layers: usize, symmetric: bool) {
+        self.interface = Some(Box::new(InterfaceCorrection::new(layers, symmetric)));
     }
 
     /// Marks the linear solver as iterative: a PETSc error raised in a solve (an AMG set-up that
@@ -568,6 +600,20 @@ impl<'p> Snes<'p> {
             jac.set_near_null_space(space)?;
         }
         let accepted_before = self.ksp()?.accepted_at_limit()?;
+        let on_direct = self.on_direct;
+        let mut ksp = self.ksp()?;
+        let pc = ksp.pc()?.as_raw();
+        drop(ksp);
+        let interface: *mut InterfaceCorrection = match &mut self.interface {
+            Some(i) if !on_direct => {
+                let i: *mut InterfaceCorrection = &mut **i;
+                // SAFETY: the box stays at its address while the Snes lives, and the Snes
+                // destroys its PC (SNESDestroy on drop) before its fields are dropped.
+                unsafe { interface_pc::install(pc, i)? };
+                i
+            }
+            _ => std::ptr::null_mut(),
+        };
         let jac_raw = jac.as_raw();
         let mut ctx = Context {
             problem,
@@ -581,6 +627,7 @@ impl<'p> Snes<'p> {
             watch_start: std::mem::take(&mut self.watch_start),
             rose: None,
             line_search_domain: false,
+            interface,
         };
         let ctx_ptr = &mut ctx as *mut Context as *mut c_void;
         // SAFETY: ctx outlives SNESSolve (it is on this stack frame); the callbacks are re-registered

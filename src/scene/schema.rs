@@ -728,6 +728,35 @@ pub struct SolverOptions {
     #[serde(default, skip_serializing_if = "Predictor::is_default")]
     #[schemars(extend("default" = "secant"))]
     pub predictor: Predictor,
+    /// The iterative route's preconditioner: `"gamg"` (PETSc's algebraic multigrid, or what the
+    /// `-pc_type` option chooses), `"gamg_interface"` (GAMG, then an exact MUMPS solve on the
+    /// unknowns of the contact interface: both sides of every surface element with a point on
+    /// or near its partner and that partner element, and one layer of their neighbours; the
+    /// same as `"gamg"` without contact) or `"gamg_interface_symmetric"` (the same, then GAMG
+    /// once more on the residual left). Ignored by the direct route. Default: `"gamg"`
+    /// (docs/performance/scale.md, "Preconditioners on the contact tangent").
+    #[serde(default, skip_serializing_if = "Preconditioner::is_default")]
+    #[schemars(extend("default" = "gamg"))]
+    pub preconditioner: Preconditioner,
+}
+
+/// `[solver] preconditioner`: the iterative route's preconditioner.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Preconditioner {
+    /// The PC the options choose (`-pc_type gamg` by default).
+    #[default]
+    Gamg,
+    /// GAMG followed by an exact solve on the contact interface's unknowns.
+    GamgInterface,
+    /// As `GamgInterface`, then GAMG once more on the residual left (the symmetric form).
+    GamgInterfaceSymmetric,
+}
+
+impl Preconditioner {
+    fn is_default(&self) -> bool {
+        *self == Preconditioner::default()
+    }
 }
 
 /// `[solver] predictor`: where Newton starts a load step.
@@ -836,6 +865,7 @@ impl Default for SolverOptions {
             max_penetration: None,
             krylov_accept: default_krylov_accept(),
             predictor: Predictor::default(),
+            preconditioner: Preconditioner::default(),
         }
     }
 }

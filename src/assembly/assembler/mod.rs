@@ -477,6 +477,19 @@ impl NonlinearProblem for Assembler<'_> {
         self.pattern_outdated()
     }
 
+    // `PetscInt` is `i32` in the Debian build; a 64-bit build widens here
+    #[allow(clippy::useless_conversion)]
+    fn interface_dofs(&self) -> Vec<crate::petsc::PetscInt> {
+        self.coupled.as_ref().map_or_else(Vec::new, |c| {
+            c.set
+                .interface_dofs()
+                .into_iter()
+                .filter(|&d| d >= 0)
+                .map(crate::petsc::PetscInt::from)
+                .collect()
+        })
+    }
+
     fn residual(&mut self, x: &Vector, f: &mut Vector) -> Result<(), ProblemError> {
         let t0 = Instant::now();
         if let Err(e) = self.prepare_couplings(x, false) {

@@ -52,6 +52,10 @@ impl CouplingSet for ContactSystem {
         ContactSystem::block_dofs(self, block)
     }
 
+    fn interface_dofs(&self) -> Vec<i32> {
+        ContactSystem::interface_dofs(self)
+    }
+
     fn evaluate(&mut self, f_local: &mut [f64], jac: Option<(&mut dyn MatrixSink, &SlotOf)>) {
         self.assemble(f_local, jac);
     }

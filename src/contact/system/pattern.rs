@@ -192,6 +192,21 @@ impl ContactSystem {
         (rows, cols)
     }
 
+    /// The global unknowns of both sides of this rank's couplings now ([`Self::couplings`]:
+    /// each surface element with a point on or near its partner, and that partner element),
+    /// sorted and without repeats: the contact interface of the iterative route's interface
+    /// correction.
+    pub fn interface_dofs(&self) -> Vec<i32> {
+        let mut out = Vec::new();
+        for c in self.couplings() {
+            let (_, cols) = self.block_dofs(&c);
+            out.extend(cols.into_iter().filter(|&d| d >= 0));
+        }
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
     fn pass_surfaces(&self, pass: usize) -> (usize, Option<usize>, bool) {
         let mut i = 0;
         for pair in &self.pairs {
