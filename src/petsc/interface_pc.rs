@@ -14,6 +14,7 @@
 //! ranks. An empty `I` (no contact yet) leaves GAMG alone.
 
 use super::error::{call, PetscError};
+use super::scatter::{scatter_add_back, scatter_forward};
 use super::{sys, PetscInt};
 use std::ffi::c_void;
 
@@ -281,20 +282,7 @@ impl InterfaceCorrection {
             }
             call!(MatMult(self.gamg_mat, z, self.work))?;
             call!(VecAYPX(self.work, -1.0, r))?;
-            call!(VecScatterBegin(
-                self.scatter,
-                self.work,
-                self.r_i,
-                sys::InsertMode::INSERT_VALUES,
-                sys::ScatterMode::SCATTER_FORWARD
-            ))?;
-            call!(VecScatterEnd(
-                self.scatter,
-                self.work,
-                self.r_i,
-                sys::InsertMode::INSERT_VALUES,
-                sys::ScatterMode::SCATTER_FORWARD
-            ))?;
+            scatter_forward(self.scatter, self.work, self.r_i)?;
             call!(KSPSolve(self.solver, self.r_i, self.y_i))?;
             let mut reason = sys::KSPConvergedReason(0);
             call!(KSPGetConvergedReason(self.solver, &mut reason))?;
@@ -308,20 +296,7 @@ impl InterfaceCorrection {
                     ),
                 });
             }
-            call!(VecScatterBegin(
-                self.scatter,
-                self.y_i,
-                z,
-                sys::InsertMode::ADD_VALUES,
-                sys::ScatterMode::SCATTER_REVERSE
-            ))?;
-            call!(VecScatterEnd(
-                self.scatter,
-                self.y_i,
-                z,
-                sys::InsertMode::ADD_VALUES,
-                sys::ScatterMode::SCATTER_REVERSE
-            ))?;
+            scatter_add_back(self.scatter, self.y_i, z)?;
             if self.post_sweep {
                 // z += AMG(r - A z): the symmetric form
                 call!(MatMult(self.gamg_mat, z, self.work))?;

@@ -76,45 +76,70 @@ impl<'p> Scatter<'p> {
 
     /// `local[k] = global[indices[k]]`. Collective.
     pub fn gather(&self, global: &Vector, local: &mut Vector) -> Result<(), PetscError> {
-        let (g, l) = (global.as_raw(), local.as_raw());
         // SAFETY: the vectors are the layouts the scatter was built for.
-        unsafe {
-            call!(VecScatterBegin(
-                self.raw,
-                g,
-                l,
-                sys::InsertMode::INSERT_VALUES,
-                sys::ScatterMode::SCATTER_FORWARD
-            ))?;
-            call!(VecScatterEnd(
-                self.raw,
-                g,
-                l,
-                sys::InsertMode::INSERT_VALUES,
-                sys::ScatterMode::SCATTER_FORWARD
-            ))
-        }
+        unsafe { scatter_forward(self.raw, global.as_raw(), local.as_raw()) }
     }
 
     /// `global[indices[k]] += local[k]`. Collective.
     pub fn add_back(&self, local: &Vector, global: &mut Vector) -> Result<(), PetscError> {
-        let (g, l) = (global.as_raw(), local.as_raw());
         // SAFETY: as in gather, in reverse.
-        unsafe {
-            call!(VecScatterBegin(
-                self.raw,
-                l,
-                g,
-                sys::InsertMode::ADD_VALUES,
-                sys::ScatterMode::SCATTER_REVERSE
-            ))?;
-            call!(VecScatterEnd(
-                self.raw,
-                l,
-                g,
-                sys::InsertMode::ADD_VALUES,
-                sys::ScatterMode::SCATTER_REVERSE
-            ))
-        }
+        unsafe { scatter_add_back(self.raw, local.as_raw(), global.as_raw()) }
+    }
+}
+
+/// Runs `scatter` forward, inserting: `to[k] = from[indices[k]]`. Collective.
+///
+/// # Safety
+/// `scatter`, `from` and `to` must be live handles, `from` and `to` of the layouts `scatter` was
+/// built for (source and target).
+pub(crate) unsafe fn scatter_forward(
+    scatter: sys::VecScatter,
+    from: sys::Vec,
+    to: sys::Vec,
+) -> Result<(), PetscError> {
+    // SAFETY: as the caller promises.
+    unsafe {
+        call!(VecScatterBegin(
+            scatter,
+            from,
+            to,
+            sys::InsertMode::INSERT_VALUES,
+            sys::ScatterMode::SCATTER_FORWARD
+        ))?;
+        call!(VecScatterEnd(
+            scatter,
+            from,
+            to,
+            sys::InsertMode::INSERT_VALUES,
+            sys::ScatterMode::SCATTER_FORWARD
+        ))
+    }
+}
+
+/// Runs `scatter` in reverse, adding: `to[indices[k]] += from[k]`. Collective.
+///
+/// # Safety
+/// As [`scatter_forward`], with `from` of the scatter's target layout and `to` of its source.
+pub(crate) unsafe fn scatter_add_back(
+    scatter: sys::VecScatter,
+    from: sys::Vec,
+    to: sys::Vec,
+) -> Result<(), PetscError> {
+    // SAFETY: as the caller promises.
+    unsafe {
+        call!(VecScatterBegin(
+            scatter,
+            from,
+            to,
+            sys::InsertMode::ADD_VALUES,
+            sys::ScatterMode::SCATTER_REVERSE
+        ))?;
+        call!(VecScatterEnd(
+            scatter,
+            from,
+            to,
+            sys::InsertMode::ADD_VALUES,
+            sys::ScatterMode::SCATTER_REVERSE
+        ))
     }
 }
