@@ -13,7 +13,7 @@ from bench_contact import hertz_metrics, newton
 
 # the tolerance (a penetration) can be changed with AL_TOL=...
 AL = "contact.0.augmented={ tol = %s, max = %s }" % (os.environ.get("AL_TOL", "1e-8"), os.environ.get("AL_MAX", "100"))
-# further --set values for every run, e.g. BENCH_SETS="contact.0.gap=mortar"
+# further --set values for every run, e.g. BENCH_SETS="contact.0.gap=weighted"
 SETS = os.environ.get("BENCH_SETS", "").split()
 
 

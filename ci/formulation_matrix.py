@@ -36,7 +36,7 @@ Rows (the questions; `--list` prints the runs):
                     rotation, max |M_z|
 
 Formulations (`--forms`, names `ALGORITHM/GAP[+al]`): `thp` two-half-pass, `op` one-pass;
-gap pointwise, element_mean, mortar, mortar_linear, mortar_mean; `+al` the augmented Lagrangian
+gap pointwise, element_mean, weighted, weighted_linear, weighted_mean; `+al` the augmented Lagrangian
 (`augmented = { tol, max = 30 }`, tol per row below, about a tenth of the plain penalty's
 penetration). The `+freeze` lines of docs/formulations.csv measured `solver.contact_freeze_after`,
 a retired key (docs/formulations.md, "Retired keys"); the matrix no longer runs them.
@@ -56,7 +56,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BIN = os.environ.get("NURBS_CONTACT_BIN", os.path.join(ROOT, "target", "release", "nurbs-contact"))
 ENV = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
 
-GAPS = ["pointwise", "element_mean", "mortar", "mortar_linear", "mortar_mean"]
+GAPS = ["pointwise", "element_mean", "weighted", "weighted_linear", "weighted_mean"]
 
 
 def formulations():
@@ -73,7 +73,7 @@ def formulations():
 FORMS = formulations()
 # the combinations a user can write; the solver's `check` decides which it accepts
 DEFAULT_FORMS = [f"{a}/{g}" for a in ("thp", "op") for g in GAPS] + \
-    [f"{a}/{g}+al" for a in ("thp", "op") for g in ("pointwise", "mortar", "mortar_linear", "element_mean", "mortar_mean")]
+    [f"{a}/{g}+al" for a in ("thp", "op") for g in ("pointwise", "weighted", "weighted_linear", "element_mean", "weighted_mean")]
 
 SLIDE4 = ["bcs.1.value=[[0.0, -0.6666666666666666], [4.0, -0.6666666666666666]]"]
 IRON_MESH = {
@@ -582,7 +582,7 @@ def main():
             sys.exit(f"unknown row `{r}` (rows: {', '.join(ROW_ORDER)})")
     for f in forms:
         if f not in FORMS:
-            sys.exit(f"unknown formulation `{f}` (e.g. thp/pointwise, op/mortar+al)")
+            sys.exit(f"unknown formulation `{f}` (e.g. thp/pointwise, op/weighted+al)")
     work = [(r, f, fam) for r in rows for fam in (fams or ROWS[r]["families"]) for f in forms]
     if a.list:
         for r, f, fam in work:

@@ -7,7 +7,7 @@ Usage (from anywhere; runs one at a time, 1 rank, through ci/bench_contact.py's 
 the mesh is n_arc = N, n_radial = N // 4 and the nominal peak and second-moment half-width are
 bench_contact.py's):
   python3 ci/hertz_reference.py run SPEC...   SPEC = FAMILY:N_ARC:GAP:EPS_N[:al]
-      e.g. Q1C1:512:pointwise:1e4:al Q1N2:128:mortar_mean:1e4; `al` adds
+      e.g. Q1C1:512:pointwise:1e4:al Q1N2:128:weighted_mean:1e4; `al` adds
       contact.0.augmented={ tol = $AL_TOL, max = $AL_MAX } (defaults 1e-9, 50); one JSON line per
       run is appended to $HERTZ_RESULTS (default ./hertz_results.jsonl), failed runs too
   REF_R=... REF_A=... REF_P=... python3 ci/hertz_reference.py table
@@ -134,9 +134,9 @@ def table():
     print(f"\nReference used: r_ref = {REF_R:.6f} ({100*(REF_R-1):+.3f} % vs Hertz), a_ref ratio = {REF_A:.6f}, P_ref = {REF_P:.8g}\n")
 
     rows = [("Q1C1", "pointwise", "1e4", False), ("Q1C1", "pointwise", "1e4", True),
-            ("Q1N2", "mortar_mean", "1e4", False), ("Q1N2", "mortar", "1e4", True), ("Q1N2", "pointwise", "1e4", False),
-            ("Q1N2", "mortar_mean", "1e3", False), ("Q1N2", "mortar_mean", "1e5", False), ("Q1N2", "mortar_mean", "1e6", False),
-            ("Q1C1", "mortar", "1e4", True)]
+            ("Q1N2", "weighted_mean", "1e4", False), ("Q1N2", "weighted", "1e4", True), ("Q1N2", "pointwise", "1e4", False),
+            ("Q1N2", "weighted_mean", "1e3", False), ("Q1N2", "weighted_mean", "1e5", False), ("Q1N2", "weighted_mean", "1e6", False),
+            ("Q1C1", "weighted", "1e4", True)]
     print("| family | gap | eps_n / AL | n_arc | unknowns | load P | P err vs ref | peak/p0_H vs Hertz | error vs ref | raw peak vs ref peak | half-width error vs ref | Newton its (AL rounds) | wall s |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for fam, gap, eps, al in rows:

@@ -707,7 +707,7 @@ every = 1
         }
         let keys = CASE.replacen(
             law,
-            &format!("{law}\nalgorithm = \"one_pass\"\ngap = \"mortar\""),
+            &format!("{law}\nalgorithm = \"one_pass\"\ngap = \"weighted\""),
             1,
         );
         let named = CASE.replacen(law, &format!("{law}\nformulation = \"weighted_gap\""), 1);

@@ -142,7 +142,7 @@ fn bad_settings_are_named_by_key() {
             "contact.0.augmented",
         ),
         (
-            vec![AL, "contact.0.gap=\"mortar_mean\""],
+            vec![AL, "contact.0.gap=\"weighted_mean\""],
             "contact.0.augmented",
         ),
         (
@@ -198,7 +198,7 @@ fn two_deformable_bodies_with_friction_meet_the_tolerance() {
 /// gaps still vary by 8e-6 about them on the non-matching master)).
 #[test]
 fn one_pass_meets_the_tolerance_and_drops_the_penalty() {
-    for gap in ["pointwise", "mortar"] {
+    for gap in ["pointwise", "weighted"] {
         let mut r = Vec::new();
         for eps in ["1e3", "1e4"] {
             let d = run_case(

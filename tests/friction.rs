@@ -277,7 +277,7 @@ fn one_pass_frictional_sliding_slips_at_mu_n_alike_on_1_and_2_ranks() {
     // upper block's surface the slave, the lower one taking the opposite force): every slave point
     // slips on the cone while sliding, the pass's tangential force is -mu times its normal one,
     // and 2 ranks (the master's rows on the other rank) give the 1-rank displacement
-    for gap in ["pointwise", "mortar"] {
+    for gap in ["pointwise", "weighted"] {
         let sets = [
             "contact.0.mu=0.3",
             "contact.0.algorithm=one_pass",

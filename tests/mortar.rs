@@ -1,7 +1,7 @@
-//! The mortar gap (`gap = "mortar"`) end to end: the contact patch test on non-matching meshes in
+//! The mortar gap (`gap = "weighted"`) end to end: the contact patch test on non-matching meshes in
 //! 2D and 3D, Hertz at one refinement, the same answer on 1 and 2 ranks (halo elements across the
-//! METIS split), the augmented Lagrangian on the control points, `mortar_linear` on a Q1C2
-//! surface, Coulomb friction with `mortar_mean`, the scope refused by key, and PETSc's own
+//! METIS split), the augmented Lagrangian on the control points, `weighted_linear` on a Q1C2
+//! surface, Coulomb friction with `weighted_mean`, the scope refused by key, and PETSc's own
 //! Jacobian check along the 3D twisting press.
 
 mod common;
@@ -17,10 +17,10 @@ fn mortar_gap_passes_the_contact_patch_test_in_2d_and_3d() {
         ("contact_patch_3d.toml", 3, "upper.zmin", "lower.zmax"),
     ] {
         for (fam, gap) in [
-            ("Q1C1", "mortar"),
-            ("Q1N2", "mortar"),
-            ("Q1N2", "mortar_linear"),
-            ("Q1N2", "mortar_mean"),
+            ("Q1C1", "weighted"),
+            ("Q1N2", "weighted"),
+            ("Q1N2", "weighted_linear"),
+            ("Q1N2", "weighted_mean"),
         ] {
             let d = run_case(
                 &format!("mortar/patch-{dim}d-{fam}-{gap}"),
@@ -90,9 +90,9 @@ fn one_pass_mortar_passes_the_contact_patch_test_alike_on_1_and_2_ranks() {
         ),
     ] {
         for (fam, gap) in [
-            ("Q1C1", "mortar"),
-            ("Q1N2", "mortar"),
-            ("Q1N2", "mortar_mean"),
+            ("Q1C1", "weighted"),
+            ("Q1N2", "weighted"),
+            ("Q1N2", "weighted_mean"),
         ] {
             for mesh in [matching, ""] {
                 let mut runs = Vec::new();
@@ -185,7 +185,7 @@ fn one_pass_mortar_slides_without_the_cylinders_sawtooth() {
     // mortar gap, 2.10e-3 with the pointwise one-pass, 7.49e-3 for the two-half-pass cylinder pass
     // and 1.90e-3 for its block pass)
     let mut amp = Vec::new();
-    for gap in ["mortar", "pointwise"] {
+    for gap in ["weighted", "pointwise"] {
         let d = run_case(
             &format!("mortar/ironing-sawtooth-one-pass-{gap}"),
             "ironing_2d.toml",
@@ -227,8 +227,8 @@ fn mortar_gap_hertz_at_eight_elements_across_the_contact_on_1_and_2_ranks() {
     // measured: nominal peak +0.54 % (Q1C1) and +2.07 % (Q1N2) from
     // Hertz at n_arc 128; the pointwise gap gives +0.77 % and +1.95 %
     for (fam, lo, hi) in [("Q1C1", 0.0, 0.01), ("Q1N2", 0.01, 0.03)] {
-        let (_, peak1, p1) = hertz_peaks_with(fam, 128, 1, &["contact.0.gap=mortar"]);
-        let (_, peak2, p2) = hertz_peaks_with(fam, 128, 2, &["contact.0.gap=mortar"]);
+        let (_, peak1, p1) = hertz_peaks_with(fam, 128, 1, &["contact.0.gap=weighted"]);
+        let (_, peak2, p2) = hertz_peaks_with(fam, 128, 2, &["contact.0.gap=weighted"]);
         let e = hertz_error(peak1, p1);
         assert!(
             (lo..hi).contains(&e),
@@ -247,7 +247,7 @@ fn mortar_mean_meets_hertz_at_eight_elements_across_the_contact_on_1_and_2_ranks
     // (pointwise +1.95 %, mortar +2.07 %), at eps_n 1e5 +0.56 %
     for (eps, hi) in [("1e4", 0.005), ("1e5", 0.007)] {
         let sets = [
-            "contact.0.gap=mortar_mean",
+            "contact.0.gap=weighted_mean",
             &format!("contact.0.eps_n={eps}"),
         ];
         let (_, peak1, p1) = hertz_peaks_with("Q1N2", 128, 1, &sets);
@@ -273,7 +273,7 @@ fn mortar_gap_3d_hemisphere_is_the_same_on_1_and_2_ranks() {
         "meshes.shell.n_surface=4",
         "stages.0.steps=3",
     ];
-    for (gap, size) in [("mortar", &[][..]), ("mortar_mean", &coarse[..])] {
+    for (gap, size) in [("weighted", &[][..]), ("weighted_mean", &coarse[..])] {
         let gap_set = format!("contact.0.gap={gap}");
         let mut sets = vec![gap_set.as_str(), "output.plots=false"];
         sets.extend_from_slice(size);
@@ -312,7 +312,7 @@ fn mortar_gap_augmented_does_not_depend_on_the_penalty() {
             1,
             &[
                 &format!("contact.0.eps_n={eps}"),
-                "contact.0.gap=mortar",
+                "contact.0.gap=weighted",
                 "contact.0.augmented={ tol = 1e-7, max = 200 }",
                 "output.plots=false",
             ],
@@ -334,7 +334,7 @@ fn mortar_gap_augmented_does_not_depend_on_the_penalty() {
         1,
         &[
             "contact.0.eps_n=1e2",
-            "contact.0.gap=mortar",
+            "contact.0.gap=weighted",
             "output.plots=false",
         ],
     );
@@ -352,8 +352,8 @@ fn mortar_gap_augmented_does_not_depend_on_the_penalty() {
 
 #[test]
 fn mortar_linear_gap_takes_a_q1c2_surface() {
-    // the corner weights are non-negative on any family: Q1C2, which `mortar` refuses, runs
-    let (_, peak, p) = hertz_peaks_with("Q1C2", 64, 1, &["contact.0.gap=mortar_linear"]);
+    // the corner weights are non-negative on any family: Q1C2, which `weighted` refuses, runs
+    let (_, peak, p) = hertz_peaks_with("Q1C2", 64, 1, &["contact.0.gap=weighted_linear"]);
     let e = hertz_error(peak, p);
     // measured +13.61 % at this coarse mesh (4 elements across the contact), +0.66 % at n_arc 128
     assert!(e.abs() < 0.2, "Q1C2 mortar_linear n_arc 64: {e:+.4}");
@@ -362,20 +362,20 @@ fn mortar_linear_gap_takes_a_q1c2_surface() {
 #[test]
 fn mortar_gap_outside_its_scope_is_refused_with_the_key() {
     for (file, sets, want) in [
-        ("peeling_2d.toml", vec!["contact.0.gap=mortar"], "penalty"),
+        ("peeling_2d.toml", vec!["contact.0.gap=weighted"], "penalty"),
         (
             "hertz_2d.toml",
-            vec!["contact.0.gap=mortar", "bodies.disk.element=Q1C2"],
+            vec!["contact.0.gap=weighted", "bodies.disk.element=Q1C2"],
             "non-negative",
         ),
         (
             "hertz_2d.toml",
-            vec!["contact.0.gap=mortar", "bodies.disk.element=Q1CH"],
+            vec!["contact.0.gap=weighted", "bodies.disk.element=Q1CH"],
             "non-negative",
         ),
         (
             "hertz_2d.toml",
-            vec!["contact.0.gap=mortar_mean", "bodies.disk.element=Q1C2"],
+            vec!["contact.0.gap=weighted_mean", "bodies.disk.element=Q1C2"],
             "non-negative",
         ),
     ] {
@@ -408,7 +408,7 @@ fn mortar_mean_carries_coulomb_friction_alike_on_one_and_two_ranks() {
     let mean: Vec<&str> = sets
         .iter()
         .copied()
-        .chain(["contact.0.gap=mortar_mean"])
+        .chain(["contact.0.gap=weighted_mean"])
         .collect();
     let d1 = run_case("mortar/cm-mean-np1", "cattaneo_mindlin_2d.toml", 1, &mean);
     let d2 = run_case("mortar/cm-mean-np2", "cattaneo_mindlin_2d.toml", 2, &mean);
@@ -455,7 +455,7 @@ fn petsc_jacobian_check_holds_along_the_one_pass_mortar_twisting_press() {
             "bodies.cube.element=Q1N2",
             "bodies.shell.element=Q1N2",
             "contact.0.algorithm=one_pass",
-            "contact.0.gap=mortar",
+            "contact.0.gap=weighted",
             "solver.predictor=none",
             "stages.1.steps=1",
             "bcs.3.angle_deg=[0.0, 0.0]",

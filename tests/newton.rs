@@ -80,7 +80,7 @@ fn the_secant_predictor_reaches_the_same_states_in_fewer_iterations() {
                 "bcs.1.value=[[0.0,-0.6666666666666666],[0.25,-0.6666666666666666]]",
                 "stages.1.steps=20",
                 "contact.0.algorithm=one_pass",
-                "contact.0.gap=mortar",
+                "contact.0.gap=weighted",
                 &format!("solver.predictor={p}"),
                 "output.plots=false",
             ],

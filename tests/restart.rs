@@ -575,7 +575,7 @@ fn augmented_multipliers_killed_and_restarted_equal_an_uninterrupted_run() {
 fn mortar_multipliers_killed_and_restarted_equal_an_uninterrupted_run() {
     let sets = [
         "contact.0.eps_n=1e2",
-        "contact.0.gap=mortar",
+        "contact.0.gap=weighted",
         "contact.0.augmented={ tol = 1e-7, max = 50 }",
         "stages.0.steps=30",
         "output.plots=false",

@@ -7,8 +7,8 @@
 //!
 //! Pluggable parts, not branches of one loop:
 //! - [`gap`]: where the penalty law's normal gap is taken (pointwise, the paper's; `element_mean`,
-//!   one pressure per surface element; `mortar`, one pressure per control point of the surface,
-//!   [`mortar`]);
+//!   one pressure per surface element; `weighted`, one pressure per control point of the surface,
+//!   [`weighted`]);
 //! - [`friction`]: Coulomb friction's anchors, their blocks and their update.
 #![allow(clippy::needless_range_loop)]
 #![allow(non_snake_case)]

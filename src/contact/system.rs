@@ -230,7 +230,7 @@ impl ContactSystem {
                     let walked = p.filter(|p| p.dist <= dist);
                     // an interior projection the walk found stays (as for the pointwise gap; a
                     // closer interior point elsewhere took partners from converging runs of the
-                    // 3D twist: two-half-pass `mortar_mean` then failed on meshes 4 and 8)
+                    // 3D twist: two-half-pass `weighted_mean` then failed on meshes 4 and 8)
                     (p, edge) = match (beyond, walked) {
                         (true, _) => (None, best),
                         (false, Some(w)) => (Some(w), None),

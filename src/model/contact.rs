@@ -233,7 +233,7 @@ pub fn build_contact(
     Ok((surfaces, pairs))
 }
 
-/// The surface basis as the weights of pair `i`'s nodal pressure (`mortar`, `mortar_mean`) needs
+/// The surface basis as the weights of pair `i`'s nodal pressure (`weighted`, `weighted_mean`) needs
 /// a non-negative basis on the pair's surfaces `idx`.
 fn nonnegative_basis(
     case: &Case,
@@ -243,7 +243,7 @@ fn nonnegative_basis(
     surfaces: &[ContactSurface],
 ) -> Result<(), ModelError> {
     let gap = spec.algorithm_and_gap().1;
-    if !matches!(gap, GapMode::Mortar | GapMode::MortarMean) {
+    if !matches!(gap, GapMode::Weighted | GapMode::WeightedMean) {
         return Ok(());
     }
     // the key that chose the gap
@@ -266,7 +266,7 @@ fn nonnegative_basis(
                 "`{}` needs a non-negative basis on the surface: `{}` is a Q1C2 or Q1CH surface, \
                  whose basis functions go negative (Q1C2) or carry slopes (Q1CH), so the \
                  weighted gap is no average of the point gaps (use Q1C1, Q1Np or Q1Np.t there, \
-                 or `mortar_linear`)",
+                 or `weighted_linear`)",
                 gap_name(gap),
                 surfaces[s].name
             ),

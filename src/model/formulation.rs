@@ -68,15 +68,15 @@ pub fn formulation(spec: &ContactSpec, i: usize) -> Result<Formulation, Vec<Issu
     let pressure = match gap {
         GapMode::Pointwise => Pressure::Pointwise,
         GapMode::ElementMean => Pressure::ElementMean,
-        GapMode::Mortar => Pressure::NodalWeights {
+        GapMode::Weighted => Pressure::NodalWeights {
             basis: WeightBasis::Surface,
             mean: false,
         },
-        GapMode::MortarLinear => Pressure::NodalWeights {
+        GapMode::WeightedLinear => Pressure::NodalWeights {
             basis: WeightBasis::LinearParent,
             mean: false,
         },
-        GapMode::MortarMean => Pressure::NodalWeights {
+        GapMode::WeightedMean => Pressure::NodalWeights {
             basis: WeightBasis::Surface,
             mean: true,
         },
@@ -102,13 +102,13 @@ pub fn formulation(spec: &ContactSpec, i: usize) -> Result<Formulation, Vec<Issu
             if !penalty {
                 v.push("augmented", "goes with the `penalty` law only");
             }
-            if matches!(gap, GapMode::ElementMean | GapMode::MortarMean) {
+            if matches!(gap, GapMode::ElementMean | GapMode::WeightedMean) {
                 v.push(
                     "augmented",
-                    "is implemented for the pointwise gap and `mortar`/`mortar_linear` only (not \
-                     `element_mean` or `mortar_mean`: with one multiplier per control point \
+                    "is implemented for the pointwise gap and `weighted`/`weighted_linear` only (not \
+                     `element_mean` or `weighted_mean`: with one multiplier per control point \
                      shifting its points' laws inside the mean, the rounds' answer still depends \
-                     on `eps_n` at the edge of the contact zone; use `gap = \"mortar\"` for an \
+                     on `eps_n` at the edge of the contact zone; use `gap = \"weighted\"` for an \
                      answer free of `eps_n`)",
                 );
             }
@@ -277,9 +277,9 @@ pub(crate) fn gap_name(g: GapMode) -> &'static str {
     match g {
         GapMode::Pointwise => "pointwise",
         GapMode::ElementMean => "element_mean",
-        GapMode::Mortar => "mortar",
-        GapMode::MortarLinear => "mortar_linear",
-        GapMode::MortarMean => "mortar_mean",
+        GapMode::Weighted => "weighted",
+        GapMode::WeightedLinear => "weighted_linear",
+        GapMode::WeightedMean => "weighted_mean",
     }
 }
 
@@ -345,7 +345,7 @@ mod tests {
         let f = formulation(
             &spec(
                 "law = \"penalty\"\neps_n = 10.0\nalgorithm = \"one_pass\"\n\
-                 gap = \"mortar_linear\"\naugmented = { tol = 1e-6, max = 4 }",
+                 gap = \"weighted_linear\"\naugmented = { tol = 1e-6, max = 4 }",
             ),
             0,
         )
@@ -361,7 +361,7 @@ mod tests {
         );
         assert_eq!(f.augmented(), Some(Augmented { tol: 1e-6, max: 4 }));
         let f = formulation(
-            &spec("law = \"penalty\"\neps_n = 1.0\ngap = \"mortar_mean\""),
+            &spec("law = \"penalty\"\neps_n = 1.0\ngap = \"weighted_mean\""),
             0,
         );
         assert_eq!(
@@ -402,19 +402,19 @@ mod tests {
         let named = formulation(&spec(&format!("{law}\nformulation = \"weighted_gap\"")), 0);
         let keys = formulation(
             &spec(&format!(
-                "{law}\nalgorithm = \"one_pass\"\ngap = \"mortar\""
+                "{law}\nalgorithm = \"one_pass\"\ngap = \"weighted\""
             )),
             0,
         );
         assert_eq!(named.clone().unwrap(), keys.unwrap());
         assert_eq!(named.unwrap().passes, Passes::OnePass);
         // the keys that agree with the name may be given beside it
-        let both = "formulation = \"weighted_gap\"\nalgorithm = \"one_pass\"\ngap = \"mortar\"";
+        let both = "formulation = \"weighted_gap\"\nalgorithm = \"one_pass\"\ngap = \"weighted\"";
         assert!(formulation(&spec(&format!("{law}\n{both}")), 0).is_ok());
         // and a restart sees one formulation however it is spelled
         let a = spec(&format!("{law}\nformulation = \"weighted_gap\""));
         let b = spec(&format!(
-            "{law}\nalgorithm = \"one_pass\"\ngap = \"mortar\""
+            "{law}\nalgorithm = \"one_pass\"\ngap = \"weighted\""
         ));
         assert_eq!(a.canonical(), b.canonical());
         let p = spec("law = \"penalty\"\neps_n = 1.0\nformulation = \"paper\"");
@@ -431,7 +431,10 @@ mod tests {
                 "formulation = \"paper\"\nalgorithm = \"one_pass\"",
                 "contact.2.algorithm",
             ),
-            ("formulation = \"paper\"\ngap = \"mortar\"", "contact.2.gap"),
+            (
+                "formulation = \"paper\"\ngap = \"weighted\"",
+                "contact.2.gap",
+            ),
             (
                 "formulation = \"paper\"\naugmented = { tol = 1e-6, max = 3 }",
                 "contact.2.augmented",
@@ -454,7 +457,7 @@ mod tests {
             &spec(
                 "law = \"cohesive\"\nt0 = 1.0\ng0 = 1.0\neps_n = 1.0\n\
                  formulation = \"weighted_gap\"\nalgorithm = \"two_half_pass\"\n\
-                 gap = \"mortar_mean\"",
+                 gap = \"weighted_mean\"",
             ),
             0,
         )
@@ -468,6 +471,6 @@ mod tests {
         assert_eq!(keys(&e), ["contact.0.formulation"]);
         assert!(e[0]
             .message
-            .contains("`mortar` goes with the `penalty` law only"));
+            .contains("`weighted` goes with the `penalty` law only"));
     }
 }

@@ -495,7 +495,7 @@ mod tests {
             "| `meshes.<name>.origin` | number[3] | `[0.0, 0.0, 0.0]` |  | length |",
             "| `bodies.<name>.material.nu` | number | *required* | > -1, &lt; 0.5 |  |",
             "| `case.dim` | integer | *required* | >= 2, &lt;= 3 |  |",
-            "| `contact.<i>.gap` | string | `\"pointwise\"` | `\"pointwise\"`, `\"element_mean\"`, `\"mortar\"`, `\"mortar_linear\"`, `\"mortar_mean\"` |  |",
+            "| `contact.<i>.gap` | string | `\"pointwise\"` | `\"pointwise\"`, `\"element_mean\"`, `\"weighted\"`, `\"weighted_linear\"`, `\"weighted_mean\"` |  |",
             "| `output.fields` | string[] | `[\"displacement\"]` | `\"displacement\"`, `\"I1\"`, `\"von_mises\"`, `\"rank\"` |  |",
             "| `meshes` | tables by name | *required* |  |  |",
             "| `contact.<i>.rigid.rotation_deg` | number[] |  |  | degrees |",

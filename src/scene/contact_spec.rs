@@ -44,7 +44,7 @@ pub struct ContactSpec {
     pub law: LawKind,
     /// A named formulation, `algorithm` and `gap` as one key: `paper` (the paper's: two-half-pass,
     /// pointwise gap, the penalty alone, as the defaults of those keys) or `weighted_gap`
-    /// (`algorithm = "one_pass"` with `gap = "mortar"`: the slave's control points carry the
+    /// (`algorithm = "one_pass"` with `gap = "weighted"`: the slave's control points carry the
     /// pressure of their weighted gap). `algorithm` or `gap` (with `paper`, `augmented` too) given
     /// beside it must agree with it. Default: none (`algorithm` and `gap` with their defaults).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -65,19 +65,19 @@ pub struct ContactSpec {
     /// elements across the contact); it makes Q1C1 worse and steps the force in sliding at the
     /// element scale (docs/user-guide/contact-settings.md). Two-half-pass penalty
     /// contact (deformable or rigid partners, with or without friction: the cone uses the
-    /// element's pressure). `mortar`: the gap weighted by each surface control point's basis
+    /// element's pressure). `weighted`: the gap weighted by each surface control point's basis
     /// function, `g_A = int R_A g_N da / int R_A da` over the surface's own points (current
     /// area), one pressure `p_A = eps_n <-g_A>` per control point, interpolated by the surface
     /// basis, `p = sum_A R_A p_A`, at every point (traction `p n` on the current area). Needs a
     /// non-negative basis (Q1C1, Q1Np, Q1Np.t surfaces; not Q1C2 or Q1CH); two-half-pass (each
     /// surface weighted on its own basis, with or without friction), one-pass (the slave's
     /// control points carry the pressure, the master the opposite traction) or a rigid partner.
-    /// `mortar_linear`: the same with the linear parent's corner
+    /// `weighted_linear`: the same with the linear parent's corner
     /// functions as weights (one pressure per element corner, a coarser pressure than the
-    /// control points of an enriched surface; any surface family). `mortar_mean`: each control
+    /// control points of an enriched surface; any surface family). `weighted_mean`: each control
     /// point's pressure is the mean of the points' penalty pressures weighted by its basis
     /// function, `p_A = int R_A eps_n <-g_N> da / int R_A da` (points join one by one, as in
-    /// `element_mean`), interpolated by the surface basis; the scope of `mortar`, without
+    /// `element_mean`), interpolated by the surface basis; the scope of `weighted`, without
     /// `augmented`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schemars(extend("default" = "pointwise"))]
@@ -90,9 +90,9 @@ pub struct ContactSpec {
     /// cut back like a failed Newton step. The converged pressure no longer depends on `eps_n`
     /// (which then only sets the convergence speed of the rounds). Multipliers are load-step
     /// history (checkpointed); rounds are counted in `history.csv` (`augmentation_rounds`) and
-    /// `summary.json`. Pointwise or mortar gap (the mortar gap: one multiplier per control point);
+    /// `summary.json`. Pointwise or weighted gap (the weighted gap: one multiplier per control point);
     /// two-half-pass or one-pass (the slave's points or control points carry the multipliers);
-    /// not `element_mean` or `mortar_mean`.
+    /// not `element_mean` or `weighted_mean`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub augmented: Option<AugmentedSpec>,
     /// Penalty parameter (> 0; force per length^3 in 3D, per length^2 in 2D): `penalty`, and the
@@ -191,7 +191,7 @@ impl ContactSpec {
 pub enum FormulationName {
     /// Two-half-pass, pointwise gap, the penalty alone (the paper's).
     Paper,
-    /// One-pass with the gap weighted by the slave's control points (`mortar`).
+    /// One-pass with the gap weighted by the slave's control points (`weighted`).
     WeightedGap,
 }
 
@@ -200,7 +200,7 @@ impl FormulationName {
     pub fn algorithm_and_gap(self) -> (Algorithm, GapMode) {
         match self {
             FormulationName::Paper => (Algorithm::TwoHalfPass, GapMode::Pointwise),
-            FormulationName::WeightedGap => (Algorithm::OnePass, GapMode::Mortar),
+            FormulationName::WeightedGap => (Algorithm::OnePass, GapMode::Weighted),
         }
     }
 }
@@ -227,11 +227,11 @@ pub enum GapMode {
     /// The mean over each surface element's points.
     ElementMean,
     /// Weighted by each surface control point's basis function.
-    Mortar,
+    Weighted,
     /// Weighted by the linear parent's corner functions.
-    MortarLinear,
+    WeightedLinear,
     /// The points' penalty pressures weighted by each surface control point's basis function.
-    MortarMean,
+    WeightedMean,
 }
 
 /// Contact algorithms.

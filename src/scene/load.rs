@@ -41,6 +41,14 @@ pub fn parse_case(text: &str, file: &Path, overrides: &[String]) -> Result<Case,
             message: format!("{why}; delete this line"),
         });
     }
+    if let Some((key, old, new)) = renamed_value(&original) {
+        return Err(SceneError::Schema {
+            file: file.to_path_buf(),
+            line: locate_line(text, &key),
+            message: renamed_message(&key, old, new),
+            key,
+        });
+    }
 
     // Keys created (not replaced) by overrides: a schema error on one of them is a bad override.
     let mut created: Vec<(String, String)> = Vec::new();
@@ -50,6 +58,20 @@ pub fn parse_case(text: &str, file: &Path, overrides: &[String]) -> Result<Case,
         }
     }
 
+    if let Some((key, old, new)) = renamed_value(&root) {
+        let arg = overrides
+            .iter()
+            .find(|a| a.split_once('=').is_some_and(|(k, _)| k.trim() == key))
+            .or(overrides.last())
+            .cloned()
+            .unwrap_or_default();
+        return Err(SceneError::Override {
+            file: file.to_path_buf(),
+            arg,
+            message: renamed_message(&key, old, new),
+            key,
+        });
+    }
     if let Some((key, why)) = retired_key(&root) {
         let arg = overrides
             .iter()
@@ -87,6 +109,35 @@ const RETIRED: [(&str, &str); 1] = [(
     "removed: on the formulation matrix (docs/formulations.md) it changed no measured result (the \
      same metrics as the runs without it on every row, never fewer Newton iterations)",
 )];
+
+/// Values of `contact.N.gap` that were renamed, with their names now: the nodally weighted gaps
+/// are called what the literature calls them (docs/formulations.md, "Retired keys").
+const RENAMED_GAPS: [(&str, &str); 3] = [
+    ("mortar", "weighted"),
+    ("mortar_linear", "weighted_linear"),
+    ("mortar_mean", "weighted_mean"),
+];
+
+/// The first `contact.N.gap` in `root` that holds a renamed value: its key, the old and the new name.
+fn renamed_value(root: &toml::Value) -> Option<(String, &'static str, &'static str)> {
+    let pairs = root.get("contact")?.as_array()?;
+    pairs.iter().enumerate().find_map(|(i, pair)| {
+        let gap = pair.get("gap")?.as_str()?;
+        RENAMED_GAPS
+            .into_iter()
+            .find(|(old, _)| *old == gap)
+            .map(|(old, new)| (format!("contact.{i}.gap"), old, new))
+    })
+}
+
+/// Why a renamed value is refused and what to write instead.
+fn renamed_message(key: &str, old: &str, new: &str) -> String {
+    format!(
+        "`{old}` was renamed: the same formulation is now `{key_leaf} = \"{new}\"` (a nodally weighted \
+         gap; see docs/formulations.md); write that instead",
+        key_leaf = key.rsplit('.').next().unwrap_or(key)
+    )
+}
 
 /// The first retired key set in `root`, with why it was retired.
 fn retired_key(root: &toml::Value) -> Option<(&'static str, &'static str)> {
@@ -507,6 +558,37 @@ mod tests {
                 && shown.contains("changed no measured result"),
             "{shown}"
         );
+    }
+
+    #[test]
+    fn scene_rejects_a_renamed_gap_naming_its_new_name() {
+        let case = include_str!("../../cases/ironing_2d.toml");
+        for (old, new) in RENAMED_GAPS {
+            let text = edit(
+                case,
+                "law = \"penalty\"\n",
+                &format!("law = \"penalty\"\ngap = \"{old}\"\n"),
+            );
+            let e = parse(&text, &[]).unwrap_err();
+            let shown = assert_names(&e, "contact.0.gap");
+            let line = line_containing(&text, "gap =");
+            assert!(shown.contains(&format!("{FILE}:{line}:")), "{shown}");
+            assert!(shown.contains(&format!("gap = \"{new}\"")), "{shown}");
+            let set = format!("contact.0.gap={old}");
+            let e = parse(case, &[set.as_str()]).unwrap_err();
+            let shown = assert_names(&e, "contact.0.gap");
+            assert!(
+                shown.contains(&format!("override `{set}`")) && shown.contains(new),
+                "{shown}"
+            );
+            // the new name parses
+            let text = edit(
+                case,
+                "law = \"penalty\"\n",
+                &format!("law = \"penalty\"\ngap = \"{new}\"\n"),
+            );
+            parse(&text, &[]).unwrap();
+        }
     }
 
     #[test]

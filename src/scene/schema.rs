@@ -719,7 +719,7 @@ pub struct SolverOptions {
     /// the converged state at the same increment, not cut back; once more than a fifth of at
     /// least 8 predicted starts of a stage have failed, the rest of the stage starts from the
     /// converged state). It pays in steady sliding,
-    /// where each step moves the deformed state along (ironing at mesh 16, one-pass mortar: 16 %
+    /// where each step moves the deformed state along (ironing at mesh 16, one-pass weighted gap: 16 %
     /// less time; peeling 36 %); where the pressure oscillates from step to step (two-half-pass
     /// pointwise Q1N2 at mesh 4) predicted starts fail every few steps and the stage gives it up
     /// (docs/user-guide/solvers.md, "Newton with contact"). The first

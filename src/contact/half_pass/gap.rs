@@ -1,6 +1,6 @@
 //! The gap part of a half-pass: where the penalty law's normal gap is taken (`gap`). Pointwise
 //! (each point its own gap, the paper's) or `element_mean` (one pressure per own surface element,
-//! [`super::element_mean`]) or `mortar` (one pressure per control point of the surface,
+//! [`super::element_mean`]) or `weighted` (one pressure per control point of the surface,
 //! [`super::mortar`]).
 #![allow(clippy::needless_range_loop)]
 #![allow(non_snake_case)]

@@ -1,7 +1,7 @@
-//! The mortar gap (`gap = "mortar"`): the normal gap weighted by each control point's basis
+//! The mortar gap (`gap = "weighted"`): the normal gap weighted by each control point's basis
 //! function.
 //!
-//! On the integrated surface, every weight node `A` (a control point, or with `mortar_linear` a
+//! On the integrated surface, every weight node `A` (a control point, or with `weighted_linear` a
 //! corner of the linear parent) gets the weighted gap `g_A = sum_q R_A(xi_q) c_q g_N,q / W_A`,
 //! `W_A = sum_q R_A(xi_q) c_q`, over the quadrature points `q` of the elements in `A`'s support
 //! (`c_q = w_q J_q`, current area as the paper's penalty law; `R_A` non-negative, so `g_A` is a
@@ -31,7 +31,7 @@
 //! surface stretches: on ironing the reference-area version gave the cylinder's pass 14 % more
 //! force than the block's.
 //!
-//! `gap = "mortar_mean"` (`mean`): the same weights applied to the points' penalty pressures
+//! `gap = "weighted_mean"` (`mean`): the same weights applied to the points' penalty pressures
 //! instead of their gaps, `p_A = sum_q R_A(xi_q) c_q p_q / W_A`, `p_q = -eps_n g_N,q` where
 //! `g_N,q <= touch` (else 0): points join a control point's pressure one by one, as in
 //! `element_mean`, so no control point at the edge of the contact zone stays open while points of
@@ -103,8 +103,8 @@ struct MPoint {
 #[derive(Debug, Clone, Default)]
 pub(crate) struct MortarNet {
     /// Per element of the pass (its own elements, then its halo): its weight nodes (indices into
-    /// the per-node vectors below): the surface's control points (`gap = "mortar"`), or the linear
-    /// parent's corners (`gap = "mortar_linear"`).
+    /// the per-node vectors below): the surface's control points (`gap = "weighted"`), or the linear
+    /// parent's corners (`gap = "weighted_linear"`).
     elem_cps: Vec<Vec<u32>>,
     /// Per element as `elem_cps`: the weight functions at its points [n_points][n_weight nodes].
     phi: Vec<Vec<f64>>,
@@ -134,7 +134,7 @@ pub(crate) struct MortarNet {
     /// Per control point: weighted gap and pressure at the current evaluation.
     g: Vec<f64>,
     p: Vec<f64>,
-    /// The pressure is the weighted mean of the points' penalty pressures (`mortar_mean`) instead
+    /// The pressure is the weighted mean of the points' penalty pressures (`weighted_mean`) instead
     /// of the penalty of the weighted gap.
     pub(crate) mean: bool,
     /// Per point of the pass (`mean`): its penalty pressure; the pass's contact tolerance.

@@ -58,7 +58,7 @@ pub(crate) struct Segments {
     wz: Vec<f64>,
     /// Segments per element.
     pub(crate) slots: usize,
-    /// The weight functions are the linear parent's corners (`mortar_linear`).
+    /// The weight functions are the linear parent's corners (`weighted_linear`).
     linear: bool,
     /// Per element (own, then halo): the breakpoints its points are placed on (`None`: not yet
     /// placed).

@@ -93,7 +93,7 @@ fn one_pass_friction_tangent_matches_central_differences_in_stick_and_slip() {
     // one-pass: the master rows carry the opposite of the slave point's frictional traction,
     // which varies with the anchor element's unknowns too (a cross block: the master's rows, the
     // anchor element's columns); pointwise and mortar gaps, 2D and the hemisphere
-    for gap in ["pointwise", "mortar"] {
+    for gap in ["pointwise", "weighted"] {
         let law = format!(
             "law = \"penalty\"\neps_n = 100.0\nmu = 0.3\neps_t = 80.0\ngap = \"{gap}\"\n\
              algorithm = \"one_pass\""

@@ -5,9 +5,9 @@
 use super::friction::{friction_fd_2d, friction_fd_hemisphere};
 use super::*;
 
-const MORTAR: &str = "law = \"penalty\"\neps_n = 100.0\ngap = \"mortar\"";
-const MORTAR_LINEAR: &str = "law = \"penalty\"\neps_n = 100.0\ngap = \"mortar_linear\"";
-const MORTAR_MEAN: &str = "law = \"penalty\"\neps_n = 100.0\ngap = \"mortar_mean\"";
+const MORTAR: &str = "law = \"penalty\"\neps_n = 100.0\ngap = \"weighted\"";
+const MORTAR_LINEAR: &str = "law = \"penalty\"\neps_n = 100.0\ngap = \"weighted_linear\"";
+const MORTAR_MEAN: &str = "law = \"penalty\"\neps_n = 100.0\ngap = \"weighted_mean\"";
 
 #[test]
 fn mortar_gap_tangent_matches_central_differences() {
@@ -31,10 +31,10 @@ fn tangents_with_multipliers_match_central_differences() {
     // (the pointwise gap too, each point its multiplier; and one-pass, whose master rows carry
     // the slave's multipliers)
     for (gap, algorithm) in [
-        ("mortar", "two_half_pass"),
-        ("mortar_linear", "two_half_pass"),
+        ("weighted", "two_half_pass"),
+        ("weighted_linear", "two_half_pass"),
         ("pointwise", "two_half_pass"),
-        ("mortar", "one_pass"),
+        ("weighted", "one_pass"),
         ("pointwise", "one_pass"),
     ] {
         let law = format!(
@@ -51,7 +51,7 @@ fn tangents_with_multipliers_match_central_differences() {
             let mut h = Harness::new(&case);
             let (u0, u1) = if three_d {
                 // a corner's weight spans four coarse elements: pressed deeper
-                let d = if gap.starts_with("mortar_linear") {
+                let d = if gap.starts_with("weighted_linear") {
                     0.22
                 } else {
                     0.08
@@ -106,7 +106,7 @@ fn mortar_linear_gap_tangent_matches_central_differences() {
 fn mortar_gaps_friction_tangent_matches_central_differences_in_stick_and_slip() {
     // a slipping point's traction is `p_q (n_q + mu s_q)` with `p_q` interpolated from the
     // control points: the pressure's variation acts along the slip direction too
-    for gap in ["mortar", "mortar_mean"] {
+    for gap in ["weighted", "weighted_mean"] {
         let law =
             format!("law = \"penalty\"\neps_n = 100.0\nmu = 0.3\neps_t = 80.0\ngap = \"{gap}\"");
         for (block, disk) in [("Q1N2", "Q1N2"), ("Q1C1", "Q1N2")] {
@@ -114,7 +114,7 @@ fn mortar_gaps_friction_tangent_matches_central_differences_in_stick_and_slip() 
         }
         friction_fd_hemisphere("Q1N2", "Q1N2", &law);
     }
-    let law = "law = \"penalty\"\neps_n = 100.0\nmu = 0.3\neps_t = 80.0\ngap = \"mortar_linear\"";
+    let law = "law = \"penalty\"\neps_n = 100.0\nmu = 0.3\neps_t = 80.0\ngap = \"weighted_linear\"";
     friction_fd_2d("Q1CH", "Q1N2.1", law);
 }
 
@@ -124,7 +124,7 @@ fn one_pass_mortar_tangent_matches_central_differences_and_balances_momentum() {
     // pressure is interpolated from the slave's control points; the master rows then vary with
     // the weighted gaps of every point in those control points' supports (cross blocks: a
     // partner's rows times another element's columns)
-    for gap in ["mortar", "mortar_mean", "mortar_linear"] {
+    for gap in ["weighted", "weighted_mean", "weighted_linear"] {
         let law =
             format!("law = \"penalty\"\neps_n = 100.0\ngap = \"{gap}\"\nalgorithm = \"one_pass\"");
         let mut cases = vec![
@@ -134,7 +134,7 @@ fn one_pass_mortar_tangent_matches_central_differences_and_balances_momentum() {
             (case_3d_blocks("Q1N2", "Q1N2", &law), 3),
             (case_3d_hemisphere("Q1N2", "Q1N2", &law), 4),
         ];
-        if gap == "mortar_linear" {
+        if gap == "weighted_linear" {
             cases.push((case_2d("Q1C2", "Q1CH", &law), 2));
         }
         for (i, (case, kind)) in cases.into_iter().enumerate() {
@@ -311,7 +311,7 @@ fn mortar_tangents_hold_at_the_hemispheres_collapsed_control_points() {
     // weighted gaps of those two control points close; their columns once took the first entry
     // of an element's list once per entry (tangent error 2e-2 to 5e-2 of the largest entry, every gap
     // and algorithm, from a depth of 0.82 on; the 3D twisting case's press stalled there).
-    for gap in ["mortar", "mortar_mean", "mortar_linear"] {
+    for gap in ["weighted", "weighted_mean", "weighted_linear"] {
         for algorithm in ["two_half_pass", "one_pass"] {
             let law = format!(
                 "law = \"penalty\"\neps_n = 100.0\ngap = \"{gap}\"\nalgorithm = \"{algorithm}\""
@@ -368,7 +368,7 @@ fn weighted_gaps_stay_continuous_where_points_pass_the_partners_end() {
     // block (half-width 0.7 against the shell's 1) is dented into a bowl, so that some open
     // points have an orthogonal projection inside it while their closest point lies beyond its
     // end. Both the weighted gaps and the residual must move smoothly over the sweep.
-    for gap in ["mortar", "mortar_linear", "mortar_mean"] {
+    for gap in ["weighted", "weighted_linear", "weighted_mean"] {
         for algorithm in ["two_half_pass", "one_pass"] {
             let law = format!(
                 "law = \"penalty\"\neps_n = 100.0\ngap = \"{gap}\"\nalgorithm = \"{algorithm}\""
