@@ -167,6 +167,90 @@ fn the_interface_correction_takes_fewer_krylov_iterations_than_gamg_on_the_3d_he
     }
 }
 
+/// The interface correction keeps GAMG's interpolation between set-ups on the same matrix and
+/// recomputes only the coarse operators: on the coarse hemisphere on a block, on 1 and 2 ranks,
+/// most set-ups build no hierarchy, and the answer and Newton count are those of a new hierarchy
+/// at every set-up (`-pc_gamg_reuse_interpolation 0`), which never reuses one.
+#[test]
+fn the_interface_correction_reuses_gamgs_interpolation_with_the_same_answer() {
+    // (hierarchies built, Galerkin-only set-ups) of each rank, from the debug report
+    let counts = |err: &str| -> Vec<(u64, u64)> {
+        err.lines()
+            .filter_map(|l| l.strip_prefix("interface correction set-ups: "))
+            .map(|l| {
+                let w: Vec<&str> = l.split_whitespace().collect();
+                (w[0].parse().unwrap(), w[4].parse().unwrap())
+            })
+            .collect()
+    };
+    for np in [1, 2] {
+        let run = |tag: &str, extra: &[&str]| {
+            let (d, c) = (scratch(tag), case("hemisphere_block_3d.toml"));
+            let mut args = vec![
+                "run",
+                c.to_str().unwrap(),
+                "--out",
+                d.to_str().unwrap(),
+                "-q",
+                "--overwrite",
+            ];
+            for s in HEMISPHERE.iter().chain(&[
+                "solver.linear=\"iterative\"",
+                "solver.preconditioner=\"gamg_interface_symmetric\"",
+            ]) {
+                args.extend(["--set", s]);
+            }
+            args.extend(extra);
+            let out = run_with_env(
+                np,
+                &args,
+                None,
+                std::time::Duration::from_secs(120),
+                &[("NURBS_CONTACT_DEBUG_LINEAR", "1")],
+            )
+            .expect("the run timed out");
+            let err = stderr(&out);
+            assert!(out.status.success(), "{tag}: {err}");
+            (d.clone(), counts(&err))
+        };
+        let (reused, c_reused) = run(&format!("hemi-reuse-np{np}"), &[]);
+        let (fresh, c_fresh) = run(
+            &format!("hemi-noreuse-np{np}"),
+            &["-pc_gamg_reuse_interpolation", "0"],
+        );
+        assert_eq!(c_reused.len(), np, "np {np}: one report per rank");
+        assert_eq!(c_fresh.len(), np, "np {np}: one report per rank");
+        for (&(built, galerkin), &(built_fresh, galerkin_fresh)) in c_reused.iter().zip(&c_fresh) {
+            assert_eq!(galerkin_fresh, 0, "np {np}: reused without reuse");
+            assert!(
+                galerkin > built,
+                "np {np}: {built} hierarchies built and only {galerkin} reused"
+            );
+            assert_eq!(
+                built + galerkin,
+                built_fresh,
+                "np {np}: the runs set up different numbers of times"
+            );
+        }
+        for d in [&reused, &fresh] {
+            let s = summary(d);
+            assert_eq!(s["status"], "converged", "np {np}");
+            assert_eq!(s["newton"]["linear_fallbacks"].as_u64(), Some(0), "np {np}");
+        }
+        let e = rel_diff(
+            &h5_last(&reused, "bulk", "displacement"),
+            &h5_last(&fresh, "bulk", "displacement"),
+        );
+        assert!(e < 1e-7, "np {np}: reuse changes the displacement by {e:e}");
+        let newton = |d: &std::path::Path| history_col(d, "newton_iterations").iter().sum::<f64>();
+        assert_eq!(
+            newton(&reused),
+            newton(&fresh),
+            "np {np}: Newton iterations"
+        );
+    }
+}
+
 #[test]
 fn iterative_equals_direct_on_the_3d_hemisphere_on_a_block_on_1_and_2_ranks() {
     iterative_equals_direct(

@@ -12,6 +12,12 @@
 //! one layer of matrix neighbours around it (`MatIncreaseOverlap`); each rank holds the rows of `I`
 //! it owns, and `A_II` is a parallel submatrix, so the interface solve is exact on any number of
 //! ranks. An empty `I` (no contact yet) leaves GAMG alone.
+//!
+//! Set-ups on the same matrix (the Newton iterations and load steps between two contact pattern
+//! rebuilds) keep GAMG's aggregates and interpolation and recompute only its Galerkin coarse
+//! operators (`-pc_gamg_reuse_interpolation 0`: a new hierarchy at every set-up); the interface
+//! block keeps its symbolic factorisation while `I` and the matrix are unchanged and is only
+//! factorised numerically again. `NURBS_CONTACT_DEBUG_LINEAR` reports both counts at the end.
 
 use super::error::{call, PetscError};
 use super::scatter::{scatter_add_back, scatter_forward};
@@ -47,6 +53,26 @@ pub(crate) struct InterfaceCorrection {
     /// A second GAMG sweep after the interface solve (the symmetric form).
     post_sweep: bool,
     post: sys::Vec,
+    /// Keep GAMG's interpolation while the operator is the same matrix (until a new sparsity
+    /// pattern) and recompute only its Galerkin coarse operators: on unless
+    /// `-pc_gamg_reuse_interpolation 0` (read at each new GAMG).
+    reuse: bool,
+    /// Set-ups that built GAMG's hierarchy and that only recomputed its coarse operators, and
+    /// the interface blocks factorised with a new symbolic analysis and with the old one.
+    counts: SetUpCounts,
+}
+
+/// How the interface correction's set-ups went (see [`InterfaceCorrection::counts`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+struct SetUpCounts {
+    /// GAMG hierarchies built from scratch (aggregation, interpolation, coarse operators).
+    hierarchies: usize,
+    /// GAMG set-ups that kept the interpolation and recomputed the coarse operators.
+    galerkin_only: usize,
+    /// Interface blocks built for a new set `I` (symbolic and numeric factorisation).
+    new_blocks: usize,
+    /// Interface blocks refreshed in place (numeric factorisation only).
+    refreshed_blocks: usize,
 }
 
 impl InterfaceCorrection {
@@ -70,6 +96,8 @@ impl InterfaceCorrection {
             size: 0,
             post_sweep,
             post: std::ptr::null_mut(),
+            reuse: false,
+            counts: SetUpCounts::default(),
         }
     }
 
@@ -108,19 +136,29 @@ impl InterfaceCorrection {
     fn set_up(&mut self, a: sys::Mat, comm: sys::MPI_Comm) -> Result<(), PetscError> {
         // SAFETY: `a` is the PC's live operator; every handle below is created here or null.
         unsafe {
-            // a new GAMG for every set-up: one set up again on new values may keep level
-            // solvers of the old coarse sizes ("Cannot change local size of Amat after use")
-            call!(PCDestroy(&mut self.gamg))?;
-            call!(PCCreate(comm, &mut self.gamg))?;
-            call!(PCSetType(self.gamg, sys::PCGAMG.as_ptr()))?;
-            // the `-pc_gamg_*` and `-mg_*` options the iterative route sets for its PC
-            call!(PCSetFromOptions(self.gamg))?;
-            if self.gamg_mat != a {
-                call!(VecDestroy(&mut self.work))?;
-                call!(MatCreateVecs(a, std::ptr::null_mut(), &mut self.work))?;
-                call!(VecDestroy(&mut self.post))?;
-                call!(MatCreateVecs(a, std::ptr::null_mut(), &mut self.post))?;
-                self.gamg_mat = a;
+            if !(self.reuse && self.gamg_mat == a && !self.gamg.is_null()) {
+                // a new GAMG on a new matrix or without reuse: one set up again on new values
+                // without reusing its interpolation resets its levels, whose solvers may keep
+                // operators of the old coarse sizes ("Cannot change local size of Amat after
+                // use"); with reuse, the same matrix keeps its pattern and the coarse sizes
+                call!(PCDestroy(&mut self.gamg))?;
+                call!(PCCreate(comm, &mut self.gamg))?;
+                call!(PCSetType(self.gamg, sys::PCGAMG.as_ptr()))?;
+                // reuse by default; `-pc_gamg_reuse_interpolation 0` turns it off
+                call!(PCGAMGSetReuseInterpolation(self.gamg, sys::PetscBool(1)))?;
+                // the `-pc_gamg_*` and `-mg_*` options the iterative route sets for its PC
+                call!(PCSetFromOptions(self.gamg))?;
+                self.reuse = reuse_interpolation_option()?;
+                if self.gamg_mat != a {
+                    call!(VecDestroy(&mut self.work))?;
+                    call!(MatCreateVecs(a, std::ptr::null_mut(), &mut self.work))?;
+                    call!(VecDestroy(&mut self.post))?;
+                    call!(MatCreateVecs(a, std::ptr::null_mut(), &mut self.post))?;
+                    self.gamg_mat = a;
+                }
+                self.counts.hierarchies += 1;
+            } else {
+                self.counts.galerkin_only += 1;
             }
             call!(PCSetOperators(self.gamg, a, a))?;
             call!(PCSetUp(self.gamg))?;
@@ -165,6 +203,7 @@ impl InterfaceCorrection {
             call!(ISDestroy(&mut ones))?;
         }
         if same_all == 0 {
+            self.counts.refreshed_blocks += 1;
             // SAFETY: the block was built from this matrix with this IS on every rank.
             unsafe {
                 call!(ISDestroy(&mut is))?;
@@ -177,6 +216,7 @@ impl InterfaceCorrection {
                 ))?;
             }
         } else {
+            self.counts.new_blocks += 1;
             self.drop_interface()?;
             self.rows = rows;
             self.is = is;
@@ -311,6 +351,14 @@ impl InterfaceCorrection {
 
 impl Drop for InterfaceCorrection {
     fn drop(&mut self) {
+        if std::env::var_os("NURBS_CONTACT_DEBUG_LINEAR").is_some() {
+            let c = self.counts;
+            eprintln!(
+                "interface correction set-ups: {} GAMG hierarchies built, {} Galerkin-only; \
+                 {} interface blocks built, {} refreshed",
+                c.hierarchies, c.galerkin_only, c.new_blocks, c.refreshed_blocks
+            );
+        }
         let r = self.drop_interface().and_then(|()| {
             // SAFETY: handles created by this struct or null.
             unsafe {
@@ -323,6 +371,24 @@ impl Drop for InterfaceCorrection {
             eprintln!("warning: freeing the interface correction: {e}");
         }
     }
+}
+
+/// `-pc_gamg_reuse_interpolation` as the options database holds it (default: true, unlike
+/// PETSc's own GAMG).
+fn reuse_interpolation_option() -> Result<bool, PetscError> {
+    let mut value = sys::PetscBool(0);
+    let mut set = sys::PetscBool(0);
+    // SAFETY: the name is a NUL-terminated literal; PETSc writes the two flags.
+    unsafe {
+        call!(PetscOptionsGetBool(
+            std::ptr::null_mut(),
+            std::ptr::null(),
+            c"-pc_gamg_reuse_interpolation".as_ptr(),
+            &mut value,
+            &mut set
+        ))?;
+    }
+    Ok(set.0 == 0 || value.0 != 0)
 }
 
 /// The shell's context, as PETSc hands it back.
