@@ -223,6 +223,39 @@ fn one_pass_mortar_slides_without_the_cylinders_sawtooth() {
 }
 
 #[test]
+fn one_pass_weighted_gap_presses_a_faceted_block_without_cutbacks() {
+    // ironing mesh 4 with Q1C1 on both bodies (faceted surfaces), one-pass weighted gap, the press
+    // to 95 % of the ironing depth in the 19 steps of 0.05 the full press takes to get there. The
+    // cylinder's bottom node sits over a block node in a valley of the depression: the slave
+    // points near it lie between the two facets' normals through the node, where the closest point
+    // is on the nearer facet (the switch on their bisector), not on the node. Segments cut there
+    // at the fan's edges instead, which then fell within 1e-4 of the slave element's end in some
+    // iterates and not in others: the points were re-placed at every Newton iteration and the
+    // last step took 4 cutbacks and a rescue (measured before the bisector cut).
+    let d = run_case(
+        "mortar/faceted-press-one-pass-weighted",
+        "ironing_2d.toml",
+        1,
+        &[
+            "bodies.block.element=Q1C1",
+            "bodies.cylinder.element=Q1C1",
+            "bcs.1.value=[[0.0,-0.6333333333333333],[0.0,-0.6333333333333333]]",
+            "stages.0.steps=19",
+            "stages.1.steps=1",
+            "contact.0.algorithm=one_pass",
+            "contact.0.gap=weighted",
+            "output.plots=false",
+        ],
+    );
+    let cutbacks: f64 = history_col(&d, "cutbacks").iter().sum();
+    assert_eq!(cutbacks, 0.0, "cutbacks in the press ({})", d.display());
+    assert!(
+        (last(&d, "load_factor") - 2.0).abs() < 1e-12,
+        "the press did not finish"
+    );
+}
+
+#[test]
 fn mortar_gap_hertz_at_eight_elements_across_the_contact_on_1_and_2_ranks() {
     // measured: nominal peak +0.54 % (Q1C1) and +2.07 % (Q1N2) from
     // Hertz at n_arc 128; the pointwise gap gives +0.77 % and +1.95 %

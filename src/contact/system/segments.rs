@@ -14,9 +14,14 @@
 //! before the points are projected, and stay fixed through that update's evaluations, so the
 //! tangent (which holds the points' surface coordinates fixed) is the exact derivative of the
 //! residual it comes with. A breakpoint is a root of `h(xi) = (x(xi) - y_b) . a_b` on the slave
-//! element, `y_b` and `a_b` the position and tangent of a master element's end (both sides of a
-//! C0 master's node: the edges of the fan of points that project onto the node), within the
-//! search distance and the slave element's own length of `y_b`.
+//! element, `y_b` and `a_b` the position and tangent of a master element's end, within the
+//! search distance and the slave element's own length of `y_b`. At a kink of a C0 master's node
+//! (unit tangents `u`, `v` from the node into its two elements) the projection's boundaries depend
+//! on which side of the corner the point lies: `d . u = 0` where `d . v <= 0` and the same with
+//! `u`, `v` swapped (the edges of the fan of points that project onto the node, where the corner is
+//! convex towards them), and `d . (u - v) = 0` where both `d . u` and `d . v` are positive (the
+//! bisector, where the corner is concave towards them: both facets hold an orthogonal projection
+//! and the nearer one is the closest point; the fan's edges cross there and bound nothing).
 //!
 //! Each element holds `slots` segments' worth of points (enough for the longest slave element over
 //! the shortest master element; more breakpoints than that merge the shortest neighbouring
@@ -46,6 +51,10 @@ const KEEP: f64 = 1e-4;
 /// master node that lies on a slave node, as where meshes share nodes, otherwise comes and goes
 /// between updates; the kink it leaves inside the end segment is within `END * h` of the end.
 const END: f64 = 1e-4;
+
+/// Tangents into a node's two elements whose sum is shorter than this meet without a kink: the
+/// node's breakpoint is where the projection leaves either element (one root for both).
+const KINK: f64 = 1e-10;
 
 /// Most segments an element's points can hold.
 const MAX_SLOTS: usize = 16;
@@ -195,48 +204,83 @@ impl ContactSystem {
         partners.sort_unstable();
         partners.dedup();
         let mut cuts = Vec::new();
+        // the roots of `(x(t) - y_b) . dir` on the element within `reach` of `y_b` where `keep`
+        // holds at the root
+        let mut roots = |yb: &[f64; 3], dir: &[f64; 3], keep: &dyn Fn(&[f64; 3]) -> bool| {
+            let h = |x: &[f64; 3]| (0..dim).map(|c| (x[c] - yb[c]) * dir[c]).sum::<f64>();
+            let near = |x: &[f64; 3]| {
+                (0..dim).map(|c| (x[c] - yb[c]).powi(2)).sum::<f64>().sqrt() <= reach
+            };
+            for w in samples.windows(2) {
+                let ((mut t0, xa), (mut t1, xb)) = (w[0], w[1]);
+                let (mut h0, h1) = (h(&xa), h(&xb));
+                if h0 == 0.0 {
+                    if near(&xa) && keep(&xa) {
+                        cuts.push(t0);
+                    }
+                    continue;
+                }
+                if h0 * h1 >= 0.0 {
+                    continue;
+                }
+                // bisection to round-off in the coordinate
+                while t1 - t0 > 4.0 * f64::EPSILON {
+                    let tm = 0.5 * (t0 + t1);
+                    if tm <= t0 || tm >= t1 {
+                        break;
+                    }
+                    let hm = h(&at(tm));
+                    if hm == 0.0 {
+                        (t0, t1) = (tm, tm);
+                        break;
+                    }
+                    if (hm < 0.0) == (h0 < 0.0) {
+                        (t0, h0) = (tm, hm);
+                    } else {
+                        t1 = tm;
+                    }
+                }
+                let t = 0.5 * (t0 + t1);
+                let x = at(t);
+                if near(&x) && keep(&x) {
+                    cuts.push(t);
+                }
+            }
+        };
         for &f in &partners {
             let elf = &self.surfaces[l].elements[f as usize];
             let yf = self.pos[l].of(f as usize);
-            for end in [-1.0, 1.0] {
+            for (side, end) in [(0usize, -1.0), (1, 1.0)] {
                 let (yb, a, _) = frame(elf, dim, yf, &[end, 0.0]);
-                let h = |x: &[f64; 3]| (0..dim).map(|c| (x[c] - yb[c]) * a[0][c]).sum::<f64>();
-                let near = |x: &[f64; 3]| {
-                    (0..dim).map(|c| (x[c] - yb[c]).powi(2)).sum::<f64>().sqrt() <= reach
-                };
-                for w in samples.windows(2) {
-                    let ((mut t0, xa), (mut t1, xb)) = (w[0], w[1]);
-                    let (mut h0, h1) = (h(&xa), h(&xb));
-                    if h0 == 0.0 {
-                        if near(&xa) {
-                            cuts.push(t0);
-                        }
-                        continue;
+                // `u`: the unit tangent from the node into `f`; `v`: into the neighbour across
+                // the node, where this rank has it
+                let u = unit(a[0], -end);
+                let v = elf.neighbours[side].and_then(|(f2, s2, _)| {
+                    let f2 = f2 as usize;
+                    if !self.pos[l].has(f2) {
+                        return None;
                     }
-                    if h0 * h1 >= 0.0 {
-                        continue;
+                    let end2 = if s2 == 0 { -1.0 } else { 1.0 };
+                    let el2 = &self.surfaces[l].elements[f2];
+                    let (_, a2, _) = frame(el2, dim, self.pos[l].of(f2), &[end2, 0.0]);
+                    Some(unit(a2[0], -end2))
+                });
+                match v.filter(|v| kinked(&u, v)) {
+                    // a kink of a C0 master: a point projects into `f` where `d . u > 0`, into
+                    // the neighbour where `d . v > 0`, onto the node where neither holds (the
+                    // fan of a corner convex towards the point), and where both hold onto the
+                    // nearer of the two, `f` where `d . (u - v) > 0` (the bisector of a corner
+                    // concave towards the point, where the fan's edges cross and are no boundary)
+                    Some(v) => {
+                        let dot = |x: &[f64; 3], w: &[f64; 3]| {
+                            (0..dim).map(|c| (x[c] - yb[c]) * w[c]).sum::<f64>()
+                        };
+                        roots(&yb, &u, &|x| dot(x, &v) <= 0.0);
+                        let b = [0, 1, 2].map(|c| u[c] - v[c]);
+                        roots(&yb, &b, &|x| dot(x, &u) > 0.0);
                     }
-                    // bisection to round-off in the coordinate
-                    while t1 - t0 > 4.0 * f64::EPSILON {
-                        let tm = 0.5 * (t0 + t1);
-                        if tm <= t0 || tm >= t1 {
-                            break;
-                        }
-                        let hm = h(&at(tm));
-                        if hm == 0.0 {
-                            (t0, t1) = (tm, tm);
-                            break;
-                        }
-                        if (hm < 0.0) == (h0 < 0.0) {
-                            (t0, h0) = (tm, hm);
-                        } else {
-                            t1 = tm;
-                        }
-                    }
-                    let t = 0.5 * (t0 + t1);
-                    if near(&at(t)) {
-                        cuts.push(t);
-                    }
+                    // a smooth node, or the surface's end: where the projection leaves `f`
+                    None => roots(&yb, &a[0], &|_| true),
                 }
             }
         }
@@ -328,6 +372,19 @@ impl ContactSystem {
             net.set_weights(i, phi);
         }
     }
+}
+
+/// `a / |a|` times `s`.
+fn unit(a: [f64; 3], s: f64) -> [f64; 3] {
+    let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    a.map(|c| s * c / l)
+}
+
+/// Whether the unit tangents `u`, `v` from a node into its two elements leave a kink there (they
+/// are opposite at a smooth node).
+fn kinked(u: &[f64; 3], v: &[f64; 3]) -> bool {
+    let s = [0, 1, 2].map(|c| u[c] + v[c]);
+    (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt() > KINK
 }
 
 /// Merges the pair of neighbouring segments between `cuts` (and -1, 1) whose union is shortest
