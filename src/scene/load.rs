@@ -59,12 +59,7 @@ pub fn parse_case(text: &str, file: &Path, overrides: &[String]) -> Result<Case,
     }
 
     if let Some((key, old, new)) = renamed_value(&root) {
-        let arg = overrides
-            .iter()
-            .find(|a| a.split_once('=').is_some_and(|(k, _)| k.trim() == key))
-            .or(overrides.last())
-            .cloned()
-            .unwrap_or_default();
+        let arg = override_setting(overrides, &key);
         return Err(SceneError::Override {
             file: file.to_path_buf(),
             arg,
@@ -73,12 +68,7 @@ pub fn parse_case(text: &str, file: &Path, overrides: &[String]) -> Result<Case,
         });
     }
     if let Some((key, why)) = retired_key(&root) {
-        let arg = overrides
-            .iter()
-            .find(|a| a.split_once('=').is_some_and(|(k, _)| k.trim() == key))
-            .or(overrides.last())
-            .cloned()
-            .unwrap_or_default();
+        let arg = override_setting(overrides, key);
         return Err(SceneError::Override {
             file: file.to_path_buf(),
             arg,
@@ -109,6 +99,16 @@ const RETIRED: [(&str, &str); 1] = [(
     "removed: on the formulation matrix (docs/formulations.md) it changed no measured result (the \
      same metrics as the runs without it on every row, never fewer Newton iterations)",
 )];
+
+/// The override that set `key` (else the last one: a table set whole holds it), for messages.
+fn override_setting(overrides: &[String], key: &str) -> String {
+    overrides
+        .iter()
+        .find(|a| a.split_once('=').is_some_and(|(k, _)| k.trim() == key))
+        .or(overrides.last())
+        .cloned()
+        .unwrap_or_default()
+}
 
 /// Values of `contact.N.gap` that were renamed, with their names now: the nodally weighted gaps
 /// are called what the literature calls them (docs/formulations.md, "Retired keys").
