@@ -186,21 +186,15 @@ fn the_interface_correction_reuses_gamgs_interpolation_with_the_same_answer() {
     for np in [1, 2] {
         let run = |tag: &str, extra: &[&str]| {
             let (d, c) = (scratch(tag), case("hemisphere_block_3d.toml"));
-            let mut args = vec![
-                "run",
-                c.to_str().unwrap(),
-                "--out",
-                d.to_str().unwrap(),
-                "-q",
-                "--overwrite",
-            ];
-            for s in HEMISPHERE.iter().chain(&[
-                "solver.linear=\"iterative\"",
-                "solver.preconditioner=\"gamg_interface_symmetric\"",
-            ]) {
-                args.extend(["--set", s]);
-            }
-            args.extend(extra);
+            let sets: Vec<&str> = HEMISPHERE
+                .iter()
+                .copied()
+                .chain([
+                    "solver.linear=\"iterative\"",
+                    "solver.preconditioner=\"gamg_interface_symmetric\"",
+                ])
+                .collect();
+            let args = case_args(&c, &d, &sets, extra);
             let out = run_with_env(
                 np,
                 &args,

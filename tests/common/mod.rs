@@ -261,7 +261,12 @@ pub fn run_case_output_with(
 }
 
 /// `run CASE --out DIR -q --overwrite --set S ... EXTRA...`
-fn case_args<'a>(c: &'a Path, d: &'a Path, sets: &[&'a str], extra: &[&'a str]) -> Vec<&'a str> {
+pub fn case_args<'a>(
+    c: &'a Path,
+    d: &'a Path,
+    sets: &[&'a str],
+    extra: &[&'a str],
+) -> Vec<&'a str> {
     let mut args = vec![
         "run",
         c.to_str().unwrap(),
