@@ -1,8 +1,8 @@
 //! The mortar gap (`gap = "weighted"`) end to end: the contact patch test on non-matching meshes in
 //! 2D and 3D, Hertz at one refinement, the same answer on 1 and 2 ranks (halo elements across the
 //! METIS split), the augmented Lagrangian on the control points, `weighted_linear` on a Q1C2
-//! surface, Coulomb friction with `weighted_mean`, the scope refused by key, and PETSc's own
-//! Jacobian check along the 3D twisting press.
+//! surface, Coulomb friction with `weighted_mean`, the scope refused by key, PETSc's own
+//! Jacobian check along the 3D twisting press, and the opt-in 3D segments on the 3D patch test.
 
 mod common;
 use common::*;
@@ -174,6 +174,95 @@ fn one_pass_mortar_passes_the_contact_patch_test_alike_on_1_and_2_ranks() {
                 );
             }
         }
+    }
+}
+
+#[test]
+fn one_pass_weighted_gap_over_3d_segments_passes_the_non_matching_patch_test() {
+    // the opt-in 3D segments (`NURBS_CONTACT_SEGMENTS_3D=1`): the slave's (upper, 4 x 4) elements
+    // integrated over the images of the master's (lower, 6 x 6) elements, so the master's forces
+    // of a uniform pressure are exact and the slave's nodal pressure is uniform, alike on 1 and 2
+    // ranks; without the switch the slave's element rule runs across the master's element edges
+    // and the pressure varies by per cent
+    let nodal_spread = |d: &std::path::Path| {
+        let p = h5_last(d, "bulk", "contact_pressure");
+        let on: Vec<f64> = p.iter().copied().filter(|&v| v != 0.0).collect();
+        assert!(
+            on.len() >= 25,
+            "{}: {} pressed nodes",
+            d.display(),
+            on.len()
+        );
+        let mean = on.iter().sum::<f64>() / on.len() as f64;
+        assert!(mean > 0.0, "{}: compressive pressure expected", d.display());
+        on.iter().fold(0.0f64, |m, v| m.max((v - mean).abs())) / mean
+    };
+    for (fam, gap) in [
+        ("Q1C1", "weighted"),
+        ("Q1N2", "weighted"),
+        ("Q1N2", "weighted_mean"),
+    ] {
+        let sets = [
+            format!("bodies.lower.element={fam}"),
+            format!("bodies.upper.element={fam}"),
+            format!("contact.0.gap={gap}"),
+            "contact.0.algorithm=one_pass".to_string(),
+            "output.plots=false".to_string(),
+        ];
+        let sets: Vec<&str> = sets.iter().map(String::as_str).collect();
+        let c = case("contact_patch_3d.toml");
+        let mut runs = Vec::new();
+        for (np, env) in [(1, "1"), (2, "1"), (1, "0")] {
+            let d = scratch(&format!("mortar/seg3d-patch-{fam}-{gap}-np{np}-{env}"));
+            let out = run_with_env(
+                np,
+                &case_args(&c, &d, &sets, &[]),
+                None,
+                std::time::Duration::from_secs(120),
+                &[("NURBS_CONTACT_SEGMENTS_3D", env)],
+            )
+            .expect("the run finished in time");
+            assert!(
+                out.status.success(),
+                "{fam} {gap} np {np}: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            let r = last(&d, "R_upper_zmax_z");
+            let pf = last(&d, "P_patch_upper_zmin_z");
+            assert!(
+                r.abs() > 1e-3 && (pf.abs() - r.abs()).abs() < 1e-9 * r.abs(),
+                "{fam} {gap} np {np}: pass force {pf} vs reaction {r}"
+            );
+            let spread = nodal_spread(&d);
+            if env == "1" {
+                assert!(
+                    spread < 1e-8,
+                    "{fam} {gap} np {np}: pressure varies by {spread:e}"
+                );
+                runs.push(
+                    history(&d)
+                        .into_iter()
+                        .filter(|(h, _)| h.starts_with("R_") || h.starts_with("P_"))
+                        .flat_map(|(_, v)| v)
+                        .collect::<Vec<f64>>(),
+                );
+            } else {
+                assert!(
+                    spread > 1e-3,
+                    "{fam} {gap}: without the switch the pressure varies by only {spread:e}"
+                );
+            }
+        }
+        let scale = runs[0].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let dh = runs[0]
+            .iter()
+            .zip(&runs[1])
+            .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+        assert_eq!(runs[0].len(), runs[1].len());
+        assert!(
+            dh < 1e-10 * scale,
+            "{fam} {gap}: 1 and 2 ranks differ by {dh:e}"
+        );
     }
 }
 

@@ -59,9 +59,9 @@
 //! as cross blocks (rows of the partner's block, columns of another block of the same region,
 //! [`crate::assembly::MatrixSink::add_cross`]). In 2D, frictionless, the slave's elements are
 //! integrated over segments between the master's element boundaries (the system's `segments`), so
-//! the master's forces of a uniform pressure are exact on non-matching meshes; in 3D and with
-//! friction the slave's element rule runs across those boundaries and they are not (as for the
-//! one-pass pointwise gap).
+//! the master's forces of a uniform pressure are exact on non-matching meshes; in 3D (unless
+//! `NURBS_CONTACT_SEGMENTS_3D=1`) and with friction the slave's element rule runs across those
+//! boundaries and they are not (as for the one-pass pointwise gap).
 //!
 //! `g_A` needs every point of `A`'s support, also those of elements another rank integrates:
 //! each rank keeps a halo of the elements that share a control point with its own ones and

@@ -1,4 +1,4 @@
-//! Segment-based quadrature of the one-pass weighted gap in 2D.
+//! Segment-based quadrature of the one-pass weighted gap in 2D (and, as an opt-in, in 3D).
 //!
 //! A one-pass pair integrates over the slave surface and applies the opposite force to the master
 //! element at each point's projection: the master's rows carry `N^l_b(xi_p(xi))`, a function of
@@ -28,6 +28,16 @@
 //! segments); the points of unused slots have weight 0, are neither projected nor integrated, and
 //! carry NaN pressure and gap in the output. Frictionless pairs only: a point's friction anchor is
 //! the history of a material point, which moving points do not keep.
+//!
+//! 3D, only with `NURBS_CONTACT_SEGMENTS_3D=1` (an experiment, off by default): each slave element's
+//! square is split into the images of the master elements near it (each master corner mapped to
+//! the slave coordinate of its closest point on the bilinear surface through the slave element's
+//! corners, straight edges between them, images clipped to the square, the uncovered rest of the
+//! square a piece of its own), every piece into triangles with a triangle rule of the element's
+//! degree. An element that one image covers, or whose images do not tile it, keeps its tensor
+//! rule. Points are held while every image corner moved less than [`KEEP`], and for the rest of a
+//! load factor once an element was placed [`HOLD`] times at it. This passes the 3D non-matching
+//! patch test; `docs/formulations.md` has what it does on Table 4's twist.
 #![allow(non_snake_case)]
 
 use super::ContactSystem;
@@ -72,19 +82,36 @@ pub(crate) struct Segments {
     /// Per element (own, then halo): the breakpoints its points are placed on (`None`: not yet
     /// placed).
     placed: Vec<Option<Vec<f64>>>,
+    /// 3D: the triangle rule of one piece (barycentric `s`, `t` on the triangle (0,0), (1,0),
+    /// (0,1), weight; the weights sum to 1).
+    tri: Vec<(f64, f64, f64)>,
+    /// 3D: per element (own, then halo), the master elements' images its points are placed on.
+    layouts: Vec<Option<Layout>>,
+    /// 3D: points per element.
+    per3: usize,
+    /// 3D: per element, the load factor of its last placement and how often it was placed at it.
+    moves: Vec<(f64, u32)>,
 }
+
+/// 3D: the master elements whose images cut a slave element, with their corners' images in the
+/// slave coordinates (after snapping).
+type Layout = Vec<(u32, [[f64; 2]; 4])>;
 
 impl Segments {
     /// Points per element.
     pub(crate) fn per_element(&self) -> usize {
-        self.slots * self.zeta.len()
+        if self.tri.is_empty() {
+            self.slots * self.zeta.len()
+        } else {
+            self.per3
+        }
     }
 }
 
 /// Whether a pair's pass is integrated over segments: one-pass, a weighted gap, frictionless, 2D,
 /// against another surface.
 pub(crate) fn segmented(def: &PairDef, dim: usize, partner: &Partner) -> bool {
-    dim == 2
+    (dim == 2 || (dim == 3 && segments_3d()))
         && def.formulation.one_pass()
         && def.friction.is_none()
         && def.formulation.pressure.is_nodal()
@@ -125,12 +152,34 @@ impl ContactSystem {
         let slots = (2.0 * (1.5 * ratio).ceil() + 3.0).min(MAX_SLOTS as f64) as usize;
         let (zeta, wz) =
             crate::fem::quadrature::gauss_legendre(n_g).expect("a rule of at least one point");
+        if self.dim == 3 {
+            // a slave element meets at most r^2 master elements, each piece a few triangles
+            let r = (1.5 * ratio).ceil() + 1.0;
+            let slots = (4.0 * r * r).min(MAX_TRIANGLES as f64) as usize;
+            let tri = triangle_rule(n_g);
+            let per3 = (slots * tri.len()).max(n_g * n_g);
+            return Segments {
+                zeta,
+                wz,
+                slots,
+                linear,
+                placed: Vec::new(),
+                tri,
+                layouts: Vec::new(),
+                per3,
+                moves: Vec::new(),
+            };
+        }
         Segments {
             zeta,
             wz,
             slots,
             linear,
             placed: Vec::new(),
+            tri: Vec::new(),
+            layouts: Vec::new(),
+            per3: 0,
+            moves: Vec::new(),
         }
     }
 
@@ -153,7 +202,68 @@ impl ContactSystem {
                 let n_own = self.pairs[pi].passes[si].elems.len();
                 let n_all = n_own + self.pairs[pi].passes[si].halo.len();
                 seg.placed.resize(n_all, None);
+                seg.layouts.resize(n_all, None);
+                seg.moves.resize(n_all, (f64::NAN, 0));
                 for i in 0..n_all {
+                    if self.dim == 3 {
+                        let e = {
+                            let ps = &self.pairs[pi].passes[si];
+                            ps.elems.get(i).unwrap_or_else(|| &ps.halo[i - n_own]).e as usize
+                        };
+                        let (layout, tris) = self.pieces(k, e, l, dist, seg.slots);
+                        let kept = seg.layouts[i].as_ref().is_some_and(|p| {
+                            p.len() == layout.len()
+                                && p.iter().zip(&layout).all(|(a, b)| {
+                                    a.0 == b.0
+                                        && a.1.iter().zip(&b.1).all(|(u, v)| {
+                                            (u[0] - v[0]).abs() <= KEEP
+                                                && (u[1] - v[1]).abs() <= KEEP
+                                        })
+                                })
+                        });
+                        let lam = self.lambda;
+                        let held = seg.moves[i].0 == lam && seg.moves[i].1 >= HOLD;
+                        let kept = kept || (held && seg.layouts[i].is_some());
+                        if !kept {
+                            if seg.moves[i].0 == lam {
+                                seg.moves[i].1 += 1;
+                            } else {
+                                seg.moves[i] = (lam, 1);
+                            }
+                        }
+                        if !kept && std::env::var_os("NURBS_CONTACT_DEBUG_SEGMENTS").is_some() {
+                            let old = seg.layouts[i].as_ref();
+                            let mv = old.map_or(-1.0, |p| {
+                                if p.len() != layout.len()
+                                    || p.iter().zip(&layout).any(|(a, b)| a.0 != b.0)
+                                {
+                                    return f64::INFINITY;
+                                }
+                                p.iter()
+                                    .zip(&layout)
+                                    .flat_map(|(a, b)| {
+                                        a.1.iter().zip(b.1).map(|(u, v)| {
+                                            (u[0] - v[0]).abs().max((u[1] - v[1]).abs())
+                                        })
+                                    })
+                                    .fold(0.0, f64::max)
+                            });
+                            eprintln!("seg3d: load {} element {e} placed again: {} images (was {:?}), moved {mv:e}, {} triangles; {:?} -> {:?}", self.lambda, layout.len(), old.map(|p| p.len()), tris.as_ref().map_or(0, |t| t.len()), old.map(|p| p.iter().map(|x| x.0).collect::<Vec<_>>()), layout.iter().map(|x| x.0).collect::<Vec<_>>());
+                        }
+                        if !kept {
+                            self.place_points3(
+                                pi,
+                                si,
+                                i,
+                                e,
+                                tris.as_deref(),
+                                &seg,
+                                region.as_ref(),
+                            );
+                            seg.layouts[i] = Some(layout);
+                        }
+                        continue;
+                    }
                     let e = {
                         let ps = &self.pairs[pi].passes[si];
                         ps.elems.get(i).unwrap_or_else(|| &ps.halo[i - n_own]).e as usize
@@ -372,6 +482,405 @@ impl ContactSystem {
             net.set_weights(i, phi);
         }
     }
+
+    /// 3D: the pieces of element `e` of surface `k` against surface `l`: the images of the master
+    /// elements near it in its coordinates (each master corner mapped to the slave coordinate of
+    /// its closest point on the bilinear surface through the element's corners, straight edges
+    /// between them, corners within
+    /// [`SNAP`] of the element's sides moved onto them), clipped to the element's square, and the
+    /// part of the square no image covers; every piece split into triangles. `None`: the element's
+    /// own tensor rule (one image covers it, or the images do not tile it).
+    #[allow(clippy::type_complexity)]
+    fn pieces(
+        &mut self,
+        k: usize,
+        e: usize,
+        l: usize,
+        dist: f64,
+        slots: usize,
+    ) -> (Layout, Option<Vec<[[f64; 2]; 3]>>) {
+        let dim = self.dim;
+        let el = &self.surfaces[k].elements[e];
+        let xe = self.pos[k].of(e);
+        // the master elements whose control points' box meets the element's, grown by the search
+        // distance and half the element's size (a master whose image misses the element is
+        // clipped away, so the set does not decide the layout)
+        let bbox = |x: &[f64]| {
+            let mut lo = [f64::INFINITY; 3];
+            let mut hi = [f64::NEG_INFINITY; 3];
+            for p in x.chunks_exact(dim) {
+                for c in 0..dim {
+                    lo[c] = lo[c].min(p[c]);
+                    hi[c] = hi[c].max(p[c]);
+                }
+            }
+            (lo, hi)
+        };
+        let (mut lo, mut hi) = bbox(xe);
+        let size = (0..dim)
+            .map(|c| (hi[c] - lo[c]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        for c in 0..dim {
+            lo[c] -= dist + 0.5 * size;
+            hi[c] += dist + 0.5 * size;
+        }
+        let partners: Vec<u32> = (0..self.surfaces[l].elements.len())
+            .filter(|&f| self.pos[l].has(f))
+            .filter(|&f| {
+                let (a, b) = bbox(self.pos[l].of(f));
+                (0..dim).all(|c| a[c] <= hi[c] && b[c] >= lo[c])
+            })
+            .map(|f| f as u32)
+            .collect();
+        // the corners' images are taken on the bilinear surface through the element's corners,
+        // defined far beyond the element (a curved element's own map, extrapolated, is not: the
+        // images of distant master corners did not converge and jumped between iterates)
+        let xc: [[f64; 3]; 4] = QUAD_CORNERS.map(|(s, t)| frame(el, dim, xe, &[s, t]).0);
+        let surf = |xi: &[f64; 2]| -> ([f64; 3], [[f64; 3]; 2]) {
+            let mut p = [0.0; 3];
+            let mut a = [[0.0; 3]; 2];
+            for (c, (s, t)) in QUAD_CORNERS.into_iter().enumerate() {
+                let (fs, ft) = (1.0 + s * xi[0], 1.0 + t * xi[1]);
+                for k in 0..3 {
+                    p[k] += 0.25 * fs * ft * xc[c][k];
+                    a[0][k] += 0.25 * s * ft * xc[c][k];
+                    a[1][k] += 0.25 * fs * t * xc[c][k];
+                }
+            }
+            (p, a)
+        };
+        // the slave coordinate of the closest point of `y` on that surface (Gauss-Newton)
+        let image = |y: &[f64; 3]| -> Option<[f64; 2]> {
+            let mut xi = [0.0f64; 2];
+            for _ in 0..50 {
+                let (p, a) = surf(&xi);
+                let r = [0, 1, 2].map(|c| y[c] - p[c]);
+                let d = |u: &[f64; 3], v: &[f64; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+                let (m00, m01, m11) = (d(&a[0], &a[0]), d(&a[0], &a[1]), d(&a[1], &a[1]));
+                let (b0, b1) = (d(&a[0], &r), d(&a[1], &r));
+                let det = m00 * m11 - m01 * m01;
+                if det.abs() <= 1e-300 {
+                    return None;
+                }
+                let dx = [(m11 * b0 - m01 * b1) / det, (m00 * b1 - m01 * b0) / det];
+                xi = [
+                    (xi[0] + dx[0]).clamp(-4.0, 4.0),
+                    (xi[1] + dx[1]).clamp(-4.0, 4.0),
+                ];
+                if dx[0].abs().max(dx[1].abs()) < 1e-14 {
+                    return Some(xi);
+                }
+            }
+            Some(xi)
+        };
+        let mut cache: Vec<(u32, Option<[f64; 2]>)> = Vec::new();
+        let mut layout: Layout = Vec::new();
+        let square = vec![[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]];
+        let mut pieces: Vec<Vec<[f64; 2]>> = Vec::new();
+        let mut quads: Vec<[[f64; 2]; 4]> = Vec::new();
+        for &f in &partners {
+            let elf = &self.surfaces[l].elements[f as usize];
+            let yf = self.pos[l].of(f as usize);
+            let mut q = [[0.0; 2]; 4];
+            let mut ok = true;
+            for (c, (s, t)) in QUAD_CORNERS.into_iter().enumerate() {
+                let node = elf.corners[c];
+                let im = match cache.iter().find(|(n, _)| *n == node) {
+                    Some(&(_, im)) => im,
+                    None => {
+                        let y = frame(elf, dim, yf, &[s, t]).0;
+                        let im = image(&y).map(|v| v.map(snapped));
+                        cache.push((node, im));
+                        im
+                    }
+                };
+                match im {
+                    Some(v) => q[c] = v,
+                    None => ok = false,
+                }
+            }
+            if !ok {
+                continue;
+            }
+            if signed_area(&q) < 0.0 {
+                q.reverse();
+            }
+            let clip = clip_convex(&q, &square);
+            if signed_area(&clip) <= AREA_TOL {
+                continue;
+            }
+            layout.push((f, q));
+            quads.push(q);
+            pieces.push(clip);
+        }
+        let covered: f64 = pieces.iter().map(|p| signed_area(p)).sum();
+        if covered > 4.0 + 1e-9 {
+            return (layout, None);
+        }
+        if covered < 4.0 - 1e-9 {
+            // the part of the square no image covers: split off the outside of every image
+            let mut rest = vec![square.clone()];
+            for q in &quads {
+                if !convex(q) {
+                    return (layout, None);
+                }
+                let mut next = Vec::new();
+                for p in rest {
+                    let mut inside = p;
+                    for c in 0..4 {
+                        let (a, b) = (q[c], q[(c + 1) % 4]);
+                        let (out, inn) = split(&inside, &a, &b);
+                        if signed_area(&out) > AREA_TOL {
+                            next.push(out);
+                        }
+                        inside = inn;
+                        if inside.len() < 3 {
+                            break;
+                        }
+                    }
+                }
+                rest = next;
+            }
+            pieces.extend(rest);
+            let total: f64 = pieces.iter().map(|p| signed_area(p)).sum();
+            if (total - 4.0).abs() > 1e-9 {
+                return (layout, None);
+            }
+        }
+        if pieces.len() == 1 && (signed_area(&pieces[0]) - 4.0).abs() <= 1e-12 {
+            return (layout, None);
+        }
+        let mut tris = Vec::new();
+        for p in &pieces {
+            for j in 1..p.len().saturating_sub(1) {
+                let t = [p[0], p[j], p[j + 1]];
+                if signed_area(&t) > AREA_TOL {
+                    tris.push(t);
+                }
+            }
+        }
+        if tris.len() > slots {
+            return (layout, None);
+        }
+        (layout, Some(tris))
+    }
+
+    /// 3D: moves the points of element `i` (own, then halo) of pass `si` of pair `pi` onto the
+    /// triangles `tris` (`None`: the element's tensor rule), as [`Self::place_points`].
+    #[allow(clippy::too_many_arguments)]
+    fn place_points3(
+        &mut self,
+        pi: usize,
+        si: usize,
+        i: usize,
+        e: usize,
+        tris: Option<&[[[f64; 2]; 3]]>,
+        seg: &Segments,
+        region: Option<&crate::contact::search::Aabb>,
+    ) {
+        let dim = self.dim;
+        let m = dim - 1;
+        let k = self.pairs[pi].passes[si].k;
+        let el = &self.surfaces[k].elements[e];
+        let nk = el.basis.n_nodes();
+        let Xe: Vec<f64> = self.slots[k][e]
+            .iter()
+            .flat_map(|&t| self.X[t as usize * dim..(t as usize + 1) * dim].to_vec())
+            .collect();
+        let per = seg.per_element();
+        let mut pts: Vec<([f64; 2], f64)> = Vec::with_capacity(per);
+        match tris {
+            None => {
+                for (z0, w0) in seg.zeta.iter().zip(&seg.wz) {
+                    for (z1, w1) in seg.zeta.iter().zip(&seg.wz) {
+                        pts.push(([*z0, *z1], w0 * w1));
+                    }
+                }
+            }
+            Some(tris) => {
+                for t in tris {
+                    let area = signed_area(t);
+                    for &(s, r, w) in &seg.tri {
+                        let xi = [0, 1]
+                            .map(|c| t[0][c] + s * (t[1][c] - t[0][c]) + r * (t[2][c] - t[0][c]));
+                        pts.push((xi, w * area));
+                    }
+                }
+            }
+        }
+        let used = pts.len();
+        pts.resize(per, ([0.0, 0.0], 0.0));
+        let (mut N, mut dN, mut ddN) = (
+            [0.0; MAX_FACE_NODES],
+            [0.0; 2 * MAX_FACE_NODES],
+            [0.0; 4 * MAX_FACE_NODES],
+        );
+        let mut bN = vec![0.0; per * nk];
+        let mut bdN = vec![0.0; per * nk * m];
+        let mut phi = Vec::with_capacity(per * nk);
+        let ps = &mut self.pairs[pi].passes[si];
+        let n_own = ps.elems.len();
+        let first = ps.elems.get(i).unwrap_or_else(|| &ps.halo[i - n_own]).first;
+        for (j, &(xi, w)) in pts.iter().enumerate() {
+            el.basis.eval(&xi[..m], &mut N, &mut dN, &mut ddN);
+            bN[j * nk..(j + 1) * nk].copy_from_slice(&N[..nk]);
+            bdN[j * nk * m..(j + 1) * nk * m].copy_from_slice(&dN[..nk * m]);
+            let [x, y] = xi;
+            if seg.linear {
+                phi.extend([
+                    0.25 * (1.0 - x) * (1.0 - y),
+                    0.25 * (1.0 + x) * (1.0 - y),
+                    0.25 * (1.0 + x) * (1.0 + y),
+                    0.25 * (1.0 - x) * (1.0 + y),
+                ]);
+            } else {
+                phi.extend_from_slice(&N[..nk]);
+            }
+            let (xr, a, _) = frame(el, dim, &Xe, &xi);
+            let nu = raw_normal(dim, &a);
+            let outside = region.is_some_and(|b| !b.contains(&xr[..dim]));
+            let qp: &mut QPoint = &mut ps.points[first + j];
+            qp.xi = xi;
+            qp.w = if outside || j >= used { 0.0 } else { w };
+            qp.J0 = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt();
+        }
+        let oe = if i < n_own {
+            &mut ps.elems[i]
+        } else {
+            &mut ps.halo[i - n_own]
+        };
+        oe.N = bN;
+        oe.dN = bdN;
+        if let Some(net) = ps.mortar.as_mut() {
+            net.set_weights(i, phi);
+        }
+    }
+}
+
+/// 3D: the corners of a quadrilateral element in side order.
+const QUAD_CORNERS: [(f64, f64); 4] = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
+
+/// 3D: pieces and triangles of at most this area (in the slave coordinates) are empty.
+const AREA_TOL: f64 = 1e-14;
+
+/// 3D: most triangles an element's points can hold.
+const MAX_TRIANGLES: usize = 64;
+
+/// 3D: an element placed this often at one load factor keeps its points for the rest of it: the
+/// layouts of iterates near a change of topology (an image appearing or vanishing, the images no
+/// longer tiling the element) alternated and Newton stagnated.
+const HOLD: u32 = 2;
+
+/// 3D: images of master corners within this of a slave element's side (in its coordinate) lie on
+/// it, so that a master edge along a slave edge leaves no sliver.
+const SNAP: f64 = 1e-3;
+
+/// Whether one-pass weighted gaps are integrated over segments in 3D too (the opt-in
+/// `NURBS_CONTACT_SEGMENTS_3D=1`).
+fn segments_3d() -> bool {
+    std::env::var_os("NURBS_CONTACT_SEGMENTS_3D").is_some_and(|v| v == "1")
+}
+
+/// `z` moved onto -1 or 1 where it lies within [`SNAP`] of it.
+fn snapped(z: f64) -> f64 {
+    if (z - 1.0).abs() <= SNAP {
+        1.0
+    } else if (z + 1.0).abs() <= SNAP {
+        -1.0
+    } else {
+        z
+    }
+}
+
+/// The signed area of a polygon (positive counter-clockwise).
+fn signed_area(p: &[[f64; 2]]) -> f64 {
+    let n = p.len();
+    if n < 3 {
+        return 0.0;
+    }
+    0.5 * (0..n)
+        .map(|i| {
+            let (a, b) = (p[i], p[(i + 1) % n]);
+            a[0] * b[1] - a[1] * b[0]
+        })
+        .sum::<f64>()
+}
+
+/// Whether the counter-clockwise quadrilateral `q` is convex.
+fn convex(q: &[[f64; 2]; 4]) -> bool {
+    (0..4).all(|i| {
+        let (a, b, c) = (q[i], q[(i + 1) % 4], q[(i + 2) % 4]);
+        (b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0]) >= 0.0
+    })
+}
+
+/// The parts of the convex polygon `p` right of (outside) and left of (inside) the line `a -> b`.
+fn split(p: &[[f64; 2]], a: &[f64; 2], b: &[f64; 2]) -> (Vec<[f64; 2]>, Vec<[f64; 2]>) {
+    let side = |x: &[f64; 2]| (b[0] - a[0]) * (x[1] - a[1]) - (b[1] - a[1]) * (x[0] - a[0]);
+    let (mut out, mut inn) = (Vec::new(), Vec::new());
+    let n = p.len();
+    for i in 0..n {
+        let (x, y) = (p[i], p[(i + 1) % n]);
+        let (sx, sy) = (side(&x), side(&y));
+        if sx >= 0.0 {
+            inn.push(x);
+        }
+        if sx <= 0.0 {
+            out.push(x);
+        }
+        if (sx > 0.0 && sy < 0.0) || (sx < 0.0 && sy > 0.0) {
+            let t = sx / (sx - sy);
+            let z = [x[0] + t * (y[0] - x[0]), x[1] + t * (y[1] - x[1])];
+            inn.push(z);
+            out.push(z);
+        }
+    }
+    (out, inn)
+}
+
+/// The polygon `p` clipped to the convex counter-clockwise polygon `window` (Sutherland-Hodgman).
+fn clip_convex(p: &[[f64; 2]], window: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    let mut out = p.to_vec();
+    for i in 0..window.len() {
+        if out.len() < 3 {
+            return Vec::new();
+        }
+        out = split(&out, &window[i], &window[(i + 1) % window.len()]).1;
+    }
+    out
+}
+
+/// A triangle rule (barycentric `s`, `t`, weights summing to 1) for `n_g` Gauss points per
+/// direction of the element: degree 2 (3 points) for `n_g <= 2`, degree 4 (6 points) for 3,
+/// otherwise the collapsed `n_g x n_g` Gauss rule (degree `2 n_g - 2`).
+fn triangle_rule(n_g: usize) -> Vec<(f64, f64, f64)> {
+    if n_g <= 2 {
+        let (a, b) = (1.0 / 6.0, 2.0 / 3.0);
+        return vec![(a, a, 1.0 / 3.0), (b, a, 1.0 / 3.0), (a, b, 1.0 / 3.0)];
+    }
+    if n_g == 3 {
+        let (a, wa) = (0.445_948_490_915_965, 0.223_381_589_678_011);
+        let (b, wb) = (0.091_576_213_509_771, 0.109_951_743_655_322);
+        return vec![
+            (a, a, wa),
+            (1.0 - 2.0 * a, a, wa),
+            (a, 1.0 - 2.0 * a, wa),
+            (b, b, wb),
+            (1.0 - 2.0 * b, b, wb),
+            (b, 1.0 - 2.0 * b, wb),
+        ];
+    }
+    let (z, w) = crate::fem::quadrature::gauss_legendre(n_g).expect("a rule of at least one point");
+    let mut out = Vec::new();
+    for (zu, wu) in z.iter().zip(&w) {
+        for (zv, wv) in z.iter().zip(&w) {
+            let s = 0.5 * (1.0 + zu);
+            let t = (1.0 - s) * 0.5 * (1.0 + zv);
+            out.push((s, t, 0.5 * wu * wv * (1.0 - s)));
+        }
+    }
+    out
 }
 
 /// `a / |a|` times `s`.
