@@ -914,7 +914,44 @@ fn merge_segments(cuts: &mut Vec<f64>, slots: usize) {
 
 #[cfg(test)]
 mod tests {
-    use super::merge_segments;
+    use super::{clip_convex, merge_segments, signed_area, triangle_rule};
+
+    #[test]
+    fn triangle_rules_integrate_their_degree_exactly() {
+        // int over the triangle (0,0), (1,0), (0,1) of s^a t^b = a! b! / (a + b + 2)!
+        let fact = |n: u32| (1..=n).map(f64::from).product::<f64>();
+        for (n_g, degree) in [(2, 2), (3, 4), (4, 6)] {
+            let rule = triangle_rule(n_g);
+            for a in 0..=degree {
+                for b in 0..=degree - a {
+                    let exact = fact(a) * fact(b) / fact(a + b + 2);
+                    let got: f64 = rule
+                        .iter()
+                        .map(|&(s, t, w)| 0.5 * w * s.powi(a as i32) * t.powi(b as i32))
+                        .sum();
+                    assert!(
+                        (got - exact).abs() < 1e-14,
+                        "n_g {n_g}: s^{a} t^{b}: {got} against {exact}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn clipping_a_diamond_to_the_square_cuts_off_its_corners() {
+        let r = 2f64.sqrt();
+        let diamond = [[r, 0.0], [0.0, r], [-r, 0.0], [0.0, -r]];
+        let square = [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]];
+        let clip = clip_convex(&diamond, &square);
+        // an octagon: the square less four corner triangles with legs 2 - sqrt 2
+        assert_eq!(clip.len(), 8);
+        let expected = 4.0 - 2.0 * (2.0 - r).powi(2);
+        assert!((signed_area(&clip) - expected).abs() < 1e-14);
+        // a polygon apart from the square leaves nothing
+        let apart = [[2.0, 2.0], [3.0, 2.0], [3.0, 3.0], [2.0, 3.0]];
+        assert!(clip_convex(&apart, &square).len() < 3);
+    }
 
     #[test]
     fn merging_removes_the_cut_between_the_shortest_pair() {
