@@ -415,72 +415,19 @@ impl ContactSystem {
         seg: &Segments,
         region: Option<&crate::contact::search::Aabb>,
     ) {
-        let dim = self.dim;
-        let m = dim - 1;
-        let k = self.pairs[pi].passes[si].k;
-        let el = &self.surfaces[k].elements[e];
-        let nk = el.basis.n_nodes();
-        let Xe: Vec<f64> = self.slots[k][e]
-            .iter()
-            .flat_map(|&t| self.X[t as usize * dim..(t as usize + 1) * dim].to_vec())
-            .collect();
         let mut ends = Vec::with_capacity(cuts.len() + 2);
         ends.push(-1.0);
         ends.extend_from_slice(cuts);
         ends.push(1.0);
-        let n_g = seg.zeta.len();
         let per = seg.per_element();
-        let (mut N, mut dN, mut ddN) = (
-            [0.0; MAX_FACE_NODES],
-            [0.0; 2 * MAX_FACE_NODES],
-            [0.0; 4 * MAX_FACE_NODES],
-        );
-        let mut bN = vec![0.0; per * nk];
-        let mut bdN = vec![0.0; per * nk * m];
-        let mut phi = Vec::with_capacity(per * nk);
-        let mut pts: Vec<(f64, f64)> = Vec::with_capacity(per);
+        let mut pts: Vec<([f64; 2], f64)> = Vec::with_capacity(per);
         for s in ends.windows(2) {
             let (a, b) = (s[0], s[1]);
             for (z, w) in seg.zeta.iter().zip(&seg.wz) {
-                pts.push((0.5 * (a + b) + 0.5 * (b - a) * z, 0.5 * (b - a) * w));
+                pts.push(([0.5 * (a + b) + 0.5 * (b - a) * z, 0.0], 0.5 * (b - a) * w));
             }
         }
-        pts.resize(per, (0.0, 0.0));
-        let ps = &mut self.pairs[pi].passes[si];
-        let n_own = ps.elems.len();
-        let first = ps.elems.get(i).unwrap_or_else(|| &ps.halo[i - n_own]).first;
-        for (j, &(t, w)) in pts.iter().enumerate() {
-            let xi = [t, 0.0];
-            el.basis.eval(&xi[..m], &mut N, &mut dN, &mut ddN);
-            bN[j * nk..(j + 1) * nk].copy_from_slice(&N[..nk]);
-            bdN[j * nk * m..(j + 1) * nk * m].copy_from_slice(&dN[..nk * m]);
-            if seg.linear {
-                phi.extend([0.5 * (1.0 - t), 0.5 * (1.0 + t)]);
-            } else {
-                phi.extend_from_slice(&N[..nk]);
-            }
-            let (xr, a, _) = frame(el, dim, &Xe, &xi);
-            let nu = raw_normal(dim, &a);
-            let outside = region.is_some_and(|b| !b.contains(&xr[..dim]));
-            let qp: &mut QPoint = &mut ps.points[first + j];
-            qp.xi = xi;
-            qp.w = if outside || j >= (ends.len() - 1) * n_g {
-                0.0
-            } else {
-                w
-            };
-            qp.J0 = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt();
-        }
-        let oe = if i < n_own {
-            &mut ps.elems[i]
-        } else {
-            &mut ps.halo[i - n_own]
-        };
-        oe.N = bN;
-        oe.dN = bdN;
-        if let Some(net) = ps.mortar.as_mut() {
-            net.set_weights(i, phi);
-        }
+        self.write_points(pi, si, i, e, pts, seg, region);
     }
 
     /// 3D: the pieces of element `e` of surface `k` against surface `l`: the images of the master
@@ -679,15 +626,6 @@ impl ContactSystem {
         seg: &Segments,
         region: Option<&crate::contact::search::Aabb>,
     ) {
-        let dim = self.dim;
-        let m = dim - 1;
-        let k = self.pairs[pi].passes[si].k;
-        let el = &self.surfaces[k].elements[e];
-        let nk = el.basis.n_nodes();
-        let Xe: Vec<f64> = self.slots[k][e]
-            .iter()
-            .flat_map(|&t| self.X[t as usize * dim..(t as usize + 1) * dim].to_vec())
-            .collect();
         let per = seg.per_element();
         let mut pts: Vec<([f64; 2], f64)> = Vec::with_capacity(per);
         match tris {
@@ -709,6 +647,33 @@ impl ContactSystem {
                 }
             }
         }
+        self.write_points(pi, si, i, e, pts, seg, region);
+    }
+
+    /// Moves the points of element `i` (element `e` of its surface) of pass `si` of pair `pi` to
+    /// `pts` (surface coordinates and weights; the element's remaining slots get weight 0): their
+    /// basis, reference Jacobian and the weighted gap's weight functions with them.
+    #[allow(clippy::too_many_arguments)]
+    fn write_points(
+        &mut self,
+        pi: usize,
+        si: usize,
+        i: usize,
+        e: usize,
+        mut pts: Vec<([f64; 2], f64)>,
+        seg: &Segments,
+        region: Option<&crate::contact::search::Aabb>,
+    ) {
+        let dim = self.dim;
+        let m = dim - 1;
+        let k = self.pairs[pi].passes[si].k;
+        let el = &self.surfaces[k].elements[e];
+        let nk = el.basis.n_nodes();
+        let Xe: Vec<f64> = self.slots[k][e]
+            .iter()
+            .flat_map(|&t| self.X[t as usize * dim..(t as usize + 1) * dim].to_vec())
+            .collect();
+        let per = seg.per_element();
         let used = pts.len();
         pts.resize(per, ([0.0, 0.0], 0.0));
         let (mut N, mut dN, mut ddN) = (
@@ -727,15 +692,15 @@ impl ContactSystem {
             bN[j * nk..(j + 1) * nk].copy_from_slice(&N[..nk]);
             bdN[j * nk * m..(j + 1) * nk * m].copy_from_slice(&dN[..nk * m]);
             let [x, y] = xi;
-            if seg.linear {
-                phi.extend([
+            match (seg.linear, m) {
+                (true, 1) => phi.extend([0.5 * (1.0 - x), 0.5 * (1.0 + x)]),
+                (true, _) => phi.extend([
                     0.25 * (1.0 - x) * (1.0 - y),
                     0.25 * (1.0 + x) * (1.0 - y),
                     0.25 * (1.0 + x) * (1.0 + y),
                     0.25 * (1.0 - x) * (1.0 + y),
-                ]);
-            } else {
-                phi.extend_from_slice(&N[..nk]);
+                ]),
+                (false, _) => phi.extend_from_slice(&N[..nk]),
             }
             let (xr, a, _) = frame(el, dim, &Xe, &xi);
             let nu = raw_normal(dim, &a);
