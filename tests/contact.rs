@@ -1,5 +1,5 @@
 //! Contact end to end: the contact patch test in 2D and 3D, frictionless sliding of flat blocks,
-//! force balance between the two half-passes, Newton's convergence while contact points cross
+//! the default formulation's smooth sliding force, Newton's convergence while contact points cross
 //! element boundaries, and the same answer on 1 and 2 ranks with contact surfaces split by METIS.
 
 mod common;
@@ -20,6 +20,7 @@ fn contact_patch_test_pressure_is_uniform_on_both_surfaces_in_2d_and_3d() {
                 &[
                     &format!("bodies.lower.element={fam}"),
                     &format!("bodies.upper.element={fam}"),
+                    "contact.0.formulation=paper",
                 ],
             );
             let p = h5_last(&d, "bulk", "contact_pressure");
@@ -65,30 +66,41 @@ fn contact_patch_test_pressure_is_uniform_on_both_surfaces_in_2d_and_3d() {
 
 #[test]
 fn frictionless_sliding_of_a_flat_block_has_no_horizontal_contact_force() {
-    for fam in ["Q1C1", "Q1N2"] {
+    // the paper's formulation (both half-passes) and, between Q1N2 surfaces, the default
+    // (one-pass: the slave's force)
+    for (fam, form, passes) in [
+        ("Q1C1", "paper", &["upper_bottom", "lower_top"][..]),
+        ("Q1N2", "paper", &["upper_bottom", "lower_top"][..]),
+        ("Q1N2", "default", &["upper_bottom"][..]),
+    ] {
+        let mut sets = vec![
+            format!("bodies.lower.element={fam}"),
+            format!("bodies.upper.element={fam}"),
+        ];
+        if form == "paper" {
+            sets.push("contact.0.formulation=paper".into());
+        }
+        let sets: Vec<&str> = sets.iter().map(String::as_str).collect();
         let d = run_case(
-            &format!("slide-flat-{fam}"),
+            &format!("slide-flat-{fam}-{form}"),
             "sliding_flat_2d.toml",
             1,
-            &[
-                &format!("bodies.lower.element={fam}"),
-                &format!("bodies.upper.element={fam}"),
-            ],
+            &sets,
         );
         let load = history_col(&d, "load_factor");
         assert!((load.last().unwrap() - 2.0).abs() < 1e-12, "all stages ran");
-        for pass in ["upper_bottom", "lower_top"] {
+        for pass in passes {
             let px = history_col(&d, &format!("P_slide_{pass}_x"));
             let py = history_col(&d, &format!("P_slide_{pass}_y"));
             let scale = py.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             assert!(
                 scale > 1e-3,
-                "{fam} {pass}: the blocks are pressed together"
+                "{fam} {form} {pass}: the blocks are pressed together"
             );
             for (x, y) in px.iter().zip(&py) {
                 assert!(
                     x.abs() < 1e-12 * scale,
-                    "{fam} {pass}: P_x = {x} with P_y = {y}"
+                    "{fam} {form} {pass}: P_x = {x} with P_y = {y}"
                 );
             }
         }
@@ -147,16 +159,30 @@ fn newton_converges_fast_while_contact_points_cross_element_boundaries() {
         checked >= 20,
         "too few sliding steps with a measurable rate ({checked})"
     );
-    // both half-passes see about the same vertical force, and the cylinder's reaction balances it
+    // the case names no formulation: it runs the default, the one-pass weighted gap, and says so
+    let resolved = std::fs::read_to_string(d.join("case.toml")).unwrap();
+    assert!(
+        resolved.contains("formulation = \"weighted_gap\""),
+        "{resolved}"
+    );
+    // the slave's force balances the cylinder's reaction, and over the slide it stays within 1 %
+    // of its mean (the paper's two-half-pass formulation: 17 % on this mesh; measured here 0.27 %)
     let r = last(&d, "R_cylinder_top_y");
     let p1 = last(&d, "P_ironing_cylinder_arc_y");
-    let p2 = last(&d, "P_ironing_block_top_y");
     assert!(r < -0.1, "the cylinder is pressed into the block: R = {r}");
     assert!((p1 + r).abs() < 1e-8 * r.abs(), "P_1 {p1} vs reaction {r}");
-    assert!(
-        (p1 + p2).abs() < 0.05 * r.abs(),
-        "half-passes differ too much: {p1} vs {p2}"
-    );
+    let load = history_col(&d, "load_factor");
+    let py: Vec<f64> = history_col(&d, "P_ironing_cylinder_arc_y")
+        .into_iter()
+        .zip(&load)
+        .filter(|&(_, &l)| l >= 1.25)
+        .map(|(p, _)| p)
+        .collect();
+    assert!(py.len() >= 30, "{} sliding steps", py.len());
+    let mean = py.iter().sum::<f64>() / py.len() as f64;
+    let range =
+        py.iter().fold(f64::MIN, |m, &p| m.max(p)) - py.iter().fold(f64::MAX, |m, &p| m.min(p));
+    assert!(range < 0.01 * mean, "P_y ranges over {range} about {mean}");
 }
 
 /// Cell centres of the bulk grid [n_cells][3] and the owning rank of each cell.
@@ -193,6 +219,7 @@ fn contact_is_rank_invariant_in_2d_and_3d_with_split_contact_surfaces() {
     // 2D: ironing, depression and a short slide
     let sets = [
         "output.fields=[\"displacement\", \"rank\"]",
+        "contact.0.formulation=paper",
         "stages.1.steps=5",
         "bcs.1.value=[[0.0, -0.6666666666666666], [0.125, -0.6666666666666666]]",
     ];
@@ -245,8 +272,8 @@ fn contact_is_rank_invariant_in_2d_and_3d_with_split_contact_surfaces() {
     // 2D one-pass (master/slave): the master's rows travel through the contact table's scatter
     let one = [
         sets[0],
-        sets[1],
         sets[2],
+        sets[3],
         "contact.0.algorithm=\"one_pass\"",
     ];
     let o1 = run_case("ironing-one-pass-np1", "ironing_2d.toml", 1, &one);
@@ -272,6 +299,7 @@ fn contact_is_rank_invariant_in_2d_and_3d_with_split_contact_surfaces() {
         "bodies.upper.element=Q1N2",
         "meshes.lower.divisions=[6,6,3]",
         "output.fields=[\"displacement\", \"rank\"]",
+        "contact.0.formulation=paper",
     ];
     let d1 = run_case("patch3d-np1", "contact_patch_3d.toml", 1, &sets);
     let d2 = run_case("patch3d-np2", "contact_patch_3d.toml", 2, &sets);
@@ -301,6 +329,7 @@ fn contact_is_rank_invariant_in_2d_and_3d_with_split_contact_surfaces() {
         "meshes.shell.n_thickness=1",
         "stages.0.steps=3",
         "output.fields=[\"displacement\", \"rank\"]",
+        "contact.0.formulation=paper",
     ];
     let h1 = run_case("hemisphere-np1", "hemisphere_block_3d.toml", 1, &sets);
     let h2 = run_case("hemisphere-np2", "hemisphere_block_3d.toml", 2, &sets);

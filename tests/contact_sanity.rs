@@ -147,28 +147,37 @@ fn a_surface_starting_inside_a_rigid_partner_is_warned_of_on_1_and_2_ranks() {
 
 #[test]
 fn a_surface_starting_inside_a_deformable_partner_is_warned_of() {
-    let err = run_case(
-        1,
-        "initial_deformable",
-        "ironing_2d.toml",
-        &[
+    // the default formulation (one-pass) checks its slave's points; the paper's two half-passes
+    // check both surfaces
+    for paper in [false, true] {
+        let mut sets = vec![
             "meshes.cylinder.center=[0.0, 2.95]",
             "stages.0.steps=1",
             "stages.1.steps=1",
             "bcs.1.value=[[0.0, 0.0], [0.0, 0.0]]",
-        ],
-    );
-    assert!(
-        err.contains(
-            "warning: load 0: contact `ironing`: surface `cylinder.arc` starts 4.960e-2 inside \
-             the partner surface `block.top` (in its body)"
-        ),
-        "{err}"
-    );
-    assert!(
-        err.contains("warning: load 0: contact `ironing`: surface `block.top` starts"),
-        "{err}"
-    );
+        ];
+        if paper {
+            sets.push("contact.0.formulation=paper");
+        }
+        let err = run_case(
+            1,
+            &format!("initial_deformable_{paper}"),
+            "ironing_2d.toml",
+            &sets,
+        );
+        assert!(
+            err.contains(
+                "warning: load 0: contact `ironing`: surface `cylinder.arc` starts 4.960e-2 inside \
+                 the partner surface `block.top` (in its body)"
+            ),
+            "{err}"
+        );
+        assert_eq!(
+            err.contains("warning: load 0: contact `ironing`: surface `block.top` starts"),
+            paper,
+            "{err}"
+        );
+    }
 }
 
 #[test]

@@ -564,8 +564,8 @@ fn a_rescued_frictional_step_is_one_increment_from_the_last_equilibrium() {
     // rescued step invalidated everything after it). With SNES limited to `max_it` iterations and
     // no cutbacks, steps that plain Newton needs more iterations for are rescued; their result
     // must be the plain solve's (the same anchors, the same load), to the solver's tolerance.
-    // cases/sliding_flat_2d.toml, friction from the start, a thin upper block slid by `slide`:
-    // points stick at the end (slide 0.01: some slip). Measured before the fix: with max_it = 2 (slide 0.002) the press
+    // cases/sliding_flat_2d.toml with the paper's two half-passes, friction from the start, a thin
+    // upper block slid by `slide`: points stick at the end (slide 0.01: some slip). Measured before the fix: with max_it = 2 (slide 0.002) the press
     // steps are rescued, and points touching during the pseudo-steps got anchors there: the first
     // step carried friction a plain step does not (8 sticking, 4 slipping points instead of none);
     // with max_it = 3 (slide 0.01) the last slide step is rescued: 9 sticking points instead of 8,
@@ -578,6 +578,7 @@ fn a_rescued_frictional_step_is_one_increment_from_the_last_equilibrium() {
             "stages.1.steps=2",
             "meshes.upper.divisions=[6, 1]",
             "steps.max_cutbacks=0",
+            "contact.0.formulation=paper",
         ];
         let plain = run_case(
             &format!("friction-rescue-plain-{max_it}"),

@@ -164,6 +164,7 @@ fn a_predicted_start_that_raises_the_residual_is_given_up_at_once() {
             "meshes.cylinder.n_radial=6",
             "bcs.1.value=[[0.0,-0.6666666666666666],[0.375,-0.6666666666666666]]",
             "stages.1.steps=30",
+            "contact.0.formulation=paper",
             &format!("solver.predictor={p}"),
             "output.plots=false",
         ] {
@@ -237,6 +238,7 @@ fn newton_cycling_at_the_penalty_kink_ends_at_the_stagnation_stop_or_the_iterati
         let sets = [
             "bodies.block.element=Q1C1".to_string(),
             "bodies.cylinder.element=Q1N2".into(),
+            "contact.0.formulation=paper".into(),
             "steps.pseudo_steps=0".into(),
             "bcs.1.value=[[0.0, -0.26666666666666666], [0.0, -0.26666666666666666]]".into(),
             "stages.0.steps=8".into(),

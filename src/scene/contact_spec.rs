@@ -1,6 +1,7 @@
 //! `[[contact]]`: contact pairs of a case. Checked against the model (bodies, face sets, stages)
 //! where the pairs are built, `crate::model::contact`.
 
+use crate::scene::element_family::ElementFamily;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
@@ -46,18 +47,25 @@ pub struct ContactSpec {
     /// pointwise gap, the penalty alone, as the defaults of those keys) or `weighted_gap`
     /// (`algorithm = "one_pass"` with `gap = "weighted"`: the slave's control points carry the
     /// pressure of their weighted gap). `algorithm` or `gap` (with `paper`, `augmented` too) given
-    /// beside it must agree with it. Default: none (`algorithm` and `gap` with their defaults).
+    /// beside it must agree with it. Default, for a pair that gives none of `formulation`,
+    /// `algorithm` and `gap`: `weighted_gap` for a `penalty` pair of two deformable
+    /// NURBS-enriched surfaces (both bodies Q1Np or Q1Np.t); every other pair (adhesion laws, a
+    /// rigid partner, Q1C1, Q1E4, Q1C2 or Q1CH surfaces) takes `algorithm` and `gap` at their
+    /// defaults, the paper's formulation. The resolved case beside the results names
+    /// `weighted_gap` where a pair got it (docs/user-guide/contact-settings.md).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub formulation: Option<FormulationName>,
-    /// `two_half_pass` (default: each surface integrated on its own points, traction on its own
+    /// `two_half_pass` (default when the pair gives `gap` or does not take `weighted_gap` by
+    /// default (see `formulation`): each surface integrated on its own points, traction on its own
     /// body only) or `one_pass` (classic master/slave, the smoother choice in sliding: the first surface is
     /// the slave whose points are integrated, the opposite force goes to the second, the master,
     /// through its shape functions).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schemars(extend("default" = "two_half_pass"))]
     pub algorithm: Option<Algorithm>,
-    /// `penalty`: how the pressure is distributed. `pointwise` (default, eq. 5 at every quadrature
-    /// point, the paper's) or `element_mean`: one pressure per surface element, the mean over the
+    /// `penalty`: how the pressure is distributed. `pointwise` (default when the pair gives
+    /// `algorithm` or does not take `weighted_gap` by default (see `formulation`): eq. 5 at every
+    /// quadrature point, the paper's) or `element_mean`: one pressure per surface element, the mean over the
     /// element of the pointwise pressures `eps_n <-g_N>` (weights `w J0`, over its reference
     /// area), applied at every point of the element. On enriched surfaces it removes the
     /// point-to-point pressure oscillation (more contact points than control points) and with it
@@ -170,6 +178,31 @@ impl ContactSpec {
                 self.gap.unwrap_or_default(),
             ),
         }
+    }
+
+    /// The formulation of a pair that names none (neither `formulation` nor `algorithm` nor
+    /// `gap`): `weighted_gap` for a penalty pair of two deformable NURBS-enriched surfaces (both
+    /// bodies Q1Np or Q1Np.t). Other pairs that name none keep the keys' defaults, the paper's
+    /// formulation, and get `None`: the adhesion laws (the weighted gap is penalty-only), rigid
+    /// partners (one pass either way; there the weighted gap widens the contact), Q1C2 and Q1CH
+    /// (bases that go negative or carry slopes), and faceted Q1C1 or Q1E4 surfaces, on which every
+    /// one-pass weighted gap fails in sliding (ironing mesh 4, the twist; docs/formulations.md). A
+    /// pair that names a formulation or either key gets `None` too. `family` gives a body's
+    /// element family by name (`None` for an unknown body, which the model reports).
+    pub fn default_formulation(
+        &self,
+        family: impl Fn(&str) -> Option<ElementFamily>,
+    ) -> Option<FormulationName> {
+        if self.formulation.is_some() || self.algorithm.is_some() || self.gap.is_some() {
+            return None;
+        }
+        let deformable_pair = self.rigid.is_none() && self.surfaces.len() == 2;
+        let enriched = self.surfaces.iter().all(|s| {
+            let body = s.split_once('.').map_or(s.as_str(), |(b, _)| b);
+            matches!(family(body), Some(ElementFamily::Q1N { .. }))
+        });
+        (self.law == LawKind::Penalty && deformable_pair && enriched)
+            .then_some(FormulationName::WeightedGap)
     }
 
     /// The same pair without `formulation` and without `algorithm` and `gap` at their defaults
@@ -327,4 +360,57 @@ pub enum RigidShapeKind {
     Circle,
     Sphere,
     Cylinder,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec(extra: &str, surfaces: &str) -> ContactSpec {
+        toml::from_str(&format!("surfaces = {surfaces}\n{extra}")).unwrap()
+    }
+
+    #[test]
+    fn only_a_penalty_pair_of_two_enriched_surfaces_naming_no_formulation_gets_the_weighted_gap() {
+        let family = |b: &str| match b {
+            "n2" => Some(ElementFamily::Q1N { p: 2, t: 0 }),
+            "n21" => Some(ElementFamily::Q1N { p: 2, t: 1 }),
+            "c1" => Some(ElementFamily::Q1C1),
+            "c2" => Some(ElementFamily::Q1C2),
+            _ => None,
+        };
+        let penalty = "law = \"penalty\"\neps_n = 10.0";
+        let both = "[\"n2.s\", \"n21.t\"]";
+        assert_eq!(
+            spec(penalty, both).default_formulation(family),
+            Some(FormulationName::WeightedGap)
+        );
+        // augmented and friction keep the default
+        let al = format!("{penalty}\naugmented = {{ tol = 1e-6, max = 9 }}\nmu = 0.2");
+        assert_eq!(
+            spec(&al, both).default_formulation(family),
+            Some(FormulationName::WeightedGap)
+        );
+        // a pair that names a formulation or either key, another law, a rigid partner, a faceted
+        // or Lagrange / Hermite surface, or an unknown body keeps the keys' defaults
+        for (extra, surfaces) in [
+            (format!("{penalty}\nformulation = \"paper\""), both),
+            (format!("{penalty}\nalgorithm = \"two_half_pass\""), both),
+            (format!("{penalty}\ngap = \"pointwise\""), both),
+            ("law = \"van_der_waals\"\na_h = 1.0\nr0 = 0.1".to_string(), both),
+            (penalty.to_string(), "[\"n2.s\", \"c1.t\"]"),
+            (penalty.to_string(), "[\"c2.s\", \"n2.t\"]"),
+            (penalty.to_string(), "[\"n2.s\", \"nobody.t\"]"),
+            (
+                format!("{penalty}\nrigid = {{ shape = \"plane\", point = [0.0, 0.0], normal = [0.0, 1.0] }}"),
+                "[\"n2.s\"]",
+            ),
+        ] {
+            assert_eq!(
+                spec(&extra, surfaces).default_formulation(family),
+                None,
+                "{extra} {surfaces}"
+            );
+        }
+    }
 }

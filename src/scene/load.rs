@@ -80,6 +80,7 @@ pub fn parse_case(text: &str, file: &Path, overrides: &[String]) -> Result<Case,
     let mut case = Case::deserialize(root)
         .map_err(|e| schema_error(&e, text, &original, file, overrides, &created))?;
     case.file = file.to_path_buf();
+    case.name_default_formulations();
     validate(&case).map_err(|e| match e {
         SceneError::Invalid { file, mut issues } => {
             for issue in &mut issues {

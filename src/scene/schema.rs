@@ -72,6 +72,19 @@ impl Case {
         }
     }
 
+    /// Writes the formulation that a contact pair naming none gets
+    /// ([`ContactSpec::default_formulation`](crate::scene::contact_spec::ContactSpec::default_formulation))
+    /// into its `formulation`, so that the resolved case stored beside the results, and a
+    /// checkpoint's, says which formulation ran.
+    pub fn name_default_formulations(&mut self) {
+        let bodies = &self.bodies;
+        for c in &mut self.contact {
+            if let Some(f) = c.default_formulation(|b| bodies.get(b).map(|s| s.element)) {
+                c.formulation = Some(f);
+            }
+        }
+    }
+
     /// The resolved case (after overrides) as TOML, to be stored beside the results.
     pub fn to_toml_string(&self) -> Result<String, crate::scene::SceneError> {
         Ok(toml::to_string(self)?)

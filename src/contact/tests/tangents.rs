@@ -7,7 +7,11 @@ use super::*;
 fn penalty_tangent_matches_central_differences_for_every_2d_family_pair() {
     for block in FAMILIES_2D {
         for disk in FAMILIES_2D {
-            let mut h = Harness::new(&case_2d(block, disk, "law = \"penalty\"\neps_n = 100.0"));
+            let mut h = Harness::new(&case_2d(
+                block,
+                disk,
+                "law = \"penalty\"\neps_n = 100.0\nformulation = \"paper\"",
+            ));
             // a shift of a fraction of an element makes points project across element boundaries
             let u = pressed(&h, 0.08, 0.13, 2e-3, 11);
             let (err, kmax) = tangent_error(&mut h, &u);
@@ -88,7 +92,7 @@ fn penalty_tangent_matches_central_differences_in_3d() {
         let mut h = Harness::new(&case_3d_blocks(
             lower,
             upper,
-            "law = \"penalty\"\neps_n = 100.0",
+            "law = \"penalty\"\neps_n = 100.0\nformulation = \"paper\"",
         ));
         // the upper block's points sit over several lower elements and cross their edges
         let u = pressed_3d(&h, 0.04, [0.11, -0.07], 2e-3, 17);
@@ -100,7 +104,7 @@ fn penalty_tangent_matches_central_differences_in_3d() {
         let mut h = Harness::new(&case_3d_hemisphere(
             lower,
             shell,
-            "law = \"penalty\"\neps_n = 100.0",
+            "law = \"penalty\"\neps_n = 100.0\nformulation = \"paper\"",
         ));
         let u = pressed_3d(&h, 0.06, [0.05, 0.08], 2e-3, 23);
         let (err, kmax) = tangent_error(&mut h, &u);
