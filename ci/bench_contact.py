@@ -44,7 +44,8 @@ def share():
          ["meshes.block.divisions=[160,32]", "meshes.cylinder.n_arc=48", "meshes.cylinder.n_radial=12",
           "stages.1.steps=10", "bcs.1.value=[[0.0, -0.6666666666666666], [0.0625, -0.6666666666666666]]",
           "output.every=1000", "contact.0.formulation=paper"]),
-        ("hemisphere_block_3d.toml, 8^3", "hemisphere_block_3d.toml", ["output.every=1000"]),
+        ("hemisphere_block_3d.toml, 8^3", "hemisphere_block_3d.toml",
+         ["output.every=1000", "contact.0.formulation=paper"]),
     ]
     for label, case, sets in cases:
         for np in (1, 2):

@@ -20,7 +20,7 @@ for n in "${@:-4 8 16 24}"; do
         --out "$d" -q --overwrite --set "meshes.block.divisions=[$n1,$n1,$n1]" \
         --set meshes.shell.n_surface="$n1" --set meshes.shell.n_thickness="$t" --set stages.0.steps=1 \
         --set "bcs.1.value=[[0.0,0.0,-0.05]]" --set solver.linear=iterative --set output.plots=false --set solver.partition="$partition" \
-        --set 'output.fields=["displacement"]' > "$d.log" 2>&1
+        --set 'output.fields=["displacement"]' --set contact.0.formulation=paper > "$d.log" 2>&1
       python3 - "$d" "$n1" "$np" <<'PY'
 import json, sys
 d, n, np = sys.argv[1:]

@@ -29,7 +29,7 @@ ROWS = {
     "hertz_2d": ("hertz_2d.toml", [], False),
     "ironing_2d": ("ironing_2d.toml", ["contact.0.formulation=paper"], False),
     "contact_patch_3d": ("contact_patch_3d.toml", [], False),
-    "hemisphere_block_3d": ("hemisphere_block_3d.toml", [], False),
+    "hemisphere_block_3d": ("hemisphere_block_3d.toml", ["contact.0.formulation=paper"], False),
     "twisting_3d": ("twisting_3d.toml", ["contact.0.formulation=paper"], False),
     "cap_press_gmsh_3d": ("cap_press_gmsh_3d.toml", [], False),
     "block_20": ("block_compression_3d.toml", ["meshes.block.divisions=[20,20,20]"], False),

@@ -162,46 +162,32 @@ fn bad_settings_are_named_by_key() {
     }
 }
 
-/// Two deformable Q1N2 bodies in 2D with Coulomb friction, with the default formulation (one-pass
-/// `weighted_gap`: the slave `upper.bottom` carries the multipliers) and two-half-pass (each
-/// half-pass its own): the augmented pair converges, the penetration of every surface that carries
-/// multipliers ends below `tol`, and rounds are made.
+/// Two deformable Q1C1 bodies in 2D with Coulomb friction (their default formulation is the paper's
+/// two half-passes): the augmented pair converges, each half-pass's
+/// penetration ends below `tol`, and rounds are made (measured: one round in 21 of 46 steps).
 #[test]
 fn two_deformable_bodies_with_friction_meet_the_tolerance() {
-    for (name, extra, cols) in [
-        ("default", None, &["penetration_slide_upper_bottom"][..]),
-        (
-            "thp",
-            Some("contact.0.algorithm=two_half_pass"),
-            &[
-                "penetration_slide_upper_bottom",
-                "penetration_slide_lower_top",
-            ][..],
-        ),
-    ] {
-        let mut sets = vec![
-            "bodies.upper.element=Q1N2",
-            "bodies.lower.element=Q1N2",
+    let d = run_case(
+        "augmented/slide",
+        "sliding_flat_2d.toml",
+        1,
+        &[
             "contact.0.mu=0.3",
             "contact.0.friction_stages=[false, true]",
             "contact.0.augmented={ tol = 1e-6, max = 30 }",
             "output.plots=false",
-        ];
-        sets.extend(extra);
-        let d = run_case(
-            &format!("augmented/slide-{name}"),
-            "sliding_flat_2d.toml",
-            1,
-            &sets,
-        );
-        assert_eq!(summary(&d)["status"], "converged", "{name}");
-        for col in cols {
-            let pen = history_col(&d, col);
-            assert!(pen.iter().all(|&p| p <= 1e-6), "{name} {col}: {pen:?}");
-        }
-        let rounds = history_col(&d, "augmentation_rounds");
-        assert!(rounds.iter().any(|&r| r >= 1.0), "{name}: {rounds:?}");
+        ],
+    );
+    assert_eq!(summary(&d)["status"], "converged");
+    for col in [
+        "penetration_slide_upper_bottom",
+        "penetration_slide_lower_top",
+    ] {
+        let pen = history_col(&d, col);
+        assert!(pen.iter().all(|&p| p <= 1e-6), "{col}: {pen:?}");
     }
+    let rounds = history_col(&d, "augmentation_rounds");
+    assert!(rounds.iter().any(|&r| r >= 1.0), "{rounds:?}");
 }
 
 /// One-pass (the slave's points, or with the mortar gap its control points, carry the
