@@ -11,7 +11,8 @@ One line per evaluation of the contact residual: the load, the points evaluated,
 range of their gaps g_n there, and how many points lie within GAP (default 1e-6) of zero gap. An
 evaluation ends where a point (pass, q) of the same load comes again. With full Newton steps
 (`-snes_linesearch_type basic`) each Newton iterate is one evaluation (a line search adds its trial
-evaluations), so the lines of a load are its iterates.
+evaluations), so the lines of a load are its iterates, and one more line evaluates the converged
+state again.
 """
 import sys
 
