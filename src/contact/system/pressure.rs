@@ -23,6 +23,10 @@ impl ContactSystem {
         let (dim, nt) = (self.dim, self.all_nodes.len());
         let mut fp = vec![0.0; self.surfaces.len() * nt];
         let mut fg = vec![0.0; self.surfaces.len() * nt];
+        // one-pass: the master, which integrates no points of its own, also carries the slave
+        // points' pressure and gap at their projections (`int N^m_A p da` over the slave's
+        // points), so that both surfaces of the pair show the contact zone
+        let mut Nm = Vec::new();
         self.each_surface_point(false, |pair, k, e, qp, N, nu| {
             let el = &self.surfaces[k].elements[e];
             let J = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt();
@@ -36,49 +40,28 @@ impl ContactSystem {
                 fp[k * nt + t] += N[b] * p;
                 fg[k * nt + t] += N[b] * g * J * qp.w;
             }
-        });
-        // one-pass: the master, which integrates no points of its own, carries the slave points'
-        // pressure and gap at their projections (`int N^m_A p da` over the slave's points), so
-        // that both surfaces of the pair show the contact zone
-        let mut Nm = Vec::new();
-        for pair in &self.pairs {
             if pair.def.formulation.passes != Passes::OnePass {
-                continue;
+                return;
             }
-            for pass in &pair.passes {
-                let (k, Partner::Surface(km)) = (pass.k, &pass.partner) else {
-                    continue;
-                };
-                for oe in &pass.elems {
-                    let el = &self.surfaces[k].elements[oe.e as usize];
-                    for qp in &pass.points[oe.first..oe.first + oe.n] {
-                        let Some(proj) = qp.current else {
-                            continue;
-                        };
-                        let (_, _, nu) = crate::contact::surface::frame(
-                            el,
-                            self.dim,
-                            self.pos[k].of(oe.e as usize),
-                            &qp.xi,
-                        );
-                        let J = (nu[0] * nu[0] + nu[1] * nu[1] + nu[2] * nu[2]).sqrt();
-                        let p =
-                            -el.sign * (0..self.dim).map(|c| qp.force[c] * nu[c]).sum::<f64>() / J;
-                        let g = qp
-                            .gap
-                            .unwrap_or(pair.def.search_distance)
-                            .min(pair.def.search_distance);
-                        let mel = &self.surfaces[*km].elements[proj.elem as usize];
-                        basis_values(&mel.basis, &proj.xi, &mut Nm);
-                        for (b, &a) in mel.nodes.iter().enumerate() {
-                            let t = self.node_index(a);
-                            fp[km * nt + t] += Nm[b] * p;
-                            fg[km * nt + t] += Nm[b] * g * J * qp.w;
-                        }
-                    }
-                }
+            let master = pair
+                .def
+                .passes
+                .iter()
+                .find_map(|(s, partner)| match partner {
+                    Partner::Surface(m) if *s == k => Some(*m),
+                    _ => None,
+                });
+            let (Some(km), Some(proj)) = (master, qp.current) else {
+                return;
+            };
+            let mel = &self.surfaces[km].elements[proj.elem as usize];
+            basis_values(&mel.basis, &proj.xi, &mut Nm);
+            for (b, &a) in mel.nodes.iter().enumerate() {
+                let t = self.node_index(a);
+                fp[km * nt + t] += Nm[b] * p;
+                fg[km * nt + t] += Nm[b] * g * J * qp.w;
             }
-        }
+        });
         (fp, fg)
     }
 
