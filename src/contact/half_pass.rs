@@ -93,9 +93,11 @@ pub(crate) struct PointState {
 #[derive(Debug, Clone)]
 pub(crate) struct OwnElem {
     pub(crate) e: u32,
-    /// Points `points[first..first + n]`.
+    /// Points `points[first..first + n]`, in `slots` reserved from `first` (more than `n` where a
+    /// segmented pass placed fewer points than it has room for; the rest have weight 0).
     pub(crate) first: usize,
     pub(crate) n: usize,
+    pub(crate) slots: usize,
     /// Local (ghosted) index of each unknown, [n_nodes * dim].
     pub(crate) local: Vec<u32>,
     /// The element's basis at its points (their surface coordinates never change), evaluated

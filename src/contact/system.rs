@@ -336,7 +336,7 @@ impl ContactSystem {
                 for oe in &pass.elems {
                     let e = oe.e as usize;
                     let el = &self.surfaces[k].elements[e];
-                    for q in oe.first..oe.first + oe.n {
+                    for q in oe.first..oe.first + oe.slots {
                         let qp = &pass.points[q];
                         let (x, _, _) =
                             crate::contact::surface::frame(el, dim, self.pos[k].of(e), &qp.xi);
@@ -350,8 +350,11 @@ impl ContactSystem {
                         out.extend(qp.X);
                         out.extend(x);
                         // an unused segment slot carries no pressure or gap: NaN
-                        let p = if qp.w == 0.0 { f64::NAN } else { p };
-                        out.extend([p, qp.gap.unwrap_or(f64::NAN), state]);
+                        let (p, g) = match qp.w == 0.0 {
+                            true => (f64::NAN, f64::NAN),
+                            false => (p, qp.gap.unwrap_or(f64::NAN)),
+                        };
+                        out.extend([p, g, state]);
                         out.extend(qp.t_t);
                         out.extend(qp.g_t);
                     }

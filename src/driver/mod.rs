@@ -202,6 +202,11 @@ pub fn check_main(case_path: &Path, sets: &[String], petsc_args: Vec<String>) ->
     })
     .map_err(|e| Error::Usage(format!("{}: {e}", case.file.display())))?;
     let sets = model.element_sets(&case.file, &part, 0)?;
+    // each pair's formulation as resolved (a pair that names none got its default)
+    for (i, c) in case.contact.iter().enumerate() {
+        let name = c.name.clone().unwrap_or_else(|| format!("contact.{i}"));
+        println!("contact `{name}`: {}", c.describe());
+    }
     {
         let universe = mpi::initialize().ok_or(Error::Mpi)?;
         let petsc = Petsc::init(&universe.world(), &petsc_args)?;

@@ -184,7 +184,8 @@ impl ContactSpec {
     /// `gap`): `weighted_gap` for a penalty pair of two deformable NURBS-enriched surfaces (both
     /// bodies Q1Np or Q1Np.t). Other pairs that name none keep the keys' defaults, the paper's
     /// formulation, and get `None`: the adhesion laws (the weighted gap is penalty-only), rigid
-    /// partners (one pass either way; there the weighted gap widens the contact), Q1C2 and Q1CH
+    /// partners (one pass either way; there the weighted gap takes fewer Newton iterations but
+    /// loses the 3D and coarse 2D Hertz peaks and widens the contact), Q1C2 and Q1CH
     /// (bases that go negative or carry slopes), and faceted Q1C1 or Q1E4 surfaces, on which every
     /// one-pass weighted gap fails in sliding (ironing mesh 4, the twist; docs/formulations.md). A
     /// pair that names a formulation or either key gets `None` too. `family` gives a body's
@@ -203,6 +204,48 @@ impl ContactSpec {
         });
         (self.law == LawKind::Penalty && deformable_pair && enriched)
             .then_some(FormulationName::WeightedGap)
+    }
+
+    /// The pair's law and formulation in words, as `check` reports it: e.g. `penalty, one-pass,
+    /// weighted gap (formulation = "weighted_gap")`, with the augmented Lagrangian and Coulomb
+    /// friction where set.
+    pub fn describe(&self) -> String {
+        let (a, g) = self.algorithm_and_gap();
+        let mut out = vec![
+            match self.law {
+                LawKind::Penalty => "penalty",
+                LawKind::VanDerWaals => "van der Waals",
+                LawKind::Cohesive => "cohesive",
+            }
+            .to_string(),
+            match a {
+                Algorithm::TwoHalfPass => "two-half-pass",
+                Algorithm::OnePass => "one-pass",
+            }
+            .to_string(),
+            match g {
+                GapMode::Pointwise => "pointwise gap",
+                GapMode::ElementMean => "element-mean gap",
+                GapMode::Weighted => "weighted gap",
+                GapMode::WeightedLinear => "weighted gap (linear weights)",
+                GapMode::WeightedMean => "weighted mean pressure",
+            }
+            .to_string(),
+        ];
+        if self.augmented.is_some() {
+            out.push("augmented Lagrangian".to_string());
+        }
+        if let Some(mu) = self.mu {
+            out.push(format!("Coulomb friction mu = {mu}"));
+        }
+        let mut s = out.join(", ");
+        if let Some(f) = self.formulation {
+            s.push_str(match f {
+                FormulationName::Paper => " (formulation = \"paper\")",
+                FormulationName::WeightedGap => " (formulation = \"weighted_gap\")",
+            });
+        }
+        s
     }
 
     /// The same pair without `formulation` and without `algorithm` and `gap` at their defaults
@@ -368,6 +411,22 @@ mod tests {
 
     fn spec(extra: &str, surfaces: &str) -> ContactSpec {
         toml::from_str(&format!("surfaces = {surfaces}\n{extra}")).unwrap()
+    }
+
+    #[test]
+    fn a_pair_describes_its_law_and_formulation_in_words() {
+        let al = "law = \"penalty\"\neps_n = 10.0\naugmented = { tol = 1e-6, max = 9 }\nmu = 0.2";
+        let mut s = spec(al, "[\"a.s\", \"b.t\"]");
+        assert_eq!(
+            s.describe(),
+            "penalty, two-half-pass, pointwise gap, augmented Lagrangian, Coulomb friction mu = 0.2"
+        );
+        s.formulation = Some(FormulationName::WeightedGap);
+        assert_eq!(
+            s.describe(),
+            "penalty, one-pass, weighted gap, augmented Lagrangian, Coulomb friction mu = 0.2 \
+             (formulation = \"weighted_gap\")"
+        );
     }
 
     #[test]

@@ -57,11 +57,11 @@
 //! too: `-c N^l_b t` of each point of the element, times `eps_n / W_A D_A`, whose columns are those
 //! of other blocks of the element (own-surface elements and other partner elements), so they go
 //! as cross blocks (rows of the partner's block, columns of another block of the same region,
-//! [`crate::assembly::MatrixSink::add_cross`]). In 2D, frictionless, the slave's elements are
-//! integrated over segments between the master's element boundaries (the system's `segments`), so
-//! the master's forces of a uniform pressure are exact on non-matching meshes; in 3D (unless
-//! `NURBS_CONTACT_SEGMENTS_3D=1`) and with friction the slave's element rule runs across those
-//! boundaries and they are not (as for the one-pass pointwise gap).
+//! [`crate::assembly::MatrixSink::add_cross`]). Frictionless, the slave's elements are integrated
+//! over segments between the master's element boundaries (2D) or over the master elements' images
+//! (3D) (the system's `segments`), so the master's forces of a uniform pressure are exact on
+//! non-matching meshes; with friction (or in 3D with `NURBS_CONTACT_SEGMENTS_3D=0`) the slave's
+//! element rule runs across those boundaries and they are not (as for the one-pass pointwise gap).
 //!
 //! `g_A` needs every point of `A`'s support, also those of elements another rank integrates:
 //! each rank keeps a halo of the elements that share a control point with its own ones and
@@ -218,11 +218,13 @@ impl MortarNet {
     /// pressure.
     pub(super) fn begin(&mut self, hp: &HalfPass, all: &[&OwnElem], points: &[QPoint], eps_n: f64) {
         let dim = hp.geo.dim;
-        self.pts.clear();
+        // every point of an element's range is written below; the slots after it (a segmented
+        // pass's unused ones) are never read
         self.pts.resize(points.len(), None);
         for oe in all {
             let x = hp.geo.pos[hp.k].of(oe.e as usize);
             for q in oe.first..oe.first + oe.n {
+                self.pts[q] = None;
                 let xk = oe.position(q, x, dim);
                 if let Some((le, pp)) = hp.partner(points[q].current, &xk, None) {
                     if let Some(pg) = gap_and_normal(dim, &xk, &pp) {

@@ -18,21 +18,43 @@
 //!
 //! Multipliers are load-step history: the solves of a step start from those of the last converged
 //! step, a cut back returns to them, checkpoints keep them.
+//!
+//! The same rounds place the points of 3D segments at the converged state: those placed at a load
+//! step's start and held through its solve are placed again where the converged state's images of
+//! the master elements moved by more than `SETTLE` from them, and Newton solves again (at most
+//! [`SEGMENT_ROUNDS`] times a step), so the answer depends on the load steps only through kinks
+//! left within `SETTLE` of the points' segment boundaries.
 
 use super::ContactSystem;
 use crate::assembly::Augment;
 
+/// Most solves a load step makes again for its 3D segments' placement (a layout that changes
+/// topology between converged states would otherwise alternate).
+const SEGMENT_ROUNDS: usize = 3;
+
 impl ContactSystem {
     /// This rank's largest violation of the contact conditions per pair at the last evaluation
-    /// (0 for pairs without augmentation); empty when no pair is augmented.
+    /// (0 for pairs without augmentation), then with 3D segments each pair's drift of its placed
+    /// points ([`ContactSystem::segment_drift`]); empty when no pair is augmented or segmented in
+    /// 3D.
     pub fn augmentation_violations(&self) -> Vec<f64> {
-        if self
-            .pairs
-            .iter()
-            .all(|p| p.def.formulation.augmented().is_none())
+        let drift = self.segment_drift();
+        if drift.is_empty()
+            && self
+                .pairs
+                .iter()
+                .all(|p| p.def.formulation.augmented().is_none())
         {
             return Vec::new();
         }
+        let mut out = self.multiplier_violations();
+        out.extend(drift);
+        out
+    }
+
+    /// Per pair, the largest violation of the contact conditions at its points at the last
+    /// evaluation (0 without augmentation).
+    fn multiplier_violations(&self) -> Vec<f64> {
         self.pairs
             .iter()
             .map(|pair| {
@@ -63,6 +85,8 @@ impl ContactSystem {
     /// that is not has used its `max` rounds, every augmented point's multiplier becomes its
     /// pressure at the last evaluation. The same decision on every rank.
     pub fn augment(&mut self, violations: &[f64], rounds: usize) -> Augment {
+        let n = self.pairs.len();
+        let (violations, drift) = violations.split_at(n.min(violations.len()));
         let mut satisfied = true;
         for (pair, &v) in self.pairs.iter().zip(violations) {
             let Some(a) = pair.def.formulation.augmented() else {
@@ -82,8 +106,22 @@ impl ContactSystem {
                 ));
             }
         }
+        // the 3D segments' points away from the converged state's layout: placed again
+        let drifted = drift.iter().any(|&d| d > super::segments::SETTLE);
+        if std::env::var_os("NURBS_CONTACT_DEBUG_SEGMENTS").is_some() {
+            eprintln!(
+                "seg3d: load {}: converged with drift {drift:?} after {rounds} rounds",
+                self.lambda
+            );
+        }
+        if drifted && (rounds < SEGMENT_ROUNDS || !satisfied) {
+            self.release_segments(drift);
+        }
         if satisfied {
-            return Augment::Satisfied;
+            return match drifted && rounds < SEGMENT_ROUNDS {
+                true => Augment::Updated,
+                false => Augment::Satisfied,
+            };
         }
         for pair in self
             .pairs

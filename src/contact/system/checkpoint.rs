@@ -25,13 +25,15 @@ fn get2(r: &[f64]) -> Option<(u32, [f64; 2])> {
 }
 
 impl ContactSystem {
-    /// The committed state of every point this rank integrates, [`ROW`] values per point.
+    /// The committed state of every point this rank integrates, [`ROW`] values per point: every
+    /// slot of a segmented element, placed or not (a restart places the points again, each slot's
+    /// projection its warm start).
     pub fn export_points(&self) -> Vec<f64> {
         let mut out = Vec::new();
         for (pi, pair) in self.pairs.iter().enumerate() {
             for (qi, pass) in pair.passes.iter().enumerate() {
                 for el in &pass.elems {
-                    for j in 0..el.n {
+                    for j in 0..el.slots {
                         let q = &pass.points[el.first + j];
                         out.extend_from_slice(&[pi as f64, qi as f64, el.e as f64, j as f64]);
                         out.extend_from_slice(&opt2(q.committed.projection));
@@ -89,7 +91,7 @@ impl ContactSystem {
         for (pi, pair) in self.pairs.iter_mut().enumerate() {
             for (qi, pass) in pair.passes.iter_mut().enumerate() {
                 for el in &pass.elems {
-                    for j in 0..el.n {
+                    for j in 0..el.slots {
                         let Some(&i) = index.get(&(pi, qi, el.e, j)) else {
                             return Err(format!(
                                 "no state for contact pair {pi}, pass {qi}, surface element {}, point {j}",

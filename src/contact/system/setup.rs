@@ -233,6 +233,7 @@ impl ContactSystem {
             e: e as u32,
             first,
             n: points.len() - first,
+            slots: points.len() - first,
             local,
             N: bN,
             dN: bdN,
