@@ -237,21 +237,13 @@ impl ContactSystem {
                             continue;
                         }
                         let (layout, tris) = self.pieces(k, e, l, dist, seg.slots);
-                        let kept = seg.layouts[i].as_ref().is_some_and(|p| {
-                            p.len() == layout.len()
-                                && p.iter().zip(&layout).all(|(a, b)| {
-                                    a.0 == b.0
-                                        && a.1.iter().zip(&b.1).all(|(u, v)| {
-                                            (u[0] - v[0]).abs() <= KEEP
-                                                && (u[1] - v[1]).abs() <= KEEP
-                                        })
-                                })
-                        });
+                        let old = seg.layouts[i].as_ref();
+                        let mv = old.map_or(-1.0, |p| layout_move(p, &layout));
+                        // no corner moved more than KEEP, or the tensor rule then and now (the
+                        // same points)
+                        let kept =
+                            old.is_some() && (mv <= KEEP || (seg.tensor[i] && tris.is_none()));
                         let lam = self.lambda;
-                        let held = seg.moves[i].0 == lam && seg.moves[i].1 >= HOLD;
-                        // the tensor rule then and now: the same points
-                        let same = seg.layouts[i].is_some() && seg.tensor[i] && tris.is_none();
-                        let kept = kept || same || (held && seg.layouts[i].is_some());
                         if !kept {
                             if seg.moves[i].0 == lam {
                                 seg.moves[i].1 += 1;
@@ -260,22 +252,6 @@ impl ContactSystem {
                             }
                         }
                         if !kept && std::env::var_os("NURBS_CONTACT_DEBUG_SEGMENTS").is_some() {
-                            let old = seg.layouts[i].as_ref();
-                            let mv = old.map_or(-1.0, |p| {
-                                if p.len() != layout.len()
-                                    || p.iter().zip(&layout).any(|(a, b)| a.0 != b.0)
-                                {
-                                    return f64::INFINITY;
-                                }
-                                p.iter()
-                                    .zip(&layout)
-                                    .flat_map(|(a, b)| {
-                                        a.1.iter().zip(b.1).map(|(u, v)| {
-                                            (u[0] - v[0]).abs().max((u[1] - v[1]).abs())
-                                        })
-                                    })
-                                    .fold(0.0, f64::max)
-                            });
                             eprintln!("seg3d: load {} element {e} placed again: {} images (was {:?}), moved {mv:e}, {} triangles; {:?} -> {:?}", self.lambda, layout.len(), old.map(|p| p.len()), tris.as_ref().map_or(0, |t| t.iter().map(|c| c.len() - 2).sum::<usize>()), old.map(|p| p.iter().map(|x| x.0).collect::<Vec<_>>()), layout.iter().map(|x| x.0).collect::<Vec<_>>());
                         }
                         if !kept {
