@@ -36,15 +36,18 @@ pub struct CooSink<'a> {
     pub values: &'a mut [f64],
     /// Where the entries of coupling block `slot - first_scattered` go.
     pub scattered: &'a [BlockScatter],
+    /// The COO entry of each entry of the coupling blocks' regions.
+    pub region_map: &'a [u32],
     /// The slot of the first coupling block.
     pub first_scattered: usize,
 }
 
 /// Where a coupling block's entries go in the COO values: blocks that share rows (contact: those
 /// of one surface element) share one dense `[rows][stride]` region from `base`, the union of their
-/// rows and columns, so that PETSc receives each of their matrix entries once instead of once per
-/// block. Entry `(a, b)` of the block is added at `base + rows[a] * stride + cols[b]`; `u32::MAX`
-/// drops a row (constrained, or no unknown) or a column (no unknown).
+/// rows and columns, in the region map, which holds the COO entry of each region entry (regions
+/// that hold the same matrix entry map it to one COO entry). Entry `(a, b)` of the block is added
+/// at COO entry `region_map[base + rows[a] * stride + cols[b]]`; `u32::MAX` drops a row
+/// (constrained, or no unknown) or a column (no unknown).
 #[derive(Debug, Clone, Default)]
 pub struct BlockScatter {
     /// First COO entry of the shared region.
@@ -74,10 +77,10 @@ impl MatrixSink for CooSink<'_> {
             if ra == u32::MAX {
                 continue;
             }
-            let out = &mut self.values[s.base + ra as usize * s.stride..][..s.stride];
+            let at = &self.region_map[s.base + ra as usize * s.stride..][..s.stride];
             for (&cb, &v) in s.cols.iter().zip(&k[a * nc..(a + 1) * nc]) {
                 if cb != u32::MAX {
-                    out[cb as usize] += v;
+                    self.values[at[cb as usize] as usize] += v;
                 }
             }
         }
@@ -105,10 +108,10 @@ impl MatrixSink for CooSink<'_> {
             if ra == u32::MAX {
                 continue;
             }
-            let out = &mut self.values[base + ra as usize * stride..][..stride];
+            let at = &self.region_map[base + ra as usize * stride..][..stride];
             for (&cb, &v) in cmap.iter().zip(&k[a * nc..(a + 1) * nc]) {
                 if cb != u32::MAX {
-                    out[cb as usize] += v;
+                    self.values[at[cb as usize] as usize] += v;
                 }
             }
         }
@@ -184,10 +187,13 @@ mod tests {
         ];
         let offsets = [0, 2, 6];
         let mut values = vec![0.0; 6];
+        // the region's entries are COO entries 2.. in order
+        let region_map: Vec<u32> = (0..6).collect();
         let mut sink = CooSink {
             offsets: &offsets,
             values: &mut values,
             scattered: &scattered,
+            region_map: &region_map,
             first_scattered: 1,
         };
         sink.add_block(1, &rows, &c0, &k0);
@@ -199,6 +205,45 @@ mod tests {
         for (b, &j) in union.iter().enumerate() {
             assert_eq!(values[2 + b], dense.a[j as usize], "column {j}");
         }
+    }
+
+    /// Two regions that hold the same matrix entry map it to one COO entry, which receives the
+    /// sum of both blocks' values there, as the dense matrix does.
+    #[test]
+    fn regions_sharing_a_matrix_entry_add_into_one_coo_entry() {
+        // region 0: row [0] x cols [0, 1]; region 1: row [0] x cols [1, 2]; matrix entry (0, 1)
+        // in both: COO entries 0 (0,0), 1 (0,1), 2 (0,2)
+        let scattered = vec![
+            BlockScatter {
+                base: 0,
+                stride: 2,
+                rows: vec![0],
+                cols: vec![0, 1],
+            },
+            BlockScatter {
+                base: 2,
+                stride: 2,
+                rows: vec![0],
+                cols: vec![0, 1],
+            },
+        ];
+        let region_map = [0, 1, 1, 2];
+        let offsets = [0, 3];
+        let mut values = vec![0.0; 3];
+        let mut sink = CooSink {
+            offsets: &offsets,
+            values: &mut values,
+            scattered: &scattered,
+            region_map: &region_map,
+            first_scattered: 0,
+        };
+        sink.add_block(0, &[0], &[0, 1], &[1.0, 2.0]);
+        sink.add_block(1, &[0], &[1, 2], &[30.0, 40.0]);
+        let mut dense = DenseSink::new(3);
+        dense.add_block(0, &[0], &[0, 1], &[1.0, 2.0]);
+        dense.add_block(1, &[0], &[1, 2], &[30.0, 40.0]);
+        assert_eq!(values, dense.a[..3]);
+        assert_eq!(values, [1.0, 32.0, 40.0]);
     }
 
     /// A cross block (the rows of one block from a row on, the columns of another) lands where
@@ -223,10 +268,12 @@ mod tests {
         ];
         let offsets = [0, 12];
         let mut values = vec![0.0; 12];
+        let region_map: Vec<u32> = (0..12).collect();
         let mut sink = CooSink {
             offsets: &offsets,
             values: &mut values,
             scattered: &scattered,
+            region_map: &region_map,
             first_scattered: 0,
         };
         // rows of block 1 from row 1 (global 1, 2), columns of block 1 from column 2 (global 2, 3)

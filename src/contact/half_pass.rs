@@ -678,7 +678,7 @@ impl HalfPass<'_> {
                 let cols = match key {
                     BlockKey::Own(e2) => self.geo.gdofs[self.k][e2 as usize].clone(),
                     BlockKey::Rigid => own_rows.clone(),
-                    BlockKey::Partner(l_e) => {
+                    BlockKey::Partner(l_e) | BlockKey::Reach(l_e) => {
                         let l = self.l.expect("a partner surface");
                         let mut cols = own_rows.clone();
                         cols.extend_from_slice(&self.geo.gdofs[l][l_e as usize]);
@@ -686,7 +686,7 @@ impl HalfPass<'_> {
                     }
                 };
                 // one-pass: a partner block's rows are the own element's and the partner's (an
-                // own-columns block of the mortar gap keeps the own rows)
+                // own-columns block of the mortar gap, and a `Reach` block, keep the own rows)
                 let rows =
                     if self.pair.formulation.one_pass() && matches!(key, BlockKey::Partner(_)) {
                         &cols
@@ -695,6 +695,9 @@ impl HalfPass<'_> {
                     };
                 if let Some(slot) = slot_of(&c) {
                     sink.add_block(slot, rows, &cols, kb);
+                } else if let Some(slot) = reach_in_partner(slot_of, c) {
+                    // (the pattern reserved the partner's rows too: the own rows are its first)
+                    sink.add_cross((slot, 0), (slot, 0), rows, &cols, kb);
                 }
             }
             // one-pass mortar gap: master rows of a partner element's block times the columns
@@ -704,19 +707,31 @@ impl HalfPass<'_> {
                 let own_rows = &self.geo.gdofs[self.k][e];
                 let (cols, col_from) = match BlockKey::decode(*key) {
                     BlockKey::Own(e2) => (&self.geo.gdofs[self.k][e2 as usize], 0),
-                    BlockKey::Partner(l_e) => (&self.geo.gdofs[l][l_e as usize], own_rows.len()),
+                    BlockKey::Partner(l_e) | BlockKey::Reach(l_e) => {
+                        (&self.geo.gdofs[l][l_e as usize], own_rows.len())
+                    }
                     BlockKey::Rigid => unreachable!("one-pass cross blocks have a master surface"),
                 };
                 let rows = &self.geo.gdofs[l][*le as usize];
+                let col_block = (self.pass_id, oe.e, *key);
                 let (Some(rs), Some(cs)) = (
                     slot_of(&(self.pass_id, oe.e, *le)),
-                    slot_of(&(self.pass_id, oe.e, *key)),
+                    slot_of(&col_block).or_else(|| reach_in_partner(slot_of, col_block)),
                 ) else {
                     continue;
                 };
                 sink.add_cross((rs, own_rows.len()), (cs, col_from), rows, cols, kb);
             }
         }
+    }
+}
+
+/// The slot of the [`BlockKey::Partner`] block with the columns of `Reach` block `c` (the same
+/// columns, and the own element's rows first), where the pattern reserved that instead.
+fn reach_in_partner(slot_of: &SlotOf, c: Coupling) -> Option<usize> {
+    match BlockKey::decode(c.2) {
+        BlockKey::Reach(l_e) => slot_of(&(c.0, c.1, l_e)),
+        _ => None,
     }
 }
 

@@ -104,29 +104,34 @@ pub struct Augmented {
 pub type Coupling = crate::assembly::Block;
 
 /// What a coupling block's columns are: those of the own element and partner element `l`
-/// (one-pass: its rows too), those of the own element against a rigid partner, or (weighted gaps)
-/// those of element `e` of the integrated surface itself. Encoded into the block's third `u32`
-/// only here: partner elements as themselves, the rigid partner as `u32::MAX`, own-surface
-/// elements with the top bit set.
+/// (one-pass: its rows too), the same columns under the own element's rows only (`Reach`: the
+/// one-pass weighted gap's partner elements of points of the own element's neighbours, whose
+/// rows the own element's residual does not reach), those of the own element against a rigid
+/// partner, or (weighted gaps) those of element `e` of the integrated surface itself. Encoded
+/// into the block's third `u32` only here: partner elements as themselves, `Reach` with bit 30
+/// set, the rigid partner as `u32::MAX`, own-surface elements with the top bit set.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum BlockKey {
     Partner(u32),
+    Reach(u32),
     Rigid,
     Own(u32),
 }
 
 const OWN_BIT: u32 = 1 << 31;
+const REACH_BIT: u32 = 1 << 30;
 
 impl BlockKey {
     /// The block's third `u32`.
     pub(crate) fn encode(self) -> u32 {
         match self {
             BlockKey::Partner(l) => {
-                debug_assert!(
-                    l & OWN_BIT == 0,
-                    "partner element {l} beyond the key's range"
-                );
+                debug_assert!(l < REACH_BIT, "partner element {l} beyond the key's range");
                 l
+            }
+            BlockKey::Reach(l) => {
+                debug_assert!(l < REACH_BIT, "partner element {l} beyond the key's range");
+                l | REACH_BIT
             }
             BlockKey::Rigid => u32::MAX,
             BlockKey::Own(e) => {
@@ -143,8 +148,18 @@ impl BlockKey {
             BlockKey::Rigid
         } else if key & OWN_BIT != 0 {
             BlockKey::Own(key & !OWN_BIT)
+        } else if key & REACH_BIT != 0 {
+            BlockKey::Reach(key & !REACH_BIT)
         } else {
             BlockKey::Partner(key)
+        }
+    }
+
+    /// The partner element whose columns the block holds (`Partner` and `Reach`).
+    pub(crate) fn partner(self) -> Option<u32> {
+        match self {
+            BlockKey::Partner(l) | BlockKey::Reach(l) => Some(l),
+            BlockKey::Rigid | BlockKey::Own(_) => None,
         }
     }
 }
@@ -309,7 +324,9 @@ mod block_key_tests {
     fn block_keys_round_trip_and_stay_apart() {
         for k in [
             BlockKey::Partner(0),
-            BlockKey::Partner((1 << 31) - 1),
+            BlockKey::Partner((1 << 30) - 1),
+            BlockKey::Reach(0),
+            BlockKey::Reach((1 << 30) - 1),
             BlockKey::Rigid,
             BlockKey::Own(0),
             BlockKey::Own(17),
@@ -318,6 +335,8 @@ mod block_key_tests {
             assert_eq!(BlockKey::decode(k.encode()), k);
         }
         assert_ne!(BlockKey::Own(5).encode(), BlockKey::Partner(5).encode());
+        assert_ne!(BlockKey::Reach(5).encode(), BlockKey::Partner(5).encode());
+        assert_ne!(BlockKey::Reach(5).encode(), BlockKey::Own(5).encode());
         assert_ne!(
             BlockKey::Own((1 << 31) - 2).encode(),
             BlockKey::Rigid.encode()

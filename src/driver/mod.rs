@@ -761,10 +761,17 @@ fn finish_and_report(
         contact_pattern: asm.coupling_pattern_stats().map(|(ring, missing)| {
             let mut total = 0usize;
             comm.all_reduce_into(&missing, &mut total, SystemOperation::sum());
+            let mut coo_entries = 0u64;
+            comm.all_reduce_into(
+                &(t.coo_entries as u64),
+                &mut coo_entries,
+                SystemOperation::sum(),
+            );
             io::ContactPatternStats {
                 rebuilds: t.pattern_rebuilds,
                 missing_blocks: total,
                 ring,
+                coo_entries,
             }
         }),
         contact_data: contact_data(comm, asm),

@@ -181,6 +181,11 @@ pub struct ContactPatternStats {
     pub missing_blocks: usize,
     /// Side-neighbour rings reserved around each point's partner element.
     pub ring: usize,
+    /// COO entries of the largest pattern a rank built (element, contact and diagonal blocks),
+    /// summed over ranks: the pattern's memory is about 16 bytes per entry in PETSc's COO
+    /// set-up. Absent in summaries written before it existed.
+    #[serde(default)]
+    pub coo_entries: u64,
 }
 
 /// What each rank holds for contact and what it receives per evaluation (the measure of

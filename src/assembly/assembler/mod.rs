@@ -65,6 +65,8 @@ pub struct Timers {
     pub contact_refresh: f64,
     /// Sparsity pattern rebuilds because the coupling set's needed blocks left the pattern.
     pub pattern_rebuilds: usize,
+    /// COO entries of the largest pattern built on this rank.
+    pub coo_entries: usize,
 }
 
 /// Per element set: the element unknowns' local and global indices, flattened.
@@ -558,11 +560,13 @@ impl NonlinearProblem for Assembler<'_> {
                 // coupling blocks add into their shared regions, and reserved blocks that are not
                 // needed now must not keep old values
                 let mut scattered = Vec::new();
+                let mut region_map = Vec::new();
                 let mut first_scattered = usize::MAX;
                 if let Some(c) = &mut self.coupled {
                     let (a, b) = (offsets[c.first_slot], offsets[offsets.len() - 2]);
                     values[a..b].fill(0.0);
                     scattered = std::mem::take(&mut c.block_scatter);
+                    region_map = std::mem::take(&mut c.region_map);
                     first_scattered = c.first_slot;
                 }
                 let res = {
@@ -570,12 +574,14 @@ impl NonlinearProblem for Assembler<'_> {
                         offsets: &offsets,
                         values: &mut values,
                         scattered: &scattered,
+                        region_map: &region_map,
                         first_scattered,
                     };
                     self.guarded_loop(x, Some(&mut sink))
                 };
                 if let Some(c) = &mut self.coupled {
                     c.block_scatter = scattered;
+                    c.region_map = region_map;
                 }
                 // Skew rows' element entries onto the other rows of their node.
                 for &(src, dst, a) in &self.skew_copy {

@@ -38,6 +38,18 @@ fn note_skew(
     }
 }
 
+/// A COO entry's index as the region map stores it.
+fn coo_index(i: usize) -> Result<u32, PetscError> {
+    u32::try_from(i).map_err(|_| PetscError {
+        code: 0,
+        function: "build_pattern",
+        message: format!(
+            "the Jacobian's pattern has {i} entries on one rank, beyond the 2^32 its coupling \
+             regions can address: run on more ranks"
+        ),
+    })
+}
+
 /// The non-negative entries of `lists`, sorted and unique.
 fn sorted_union<'a>(lists: impl Iterator<Item = &'a [PetscInt]>) -> Vec<PetscInt> {
     let mut u: Vec<PetscInt> = lists.flatten().copied().filter(|&g| g >= 0).collect();
@@ -81,9 +93,13 @@ impl Assembler<'_> {
                 // The coupling set's blocks (contact: rows of a surface element, columns of it
                 // and of its partner). Blocks whose keys share the first two components (contact:
                 // the half-pass and the surface element) share one region, the union of their rows
-                // times the union of their columns: the band's blocks of one element overlap in
-                // its own columns and in the control points their partners share, and PETSc would
-                // otherwise sort and sum each of those entries once per block.
+                // times the union of their columns, and the regions' entries are merged before
+                // PETSc sees them: each (row, column) of the regions gets one COO entry, and
+                // `region_map` says which. The regions of neighbouring surface elements overlap
+                // in most of their entries (the weighted gaps' rows reach every column of their
+                // control points' supports), and PETSc would otherwise hold, sort and sum each of
+                // them once per region. Skew rows keep an entry per region (their values are
+                // scaled onto the node's other rows entry by entry).
                 if let Some(c) = &mut self.coupled {
                     c.blocks = match c.preset.take() {
                         Some(p) => p,
@@ -91,6 +107,9 @@ impl Assembler<'_> {
                     };
                     c.first_slot = self.coo_offsets.len() - 1;
                     c.block_scatter.clear();
+                    // per region: its rows that reach the matrix, its columns, its first map entry
+                    let mut regions: Vec<(Vec<PetscInt>, Vec<PetscInt>, usize)> = Vec::new();
+                    let mut map_len = 0;
                     let mut start = 0;
                     while start < c.blocks.len() {
                         let key = (c.blocks[start].0, c.blocks[start].1);
@@ -110,31 +129,72 @@ impl Assembler<'_> {
                             .into_iter()
                             .filter(|&gi| row_target(&self.constrained, &self.skew, gi).0 >= 0)
                             .collect();
-                        let base = rows.len();
-                        for &gi in &kept {
-                            let (row, sk) = row_target(&self.constrained, &self.skew, gi);
-                            for &gj in &all_cols {
-                                if let Some(sr) = sk {
-                                    note_skew(sr, rows.len(), gj, &mut scale, &mut extra);
-                                }
-                                rows.push(row);
-                                cols.push(gj);
-                            }
-                        }
                         let pos = |set: &[PetscInt], g: &i32| {
                             set.binary_search(g).map_or(u32::MAX, |p| p as u32)
                         };
                         for (r, cl) in &dofs {
                             c.block_scatter.push(BlockScatter {
-                                base,
+                                base: map_len,
                                 stride: all_cols.len(),
                                 rows: r.iter().map(|g| pos(&kept, g)).collect(),
                                 cols: cl.iter().map(|g| pos(&all_cols, g)).collect(),
                             });
                         }
-                        self.coo_offsets.push(rows.len());
+                        let n = kept.len() * all_cols.len();
+                        regions.push((kept, all_cols, map_len));
+                        map_len += n;
                         start = end;
                     }
+                    let mut map = vec![u32::MAX; map_len];
+                    // (matrix row, region, row of the region) of the rows merged
+                    let mut merged: Vec<(PetscInt, u32, u32)> = Vec::new();
+                    for (ri, (kept, all_cols, base)) in regions.iter().enumerate() {
+                        for (a, &gi) in kept.iter().enumerate() {
+                            let (row, sk) = row_target(&self.constrained, &self.skew, gi);
+                            let Some(sr) = sk else {
+                                merged.push((row, ri as u32, a as u32));
+                                continue;
+                            };
+                            let at = base + a * all_cols.len();
+                            for (b, &gj) in all_cols.iter().enumerate() {
+                                note_skew(sr, rows.len(), gj, &mut scale, &mut extra);
+                                map[at + b] = coo_index(rows.len())?;
+                                rows.push(row);
+                                cols.push(gj);
+                            }
+                        }
+                    }
+                    merged.sort_unstable();
+                    // the COO entry of each column of the current row (`u32::MAX`: none yet)
+                    let mut entry_of = vec![u32::MAX; self.dofs.n_global()];
+                    let mut touched: Vec<PetscInt> = Vec::new();
+                    let mut i = 0;
+                    while i < merged.len() {
+                        let row = merged[i].0;
+                        let j = i + merged[i..].iter().take_while(|m| m.0 == row).count();
+                        for &(_, ri, a) in &merged[i..j] {
+                            let (_, all_cols, base) = &regions[ri as usize];
+                            let at = base + a as usize * all_cols.len();
+                            for (b, &gj) in all_cols.iter().enumerate() {
+                                let e = &mut entry_of[gj as usize];
+                                if *e == u32::MAX {
+                                    *e = coo_index(rows.len())?;
+                                    touched.push(gj);
+                                    rows.push(row);
+                                    cols.push(gj);
+                                }
+                                map[at + b] = *e;
+                            }
+                        }
+                        for g in touched.drain(..) {
+                            entry_of[g as usize] = u32::MAX;
+                        }
+                        i = j;
+                    }
+                    // (every region's entries lie between the first region's start and here)
+                    self.coo_offsets
+                        .extend(std::iter::repeat_n(rows.len(), regions.len()));
+                    c.region_map = map;
                 }
                 // A final block with the diagonal of every owned row: identity rows of the
                 // constrained unknowns, the pseudo-transient damping (or zero) on the free ones.
@@ -160,6 +220,7 @@ impl Assembler<'_> {
                 }
                 self.skew_scale = scale;
                 self.coo_values = vec![0.0; rows.len()];
+                self.timers.coo_entries = self.timers.coo_entries.max(rows.len());
                 j.set_preallocation_coo(&mut rows, &mut cols)?;
             }
             MatrixAssembly::Preallocated => {

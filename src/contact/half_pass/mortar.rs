@@ -439,6 +439,14 @@ impl MortarNet {
             let f = eps_n / self.w[a];
             let g_master = std::mem::take(&mut work.g_master);
             for (key, vals) in self.d[a].as_ref().expect("built above") {
+                // one-pass: the partner of another element's point only, whose rows this
+                // element's residual does not reach
+                let key = &match BlockKey::decode(*key) {
+                    BlockKey::Partner(le) if one_pass && !partner_of(oe, points, le) => {
+                        BlockKey::Reach(le).encode()
+                    }
+                    _ => *key,
+                };
                 let (ncols, off) = if let BlockKey::Own(_) = BlockKey::decode(*key) {
                     (vals.len(), 0)
                 } else {
@@ -459,7 +467,7 @@ impl MortarNet {
                     }
                 }
                 // one-pass: a partner block holds the partner's rows below the own ones
-                let nrows = if one_pass && !matches!(BlockKey::decode(*key), BlockKey::Own(_)) {
+                let nrows = if one_pass && matches!(BlockKey::decode(*key), BlockKey::Partner(_)) {
                     ncols
                 } else {
                     rows
@@ -628,6 +636,14 @@ pub(super) fn cross_slot(work: &mut Work, le: u32, key: u32, len: usize) -> usiz
     buf.resize(len, 0.0);
     work.n_cross += 1;
     n
+}
+
+/// Whether partner element `le` is the partner (or the closest element beyond the surface's end)
+/// of a point of `oe`: the blocks whose rows the element's residual reaches.
+fn partner_of(oe: &OwnElem, points: &[QPoint], le: u32) -> bool {
+    points[oe.first..oe.first + oe.n]
+        .iter()
+        .any(|qp| qp.current.iter().chain(&qp.edge).any(|p| p.elem == le))
 }
 
 /// The index of the piece keyed `key` in `out`, added with `len` zeros if new.

@@ -8,12 +8,15 @@ impl ContactSystem {
     /// The coupling blocks the current projections need (sorted, unique): an element's rows with
     /// the partner elements of its points (under the mortar gap: of the points of every element
     /// sharing a control point with it, and those elements' own columns), cohesive pairings and
-    /// friction anchors.
+    /// friction anchors. Under the one-pass weighted gap the partners of the other elements'
+    /// points are [`BlockKey::Reach`] blocks: the own element's rows need their columns, but
+    /// only the partners of its own points receive rows from it.
     pub fn couplings(&self) -> Vec<Coupling> {
         let mut out = Vec::new();
         let mut pass_id = 0u32;
         for pair in &self.pairs {
             for pass in &pair.passes {
+                let reach = reach_keys(pair, pass);
                 for (i, oe) in pass.elems.iter().enumerate() {
                     let sources = pass.coupled_elems(i);
                     if pass.mortar.is_some() {
@@ -27,18 +30,26 @@ impl ContactSystem {
                         out.push((pass_id, oe.e, u32::MAX));
                         continue;
                     }
-                    for q in sources.iter().flat_map(|s| s.first..s.first + s.n) {
-                        let qp = &pass.points[q];
-                        // (mortar gaps: a point beyond the partner's end weighs its distance)
-                        for p in qp.current.iter().chain(&qp.edge) {
-                            out.push((pass_id, oe.e, p.elem));
-                        }
-                        if let Some((l, _)) = qp.pairing {
-                            out.push((pass_id, oe.e, l));
-                        }
-                        if let Some(Anchor::Surface(l, _)) = qp.committed.anchor {
-                            if pair.def.friction.is_some() {
-                                out.push((pass_id, oe.e, l));
+                    for s in &sources {
+                        let key = |l: u32| {
+                            if reach && s.e != oe.e {
+                                BlockKey::Reach(l).encode()
+                            } else {
+                                l
+                            }
+                        };
+                        for qp in &pass.points[s.first..s.first + s.n] {
+                            // (mortar gaps: a point beyond the partner's end weighs its distance)
+                            for p in qp.current.iter().chain(&qp.edge) {
+                                out.push((pass_id, oe.e, key(p.elem)));
+                            }
+                            if let Some((l, _)) = qp.pairing {
+                                out.push((pass_id, oe.e, key(l)));
+                            }
+                            if let Some(Anchor::Surface(l, _)) = qp.committed.anchor {
+                                if pair.def.friction.is_some() {
+                                    out.push((pass_id, oe.e, key(l)));
+                                }
                             }
                         }
                     }
@@ -66,6 +77,7 @@ impl ContactSystem {
                     Partner::Surface(l) => Some(l),
                     Partner::Rigid(..) => None,
                 };
+                let reach = reach_keys(pair, pass);
                 for (i, oe) in pass.elems.iter().enumerate() {
                     let sources = pass.coupled_elems(i);
                     if pass.mortar.is_some() {
@@ -79,7 +91,10 @@ impl ContactSystem {
                         out.push((pass_id, oe.e, u32::MAX));
                         continue;
                     };
-                    for q in sources.iter().flat_map(|s| s.first..s.first + s.n) {
+                    for (s, q) in sources
+                        .iter()
+                        .flat_map(|s| (s.first..s.first + s.n).map(move |q| (s.e, q)))
+                    {
                         let qp = &pass.points[q];
                         let anchor = match qp.committed.anchor {
                             Some(Anchor::Surface(la, _)) if pair.def.friction.is_some() => Some(la),
@@ -111,7 +126,20 @@ impl ContactSystem {
                                 }
                                 front = end;
                             }
-                            out.extend(near.iter().map(|&f| (pass_id, oe.e, f)));
+                            // (one-pass weighted gap: the own element's points reserve the
+                            // partner's rows and columns, and its `Reach` key, so that a
+                            // neighbour's point that slides there finds its block too)
+                            if !reach {
+                                out.extend(near.iter().map(|&f| (pass_id, oe.e, f)));
+                                continue;
+                            }
+                            out.extend(
+                                near.iter()
+                                    .map(|&f| (pass_id, oe.e, BlockKey::Reach(f).encode())),
+                            );
+                            if s == oe.e {
+                                out.extend(near.iter().map(|&f| (pass_id, oe.e, f)));
+                            }
                         }
                     }
                 }
@@ -175,20 +203,25 @@ impl ContactSystem {
     }
 
     /// Rows (own element, constrained rows dropped by the caller) and columns of a coupling block:
-    /// those of the own element and its partner element, or (mortar gap) of another element of
-    /// the own surface.
+    /// those of the own element and its partner element (one-pass: the partner's rows too, but
+    /// not under a `Reach` key), or (mortar gap) of another element of the own surface.
     pub fn block_dofs(&self, c: &Coupling) -> (Vec<i32>, Vec<i32>) {
         let (pass, k_e, l_e) = *c;
         let (k, partner, one_pass) = self.pass_surfaces(pass as usize);
         let own = &self.gdofs[k][k_e as usize][..];
-        if let BlockKey::Own(e2) = BlockKey::decode(l_e) {
+        let key = BlockKey::decode(l_e);
+        if let BlockKey::Own(e2) = key {
             return (own.to_vec(), self.gdofs[k][e2 as usize].clone());
         }
         let mut cols = own.to_vec();
-        if let Some(l) = partner {
+        if let (Some(l), Some(l_e)) = (partner, key.partner()) {
             cols.extend_from_slice(&self.gdofs[l][l_e as usize]);
         }
-        let rows = if one_pass { cols.clone() } else { own.to_vec() };
+        let rows = if one_pass && matches!(key, BlockKey::Partner(_)) {
+            cols.clone()
+        } else {
+            own.to_vec()
+        };
         (rows, cols)
     }
 
@@ -223,4 +256,12 @@ impl ContactSystem {
         }
         unreachable!("pass index out of range")
     }
+}
+
+/// Whether a pass keys the partner elements of its elements' neighbours' points as
+/// [`BlockKey::Reach`] blocks (the one-pass weighted gaps against another surface).
+fn reach_keys(pair: &super::Pair, pass: &crate::contact::half_pass::Pass) -> bool {
+    pass.mortar.is_some()
+        && pair.def.formulation.one_pass()
+        && matches!(pass.partner, Partner::Surface(_))
 }
