@@ -530,11 +530,14 @@ pub fn global_search_from(
 }
 
 /// A lower bound of the distance from `x` to element `e` of `s` (0 where none is known): the
-/// element lies in the convex hull of its nodes (NURBS with positive weights, linear faces), so no
-/// point of it is nearer than the nodes' least extent along any unit direction from `x`. The
+/// element lies in the convex hull of its nodes (linear faces) or of its Bezier points (NURBS with
+/// positive weights, [`bezier_points`]; the control points where those do not apply), so no
+/// point of it is nearer than those points' least extent along any unit direction from `x`. The
 /// directions are those from `x` to the iterates of Frank-Wolfe's minimisation of the distance
-/// over the hull, starting at the nodes' centroid; the largest extent is returned (it tends to
-/// the distance to the hull as the iterations go on).
+/// over the hull, starting at the points' centroid; the largest extent is returned (it tends to
+/// the distance to the hull as the iterations go on). The Bezier points of a NURBS element lie
+/// around the element itself, its control points around its neighbours as well: a point near the
+/// element's edge is then no longer within the neighbour's bound.
 #[cfg(test)]
 pub(crate) fn hull_distance_bound(
     s: &ContactSurface,
@@ -557,13 +560,23 @@ pub(crate) fn hull_distance_bound_to(
     enough: f64,
 ) -> f64 {
     let dim = s.dim;
-    if !matches!(
-        s.elements[e].basis,
-        FaceBasis::Nurbs(_) | FaceBasis::Line2 | FaceBasis::Quad4
-    ) {
-        return 0.0;
-    }
-    let y = pos.of(e);
+    let nodes = pos.of(e);
+    let mut bezier = [0.0; 3 * MAX_FACE_NODES];
+    let y = match &s.elements[e].basis {
+        FaceBasis::Line2 | FaceBasis::Quad4 => nodes,
+        FaceBasis::Nurbs(d) => match bezier_points(d, dim, nodes, None, &mut bezier) {
+            Some(n) => &bezier[..n * dim],
+            None => nodes,
+        },
+        _ => return 0.0,
+    };
+    hull_bound_of(y, dim, x, enough)
+}
+
+/// The Frank-Wolfe bound of [`hull_distance_bound`] for the points `y` [n][dim]: a lower bound of
+/// the distance from `x` to their convex hull (0 without points), returned as soon as it exceeds
+/// `enough`.
+fn hull_bound_of(y: &[f64], dim: usize, x: &[f64; 3], enough: f64) -> f64 {
     let n = y.len() / dim;
     if n == 0 {
         return 0.0;
@@ -615,6 +628,109 @@ pub(crate) fn hull_distance_bound_to(
         }
     }
     bound.max(0.0)
+}
+
+/// The Bezier points of a NURBS face with control points `nodes` [n][dim] into `out`, their
+/// number returned: `Q_b = sum_a C_ab w_a P_a / W_b` with `W_b = sum_a C_ab w_a` (`C` the
+/// extraction operator, `N_a = sum_b C_ab B_b`), so that `x(xi) = sum_b B_b W_b Q_b / sum_b B_b
+/// W_b`, a convex combination of the `Q_b` where every `W_b > 0` (the Bernstein polynomials are
+/// non-negative on the element). Points with `W_b = 0` carry no weight and are left out. The
+/// element lies in their hull, a tighter one than its control points' (each `Q_b` is a convex
+/// combination of the control points where `C >= 0`). With `side`, only the points of that side
+/// (the numbering of [`crate::contact::surface::side_coordinates`]): the only Bernstein polynomials
+/// that do not vanish there are theirs, so the side lies in their hull. `None` where some `W_b < 0`
+/// or the sizes do not fit.
+fn bezier_points(
+    d: &crate::fem::enriched::EnrichedElementData,
+    dim: usize,
+    nodes: &[f64],
+    side: Option<usize>,
+    out: &mut [f64],
+) -> Option<usize> {
+    let n = d.weights.len();
+    let (wu, wv) = (d.p + 1, d.q + 1);
+    if n == 0
+        || n != wu * wv
+        || nodes.len() != n * dim
+        || d.extraction.len() != n * n
+        || n * dim > out.len()
+    {
+        return None;
+    }
+    let mut used = 0;
+    for b in 0..n {
+        let (r, t) = (b % wu, b / wu);
+        let on_side = match (dim, side) {
+            (_, None) => true,
+            (2, Some(0)) => r == 0,
+            (2, Some(_)) => r == d.p,
+            (_, Some(0)) => t == 0,
+            (_, Some(1)) => r == d.p,
+            (_, Some(2)) => t == d.q,
+            (_, Some(_)) => r == 0,
+        };
+        if !on_side {
+            continue;
+        }
+        let (mut wb, mut q) = (0.0, [0.0; 3]);
+        for a in 0..n {
+            let c = d.extraction[a * n + b] * d.weights[a];
+            wb += c;
+            for k in 0..dim {
+                q[k] += c * nodes[a * dim + k];
+            }
+        }
+        if wb < 0.0 || !wb.is_finite() {
+            return None;
+        }
+        if wb == 0.0 {
+            continue;
+        }
+        for k in 0..dim {
+            out[used * dim + k] = q[k] / wb;
+        }
+        used += 1;
+    }
+    (used > 0).then_some(used)
+}
+
+/// A lower bound of the distance from `x` to side `side` of element `e` of `s` (the numbering of
+/// [`crate::contact::surface::side_coordinates`]), 0 where none is known: the Frank-Wolfe bound of
+/// [`hull_distance_bound`] for the side's nodes (linear faces) or Bezier points (NURBS), returned
+/// as soon as it exceeds `enough`. A projection held on that side lies no nearer.
+pub(crate) fn side_distance_bound(
+    s: &ContactSurface,
+    pos: &Positions,
+    e: usize,
+    side: usize,
+    x: &[f64; 3],
+    enough: f64,
+) -> f64 {
+    let dim = s.dim;
+    if !pos.has(e) {
+        return 0.0;
+    }
+    let nodes = pos.of(e);
+    let mut y = [0.0; 3 * MAX_FACE_NODES];
+    let n = match &s.elements[e].basis {
+        FaceBasis::Line2 => {
+            let a = if side == 0 { 0 } else { 1 };
+            y[..dim].copy_from_slice(&nodes[a * dim..(a + 1) * dim]);
+            1
+        }
+        FaceBasis::Quad4 => {
+            for (j, a) in [side % 4, (side + 1) % 4].into_iter().enumerate() {
+                y[j * dim..(j + 1) * dim].copy_from_slice(&nodes[a * dim..(a + 1) * dim]);
+            }
+            2
+        }
+        FaceBasis::Nurbs(d) => match bezier_points(d, dim, nodes, Some(side), &mut y) {
+            Some(n) => n,
+            None => return 0.0,
+        },
+        _ => return 0.0,
+    };
+    hull_bound_of(&y[..n * dim], dim, x, enough)
 }
 
 /// [`global_search_from`] that keeps the closest point when it lies beyond the end of the surface

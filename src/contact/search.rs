@@ -204,6 +204,33 @@ impl BinGrid {
         out.sort_unstable();
     }
 
+    /// Elements whose binned box meets `b` on the first `dim` axes, ascending, into `out` (cleared
+    /// first): those of the bins `b` overlaps (each element is binned in every bin its box
+    /// overlaps, so any point the two boxes share lies in a bin of both).
+    pub fn meeting(&self, b: &Aabb, out: &mut Vec<u32>) {
+        out.clear();
+        if self.boxes.is_empty() || b.is_empty() {
+            return;
+        }
+        let (lo, hi) = (self.bin_of(&b.lo), self.bin_of(&b.hi));
+        let n = self.n;
+        for k2 in lo[2]..=hi[2] {
+            for k1 in lo[1]..=hi[1] {
+                for k0 in lo[0]..=hi[0] {
+                    let bin = k0 + n[0] * (k1 + n[1] * k2);
+                    out.extend(
+                        self.items[self.start[bin]..self.start[bin + 1]]
+                            .iter()
+                            .copied()
+                            .filter(|&e| self.boxes[e as usize].meets(b, self.dim)),
+                    );
+                }
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+    }
+
     /// Number of element boxes.
     pub fn len(&self) -> usize {
         self.boxes.len()
@@ -286,6 +313,36 @@ mod tests {
                 found += out.len();
             }
             assert!(found > 0, "dim {dim}: some point has candidates");
+        }
+    }
+
+    #[test]
+    fn bin_grid_finds_exactly_the_boxes_that_meet_a_box() {
+        let mut s = 5u64;
+        for dim in [2, 3] {
+            let boxes: Vec<Aabb> = (0..300).map(|_| random_box(dim, &mut s)).collect();
+            let grid = BinGrid::new(dim, boxes.clone());
+            let mut out = Vec::new();
+            let (mut found, mut missed) = (0, 0);
+            for i in 0..500 {
+                // boxes from a point to several bins wide, some beyond the grid
+                let mut b = Aabb::EMPTY;
+                let c: Vec<f64> = (0..dim).map(|_| 13.0 * lcg(&mut s) - 1.5).collect();
+                b.grow(&c);
+                let w = if i % 5 == 0 { 0.0 } else { 3.0 * lcg(&mut s) };
+                b.grow(&c.iter().map(|v| v + w).collect::<Vec<_>>());
+                grid.meeting(&b, &mut out);
+                let brute: Vec<u32> = (0..boxes.len() as u32)
+                    .filter(|&e| boxes[e as usize].meets(&b, dim))
+                    .collect();
+                assert_eq!(out, brute, "dim {dim} box {b:?}");
+                found += out.len();
+                missed += boxes.len() - out.len();
+            }
+            assert!(
+                found > 0 && missed > 0,
+                "dim {dim}: {found} found, {missed} not"
+            );
         }
     }
 

@@ -220,8 +220,15 @@ impl ContactSystem {
                     el.sign * (0..dim).map(|c| (x[c] - y[c]) * nr[c]).sum::<f64>() <= 0.0
                 });
                 let mut edge = None;
-                if mortar && !penetrating {
-                    let seed = p.filter(|p| p.dist <= dist);
+                let seed = p.filter(|p| p.dist <= dist);
+                // a walk's point within reach that no end of the surface can beat is the answer
+                // of the search below (which would only confirm it)
+                let settled = mortar
+                    && !penetrating
+                    && seed.is_some_and(|w| !sys.end_may_be_closest(l, &x, dist, &w));
+                if settled {
+                    (p, edge) = (seed, None);
+                } else if mortar && !penetrating {
                     let best = sys
                         .closest_partner(l, &x, dist, seed)
                         .map_err(|_| failed(sys))?

@@ -4,7 +4,7 @@
 
 use super::ContactSystem;
 use crate::contact::pair::{PairDef, Partner};
-use crate::contact::projection::{off_the_edge, Projection, ProjectionFailed};
+use crate::contact::projection::{off_the_edge, side_distance_bound, Projection, ProjectionFailed};
 
 /// A point of a pass against a surface partner, as [`ContactSystem::for_each_partner_point`]
 /// hands it out.
@@ -84,6 +84,33 @@ impl ContactSystem {
         // the closest point of the whole surface decides: beyond its end, no partner
         let best = self.closest_partner(l, x, dist, None)?;
         Ok(best.filter(|b| !off_the_edge(&self.surfaces[l], b)))
+    }
+
+    /// Whether the closest point of surface `l` to `x` may lie beyond the surface's end when
+    /// `seed` (a point of the surface within the search distance `dist`, not beyond its end) is
+    /// known: false when no candidate of the global search ([`Self::closest_partner`]) has a side
+    /// without a neighbour within the seed's distance (with a margin far above the search's
+    /// tolerances). The search's closest point is then the seed or a point inside the surface, and
+    /// `closest_partner(l, x, dist, Some(seed))` need not run to tell that it is not beyond the end.
+    pub(super) fn end_may_be_closest(
+        &mut self,
+        l: usize,
+        x: &[f64; 3],
+        dist: f64,
+        seed: &Projection,
+    ) -> bool {
+        self.ensure_grid(l, dist);
+        let grid = self.grids[l].as_ref().expect("built above");
+        let s = &self.surfaces[l];
+        grid.candidates(&x[..s.dim], &mut self.cand);
+        let enough = seed.dist * (1.0 + 1e-8) + 1e-10 * s.h;
+        self.cand.iter().any(|&e| {
+            let el = &s.elements[e as usize];
+            (0..el.neighbours.len()).any(|side| {
+                el.neighbours[side].is_none()
+                    && side_distance_bound(s, &self.pos[l], e as usize, side, x, enough) <= enough
+            })
+        })
     }
 
     /// The closest point of surface `l` to `x` (beyond the surface's end too), from `seed`:

@@ -45,8 +45,10 @@
 #![allow(non_snake_case)]
 
 use super::ContactSystem;
+use crate::contact::basis::FaceBasis;
 use crate::contact::half_pass::QPoint;
 use crate::contact::pair::{PairDef, Partner};
+use crate::contact::search::Aabb;
 use crate::contact::surface::{frame, raw_normal, MAX_FACE_NODES};
 
 /// Samples per element at which the breakpoint functions are evaluated before bisection.
@@ -223,6 +225,7 @@ impl ContactSystem {
                 seg.layouts.resize(n_all, None);
                 seg.tensor.resize(n_all, true);
                 seg.moves.resize(n_all, (f64::NAN, 0));
+                let boxed = self.boxed_in_grid(l);
                 for i in 0..n_all {
                     if self.dim == 3 {
                         let e = {
@@ -236,7 +239,7 @@ impl ContactSystem {
                         {
                             continue;
                         }
-                        let (layout, tris) = self.pieces(k, e, l, dist, seg.slots);
+                        let (layout, tris) = self.pieces(k, e, l, dist, seg.slots, boxed);
                         let old = seg.layouts[i].as_ref();
                         let mv = old.map_or(-1.0, |p| layout_move(p, &layout));
                         // no corner moved more than KEEP, or the tensor rule then and now (the
@@ -311,11 +314,18 @@ impl ContactSystem {
                         continue;
                     };
                     let n_own = ps.elems.len();
+                    let boxed = self.boxed_in_grid(*l);
                     for (i, old) in seg.layouts.iter().enumerate() {
                         let Some(old) = old else { continue };
                         let e = ps.elems.get(i).unwrap_or_else(|| &ps.halo[i - n_own]).e;
-                        let (now, tris) =
-                            self.pieces(ps.k, e as usize, *l, pair.def.search_distance, seg.slots);
+                        let (now, tris) = self.pieces(
+                            ps.k,
+                            e as usize,
+                            *l,
+                            pair.def.search_distance,
+                            seg.slots,
+                            boxed,
+                        );
                         // the tensor rule then and now: the same points, whatever the images
                         let mv = match (seg.tensor[i], tris.is_none()) {
                             (true, true) => 0.0,
@@ -505,7 +515,9 @@ impl ContactSystem {
     /// [`SNAP`] of the element's sides moved onto them), clipped to the element's square, and the
     /// part of the square no image covers; every piece split into triangles. `None`: the element's
     /// own tensor rule (one image covers it, or the images do not tile it).
+    /// `boxed`: [`Self::boxed_in_grid`] of `l`.
     #[allow(clippy::type_complexity)]
+    #[allow(clippy::too_many_arguments)]
     fn pieces(
         &self,
         k: usize,
@@ -513,6 +525,7 @@ impl ContactSystem {
         l: usize,
         dist: f64,
         slots: usize,
+        boxed: bool,
     ) -> (Layout, Option<Vec<Cell>>) {
         let dim = self.dim;
         let el = &self.surfaces[k].elements[e];
@@ -520,18 +533,7 @@ impl ContactSystem {
         // the master elements whose control points' box meets the element's, grown by the search
         // distance and half the element's size (a master whose image misses the element is
         // clipped away, so the set does not decide the layout)
-        let bbox = |x: &[f64]| {
-            let mut lo = [f64::INFINITY; 3];
-            let mut hi = [f64::NEG_INFINITY; 3];
-            for p in x.chunks_exact(dim) {
-                for c in 0..dim {
-                    lo[c] = lo[c].min(p[c]);
-                    hi[c] = hi[c].max(p[c]);
-                }
-            }
-            (lo, hi)
-        };
-        let (mut lo, mut hi) = bbox(xe);
+        let (mut lo, mut hi) = points_box(xe, dim);
         let size = (0..dim)
             .map(|c| (hi[c] - lo[c]).powi(2))
             .sum::<f64>()
@@ -540,14 +542,7 @@ impl ContactSystem {
             lo[c] -= dist + 0.5 * size;
             hi[c] += dist + 0.5 * size;
         }
-        let partners: Vec<u32> = (0..self.surfaces[l].elements.len())
-            .filter(|&f| self.pos[l].has(f))
-            .filter(|&f| {
-                let (a, b) = bbox(self.pos[l].of(f));
-                (0..dim).all(|c| a[c] <= hi[c] && b[c] >= lo[c])
-            })
-            .map(|f| f as u32)
-            .collect();
+        let partners = self.near_masters(l, &lo, &hi, boxed);
         // the corners' images are taken on the bilinear surface through the element's corners,
         // defined far beyond the element (a curved element's own map, extrapolated, is not: the
         // images of distant master corners did not converge and jumped between iterates)
@@ -682,6 +677,56 @@ impl ContactSystem {
         (layout, Some(cells))
     }
 
+    /// Whether the search grid's box of every element of surface `l` holds the box of its nodes
+    /// (bilinear and NURBS faces: their grid box is that box, grown by the search distance; the
+    /// other faces' boxes are sampled).
+    fn boxed_in_grid(&self, l: usize) -> bool {
+        self.surfaces[l]
+            .elements
+            .iter()
+            .all(|el| matches!(el.basis, FaceBasis::Nurbs(_) | FaceBasis::Quad4))
+    }
+
+    /// 3D: the elements of surface `l` with positions on this rank whose nodes' box meets the box
+    /// `lo`..`hi`, ascending: the search grid's elements whose box meets it, where `l` has a grid
+    /// at the current positions and `boxed` ([`Self::boxed_in_grid`]) holds, each tested as
+    /// [`Self::near_masters_by_test`] does; otherwise that test on every element. The same set
+    /// either way.
+    pub(crate) fn near_masters(
+        &self,
+        l: usize,
+        lo: &[f64; 3],
+        hi: &[f64; 3],
+        boxed: bool,
+    ) -> Vec<u32> {
+        let Some(grid) = self.grids[l].as_ref().filter(|_| boxed) else {
+            return self.near_masters_by_test(l, lo, hi);
+        };
+        let mut out = Vec::new();
+        grid.meeting(&Aabb { lo: *lo, hi: *hi }, &mut out);
+        out.retain(|&f| self.meets_box(l, f as usize, lo, hi));
+        out
+    }
+
+    /// [`Self::near_masters`] by testing every element of `l`.
+    pub(crate) fn near_masters_by_test(&self, l: usize, lo: &[f64; 3], hi: &[f64; 3]) -> Vec<u32> {
+        (0..self.surfaces[l].elements.len())
+            .filter(|&f| self.meets_box(l, f, lo, hi))
+            .map(|f| f as u32)
+            .collect()
+    }
+
+    /// Whether this rank holds the positions of element `f` of surface `l` and their box meets
+    /// `lo`..`hi`.
+    fn meets_box(&self, l: usize, f: usize, lo: &[f64; 3], hi: &[f64; 3]) -> bool {
+        let dim = self.dim;
+        if !self.pos[l].has(f) {
+            return false;
+        }
+        let (a, b) = points_box(self.pos[l].of(f), dim);
+        (0..dim).all(|c| a[c] <= hi[c] && b[c] >= lo[c])
+    }
+
     /// 3D: moves the points of element `i` (own, then halo) of pass `si` of pair `pi` onto the
     /// triangles `tris` (`None`: the element's tensor rule), as [`Self::place_points`].
     #[allow(clippy::too_many_arguments)]
@@ -795,6 +840,19 @@ impl ContactSystem {
             net.set_weights(i, phi);
         }
     }
+}
+
+/// The box of the points `x` [n][dim] (unused axes empty).
+fn points_box(x: &[f64], dim: usize) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in x.chunks_exact(dim) {
+        for c in 0..dim {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    (lo, hi)
 }
 
 /// 3D: a cell of a piece's rule: a triangle (the triangle rule) or a convex quadrilateral (the
@@ -1034,7 +1092,8 @@ fn merge_segments(cuts: &mut Vec<f64>, slots: usize) {
 #[cfg(test)]
 mod tests {
     use super::{
-        cell_points, cells_of, clip_convex, merge_segments, signed_area, triangle_rule, Segments,
+        cell_points, cells_of, clip_convex, merge_segments, points_box, signed_area, triangle_rule,
+        Segments,
     };
 
     #[test]
@@ -1134,6 +1193,93 @@ mod tests {
         // a polygon apart from the square leaves nothing
         let apart = [[2.0, 2.0], [3.0, 2.0], [3.0, 3.0], [2.0, 3.0]];
         assert!(clip_convex(&apart, &square).len() < 3);
+    }
+
+    #[test]
+    fn the_grid_finds_the_master_elements_near_a_slave_element_that_testing_every_one_finds() {
+        use crate::contact::pair::Partner;
+        use crate::contact::search::Aabb;
+        let case = r#"
+[case]
+name = "near"
+dim = 3
+[meshes.lower]
+generator = "box"
+origin = [-1.0, -1.0, -1.0]
+size = [2.0, 2.0, 1.0]
+divisions = [5, 5, 1]
+[meshes.shell]
+generator = "hemisphere_nurbs"
+center = [0.0, 0.0, 1.0]
+outer_radius = 1.0
+thickness = 0.3333333333333333
+n_surface = 4
+n_thickness = 1
+[bodies.lower]
+mesh = "lower"
+element = "Q1N2"
+enriched_surface = "zmax"
+[bodies.lower.material]
+model = "neo_hookean"
+E = 1.0
+nu = 0.3
+[bodies.shell]
+mesh = "shell"
+element = "Q1N2"
+enriched_surface = "outer"
+[bodies.shell.material]
+model = "neo_hookean"
+E = 5.0
+nu = 0.3
+[[contact]]
+surfaces = ["shell.outer", "lower.zmax"]
+law = "penalty"
+eps_n = 1.0
+[[stages]]
+name = "s"
+steps = 1
+"#;
+        let mut h = crate::contact::tests::Harness::new(case);
+        let n = h.n();
+        h.eval(&vec![0.0; n], false);
+        let sys = &mut h.sys;
+        let (mut compared, mut proper, mut shrunk_differs) = (0, 0, 0);
+        for pi in 0..sys.pairs.len() {
+            for si in 0..sys.pairs[pi].passes.len() {
+                let (k, Partner::Surface(l)) = (
+                    sys.pairs[pi].passes[si].k,
+                    sys.pairs[pi].passes[si].partner.clone(),
+                ) else {
+                    continue;
+                };
+                sys.ensure_grid(l, sys.pairs[pi].def.search_distance);
+                assert!(sys.boxed_in_grid(l));
+                let n_l = sys.surfaces[l].elements.len();
+                for e in 0..sys.surfaces[k].elements.len() {
+                    let (lo0, hi0) = points_box(sys.pos[k].of(e), 3);
+                    for grow in [-0.3, 0.0, 0.05, 0.3, 1.0, 3.0] {
+                        let lo = lo0.map(|v| v - grow);
+                        let hi = hi0.map(|v| v + grow);
+                        let by_grid = sys.near_masters(l, &lo, &hi, true);
+                        let by_test = sys.near_masters_by_test(l, &lo, &hi);
+                        assert_eq!(by_grid, by_test, "element {e}, grown by {grow}");
+                        compared += 1;
+                        proper += (!by_test.is_empty() && by_test.len() < n_l) as usize;
+                        // the comparison sees a set that misses elements: the grid's elements
+                        // that meet the box's centre only
+                        let c = [0, 1, 2].map(|i| 0.5 * (lo[i] + hi[i]));
+                        let mut at_centre = Vec::new();
+                        let grid = sys.grids[l].as_ref().unwrap();
+                        grid.meeting(&Aabb { lo: c, hi: c }, &mut at_centre);
+                        at_centre.retain(|&f| sys.meets_box(l, f as usize, &lo, &hi));
+                        shrunk_differs += (at_centre != by_test) as usize;
+                    }
+                }
+            }
+        }
+        assert!(compared > 50, "{compared} boxes compared");
+        assert!(proper > 10, "{proper} sets neither empty nor every element");
+        assert!(shrunk_differs > 0, "a smaller query is never told apart");
     }
 
     #[test]
