@@ -330,6 +330,7 @@ pub(super) fn snes_from_options<'p>(
     let mut snes = Snes::new(petsc)?;
     snes.set_tolerances(NEWTON_ATOL, NEWTON_RTOL, NEWTON_STOL, NEWTON_MAX_IT)?;
     snes.set_stagnation_window(case.solver.stagnation_window);
+    snes.set_first_update(case.solver.first_update);
     quiet_errors(|| snes.set_from_options()).map_err(rejected)?;
     let ksp = snes.ksp()?.tolerances()?;
     let problems: Vec<String> = tolerance_problems(&snes.tolerances()?, &ksp)

@@ -83,6 +83,8 @@ pub struct Snes<'p> {
     /// The next solve starts from a guess (the secant predictor's): it is stopped when its first
     /// Newton iteration raises the residual norm ([`Snes::watch_start`]; one solve only).
     watch_start: bool,
+    /// The fraction of each solve's first Newton update that is taken ([`Snes::set_first_update`]).
+    first_update: f64,
     /// The rigid-body modes attached to the Jacobian before every solve (for GAMG).
     near_null: Option<NullSpace<'p>>,
     /// The options choose an iterative linear solver: a PETSc error in a solve is a linear
@@ -138,6 +140,42 @@ struct Context<'a> {
     line_search_domain: bool,
     /// The interface correction to tell the problem's interface after each Jacobian (null: none).
     interface: *mut InterfaceCorrection,
+    /// Jacobians evaluated in this solve: 1 during the first Newton iteration's line search.
+    jacobians: usize,
+    /// The fraction of the first Newton update that is taken ([`Snes::set_first_update`]).
+    first_update: f64,
+}
+
+/// The first Newton iteration of a solve takes the fraction `first_update` of the step its line
+/// search settled on: `w = x + f (w - x)` ([`Snes::set_first_update`]). Returns whether `w`
+/// changed.
+fn shorten_first_update(
+    ctx: &Context,
+    ls: sys::SNESLineSearch,
+    x: sys::Vec,
+    w: sys::Vec,
+) -> Result<bool, sys::PetscErrorCode> {
+    if ctx.jacobians != 1 || ctx.first_update >= 1.0 {
+        return Ok(false);
+    }
+    let f = ctx.first_update;
+    let mut lambda = 0.0;
+    // SAFETY: x and w are valid vectors of the line search and ls the live line search, for the
+    // duration of the post-check that calls this.
+    let err = unsafe {
+        let mut e = sys::VecAXPBY(w, 1.0 - f, f, x);
+        if e == 0 {
+            e = sys::SNESLineSearchGetLambda(ls, &mut lambda);
+        }
+        if e == 0 {
+            e = sys::SNESLineSearchSetLambda(ls, f * lambda);
+        }
+        e
+    };
+    if err != 0 {
+        return Err(err);
+    }
+    Ok(true)
 }
 
 /// Halvings the line search's post-check tries before it leaves an inadmissible step to SNES.
@@ -202,6 +240,7 @@ unsafe extern "C" fn jacobian_trampoline(
     let ctx = unsafe { &mut *(ctx as *mut Context) };
     // a new Newton iteration: its line search starts after this Jacobian
     ctx.line_search_domain = false;
+    ctx.jacobians += 1;
     let xv = unsafe { Vector::borrowed(x) };
     // SAFETY: ctx.jac points to the `Matrix` the caller passed to `solve`, which is not used by the
     // caller while SNESSolve runs; SNES hands back the same Mat we registered, checked here.
@@ -264,6 +303,12 @@ unsafe extern "C" fn post_check_trampoline(
 ) -> sys::PetscErrorCode {
     // SAFETY: ctx is the &mut Context installed by `solve`, alive for the whole SNESSolve.
     let ctx = unsafe { &mut *(ctx as *mut Context) };
+    match shorten_first_update(ctx, ls, x, w) {
+        // SAFETY: changed_w is valid for this call.
+        Ok(true) => unsafe { *changed_w = sys::PetscBool(1) },
+        Ok(false) => {}
+        Err(e) => return e,
+    }
     if !ctx.line_search_domain {
         return 0;
     }
@@ -415,6 +460,7 @@ impl<'p> Snes<'p> {
             history_its,
             stagnation_window: 0,
             watch_start: false,
+            first_update: 1.0,
             near_null: None,
             iterative: false,
             on_direct: false,
@@ -494,6 +540,12 @@ impl<'p> Snes<'p> {
     /// is cut back without spending the rest of the iteration limit.
     pub fn set_stagnation_window(&mut self, window: usize) {
         self.stagnation_window = window;
+    }
+
+    /// Each [`solve`](Self::solve) takes the fraction `f` (in (0, 1]) of its first Newton update,
+    /// after the line search (`[solver] first_update`); 1: the whole update, as SNES alone.
+    pub fn set_first_update(&mut self, f: f64) {
+        self.first_update = f;
     }
 
     /// The next [`solve`](Self::solve) starts from a guess, not from an equilibrium: it stops
@@ -628,6 +680,8 @@ impl<'p> Snes<'p> {
             rose: None,
             line_search_domain: false,
             interface,
+            jacobians: 0,
+            first_update: self.first_update,
         };
         let ctx_ptr = &mut ctx as *mut Context as *mut c_void;
         // SAFETY: ctx outlives SNESSolve (it is on this stack frame); the callbacks are re-registered

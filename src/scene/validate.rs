@@ -42,6 +42,16 @@ pub fn validate(case: &Case) -> Result<(), SceneError> {
             );
         }
     }
+    let f = case.solver.first_update;
+    if !(f > 0.0 && f <= 1.0) {
+        v.push(
+            "solver.first_update",
+            format!(
+                "must be in (0, 1] (the fraction of each solve's first Newton update taken), \
+                 got {f}"
+            ),
+        );
+    }
     let a = case.solver.krylov_accept;
     if !(0.0..1.0).contains(&a) {
         v.push(
@@ -1076,6 +1086,25 @@ mod tests {
         }
         for good in ["0.0", "1e-3", "0.5"] {
             let o = [format!("solver.krylov_accept={good}")];
+            let c = parse_case(BLOCK_COMPRESSION_3D, Path::new("c.toml"), &o);
+            assert!(c.is_ok(), "{good}: {c:?}");
+        }
+    }
+
+    #[test]
+    fn first_update_is_a_fraction_up_to_one() {
+        for bad in ["0.0", "-0.5", "1.5", "nan"] {
+            let i = issues(
+                BLOCK_COMPRESSION_3D,
+                &[&format!("solver.first_update={bad}")],
+            );
+            assert!(
+                has(&i, "solver.first_update", "must be in (0, 1]"),
+                "{bad}: {i:?}"
+            );
+        }
+        for good in ["1.0", "0.5", "1e-3"] {
+            let o = [format!("solver.first_update={good}")];
             let c = parse_case(BLOCK_COMPRESSION_3D, Path::new("c.toml"), &o);
             assert!(c.is_ok(), "{good}: {c:?}");
         }
