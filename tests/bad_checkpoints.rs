@@ -35,7 +35,7 @@ fn checkpointed_run(name: &str) -> (PathBuf, PathBuf) {
 
 /// Rewrites the dataset `name` of `state` (same length) through `change`.
 fn corrupt(state: &Path, name: &str, change: impl FnOnce(&mut Vec<f64>)) {
-    let f = hdf5::File::open_rw(state).unwrap();
+    let f = h5_open_rw(state).unwrap();
     let d = f.dataset(name).unwrap();
     let mut v: Vec<f64> = d.read_raw().unwrap();
     change(&mut v);

@@ -187,7 +187,7 @@ fn newton_converges_fast_while_contact_points_cross_element_boundaries() {
 
 /// Cell centres of the bulk grid [n_cells][3] and the owning rank of each cell.
 fn cells_and_ranks(dir: &Path, dim: usize) -> (Vec<[f64; 3]>, Vec<f64>) {
-    let f = hdf5::File::open(dir.join("results.h5")).unwrap();
+    let f = h5_open(dir.join("results.h5")).unwrap();
     let coords = f
         .dataset("grids/bulk/coordinates")
         .unwrap()

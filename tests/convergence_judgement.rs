@@ -104,3 +104,53 @@ fn ksponly_steps_are_accepted_only_at_newtons_answer() {
         assert!(res.iter().all(|&v| v > 0.0), "{name}: residuals {res:?}");
     }
 }
+
+/// Tolerances tightened below what round-off allows (`-snes_atol`, `-snes_rtol` and
+/// `-snes_stol` at 1e-30) leave every solve iterating at the residual's floor until the
+/// stagnation test or the iteration limit stops it; the state it stops at meets the default
+/// tolerances and is accepted as converged: no step is cut back and the answer is the default
+/// run's. Without that, each such solve would be a failed attempt and the run would end in
+/// cutbacks.
+#[test]
+fn a_solve_stopped_at_the_round_off_floor_is_converged_on_1_and_2_ranks() {
+    let (o, default) = run_case(1, "floor_default", "hertz_2d.toml", &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let tight = [
+        "-snes_atol",
+        "1e-30",
+        "-snes_rtol",
+        "1e-30",
+        "-snes_stol",
+        "1e-30",
+    ];
+    let p_default = history_col(&default, "R_disk_top_y");
+    let steps_default = summary(&default)["newton"]["steps"].as_u64().unwrap();
+    for np in [1, 2] {
+        let (o, out) = run_case(np, &format!("floor_tight_np{np}"), "hertz_2d.toml", &tight);
+        let err = stderr(&o);
+        assert!(o.status.success(), "np {np}:\n{err}");
+        let s = summary(&out);
+        assert_eq!(
+            s["newton"]["steps"].as_u64().unwrap(),
+            steps_default,
+            "np {np}"
+        );
+        assert_eq!(
+            s["newton"]["failed_iterations"].as_u64().unwrap(),
+            0,
+            "np {np}"
+        );
+        assert!(
+            history_col(&out, "cutbacks").iter().all(|&c| c == 0.0),
+            "np {np}"
+        );
+        let p = history_col(&out, "R_disk_top_y");
+        assert_eq!(p.len(), p_default.len());
+        for (a, b) in p.iter().zip(&p_default) {
+            assert!(
+                (a - b).abs() <= 1e-9 * b.abs().max(1e-300),
+                "np {np}: {a} against {b}"
+            );
+        }
+    }
+}

@@ -215,7 +215,7 @@ fn cattaneo_mindlin_stick_zone_of_the_hertz_half_disk() {
     // c/a from the points' positions (results.h5, grid contact_points, last step): on each side
     // a midway between the last active and the first inactive point, c midway between the last
     // sticking and the first slipping point; both sides averaged
-    let f = hdf5::File::open(d.join("results.h5")).expect("open results.h5");
+    let f = h5_open(d.join("results.h5")).expect("open results.h5");
     let x0 = f
         .dataset("grids/contact_points/coordinates")
         .unwrap()
@@ -361,7 +361,7 @@ fn bad_friction_keys_are_named() {
 
 /// One dataset of output step `k` (0-based) of `results.h5`, flattened.
 fn h5_step(dir: &std::path::Path, k: usize, grid: &str, field: &str) -> Vec<f64> {
-    let f = hdf5::File::open(dir.join("results.h5")).expect("open results.h5");
+    let f = h5_open(dir.join("results.h5")).expect("open results.h5");
     let ds = f
         .dataset(&format!("steps/{k:06}/{grid}/{field}"))
         .unwrap_or_else(|e| panic!("dataset {k:06}/{grid}/{field}: {e}"));
@@ -457,7 +457,7 @@ fn friction_on_the_sampled_surface_is_the_l2_projection_of_the_points() {
         assert!(xdmf.contains(f), "{f} not in results.xdmf");
     }
     let x0 = {
-        let f = hdf5::File::open(d.join("results.h5")).expect("open results.h5");
+        let f = h5_open(d.join("results.h5")).expect("open results.h5");
         f.dataset("grids/surface/coordinates")
             .unwrap()
             .read_raw::<f64>()

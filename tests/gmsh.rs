@@ -35,7 +35,7 @@ fn gmsh_hex_cube_reproduces_the_generated_cube() {
     );
     // Same nodes in another order: compare the displacement of each node by its position.
     let pairs = |d: &std::path::Path| {
-        let f = hdf5::File::open(d.join("results.h5")).unwrap();
+        let f = h5_open(d.join("results.h5")).unwrap();
         let x = f
             .dataset("grids/bulk/coordinates")
             .unwrap()

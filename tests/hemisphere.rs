@@ -34,7 +34,7 @@ fn run_file(file: &str, tag: &str, ranks: usize, sets: &[&str]) -> PathBuf {
 
 /// Reference coordinates of an output grid, flattened [n_points][3].
 fn coordinates(dir: &Path, grid: &str) -> Vec<f64> {
-    let f = hdf5::File::open(dir.join("results.h5")).expect("open results.h5");
+    let f = h5_open(dir.join("results.h5")).expect("open results.h5");
     f.dataset(&format!("grids/{grid}/coordinates"))
         .unwrap_or_else(|e| panic!("grids/{grid}/coordinates: {e}"))
         .read_raw::<f64>()

@@ -166,7 +166,7 @@ fn plane_strain_uniaxial_stretch_is_linear_and_exact_q1c1_and_q1e4() {
             );
         }
         // the homogeneous displacement: u_x = eps x, u_y = -nu/(1 - nu) eps y
-        let f = hdf5::File::open(d.join("results.h5")).unwrap();
+        let f = h5_open(d.join("results.h5")).unwrap();
         let x = f
             .dataset("grids/bulk/coordinates")
             .unwrap()

@@ -19,7 +19,7 @@ fn periodic_block_in_simple_shear_is_homogeneous_on_1_and_2_ranks() {
                 "-q",
             ],
         );
-        let f = hdf5::File::open(d.join("results.h5")).unwrap();
+        let f = h5_open(d.join("results.h5")).unwrap();
         let x = f
             .dataset("grids/bulk/coordinates")
             .unwrap()

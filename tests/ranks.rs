@@ -34,7 +34,7 @@ fn assert_irregular_partition(dir: &std::path::Path, dim: usize) {
         ranks.contains(&0.0) && ranks.contains(&1.0),
         "both ranks own cells"
     );
-    let f = hdf5::File::open(dir.join("results.h5")).unwrap();
+    let f = h5_open(dir.join("results.h5")).unwrap();
     let coords = f
         .dataset("grids/bulk/coordinates")
         .unwrap()

@@ -148,7 +148,7 @@ fn run_and_kill(np: usize, case: &Path, sets: &[&str], out: &Path, every: &str) 
 
 /// Every dataset of every step of results.h5 (path, values) and the steps' load factors.
 fn all_results(dir: &Path) -> (Vec<f64>, Vec<(String, Vec<f64>)>) {
-    let f = hdf5::File::open(dir.join("results.h5")).expect("open results.h5");
+    let f = h5_open(dir.join("results.h5")).expect("open results.h5");
     let steps = f.group("steps").expect("steps");
     let mut names = steps.member_names().unwrap();
     names.sort();
@@ -257,7 +257,7 @@ fn q1e4_killed_and_restarted_equals_an_uninterrupted_run_on_1_rank() {
     let (killed, d) = kill_and_restart("q1e4-np1", Some(Q1E4), "", &[], 1, 1, "10", true);
     assert!(d <= 1e-12, "difference {d:e}");
     let ckpt = killed.join("checkpoints").join(&checkpoints(&killed)[0]);
-    let f = hdf5::File::open(ckpt.join("state.h5")).unwrap();
+    let f = h5_open(ckpt.join("state.h5")).unwrap();
     let h = f
         .dataset("element_history")
         .unwrap()
@@ -613,7 +613,7 @@ fn secant_predictor_killed_and_restarted_equals_an_uninterrupted_run() {
     );
     assert!(d <= 1e-12, "difference {d:e}");
     let ckpt = killed.join("checkpoints").join(&checkpoints(&killed)[0]);
-    let f = hdf5::File::open(ckpt.join("state.h5")).unwrap();
+    let f = h5_open(ckpt.join("state.h5")).unwrap();
     let position = f.dataset("position").unwrap().read_raw::<f64>().unwrap();
     assert_eq!(position.len(), 10, "{position:?}");
     // within the sliding stage: the last step's stage and increment are kept

@@ -100,7 +100,7 @@ fn run_file(file: &Path, name: &str, np: usize) -> PathBuf {
 
 /// Reference coordinates and last displacements of the bulk grid, [n][3] each.
 fn bulk(dir: &Path) -> (Vec<f64>, Vec<f64>) {
-    let f = hdf5::File::open(dir.join("results.h5")).expect("open results.h5");
+    let f = h5_open(dir.join("results.h5")).expect("open results.h5");
     let x = f
         .dataset("grids/bulk/coordinates")
         .expect("coordinates")

@@ -134,9 +134,26 @@ pub fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
+/// Opens an HDF5 file read-only without HDF5's file lock. A run spawned by another test while the
+/// file is open inherits its descriptor (HDF5 does not open with close-on-exec), and a lock held
+/// through that descriptor outlives the test's own close: a later run's open of the file would
+/// then fail ("unable to lock file").
+pub fn h5_open(path: impl AsRef<Path>) -> hdf5::Result<hdf5::File> {
+    hdf5::File::with_options()
+        .with_fapl(|p| p.file_locking(false))
+        .open(path)
+}
+
+/// [`h5_open`] for reading and writing.
+pub fn h5_open_rw(path: impl AsRef<Path>) -> hdf5::Result<hdf5::File> {
+    hdf5::File::with_options()
+        .with_fapl(|p| p.file_locking(false))
+        .open_rw(path)
+}
+
 /// Number of output steps in a results.h5.
 pub fn h5_steps(dir: &Path) -> usize {
-    let f = hdf5::File::open(dir.join("results.h5")).expect("open results.h5");
+    let f = h5_open(dir.join("results.h5")).expect("open results.h5");
     f.group("steps")
         .expect("steps group")
         .member_names()
@@ -146,7 +163,7 @@ pub fn h5_steps(dir: &Path) -> usize {
 
 /// A dataset of the last output step of grid `grid`, flattened.
 pub fn h5_last(dir: &Path, grid: &str, field: &str) -> Vec<f64> {
-    let f = hdf5::File::open(dir.join("results.h5")).expect("open results.h5");
+    let f = h5_open(dir.join("results.h5")).expect("open results.h5");
     let steps = f.group("steps").expect("steps group");
     let mut names = steps.member_names().expect("members");
     names.sort_by_key(|n| n.parse::<usize>().unwrap_or(0));
