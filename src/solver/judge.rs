@@ -124,6 +124,68 @@ pub(super) fn judge<'p>(
     )))
 }
 
+/// Whether the code's default tolerances accept a residual norm `norm` of a solve whose first
+/// norm was `first`: `norm <= max(NEWTON_ATOL, NEWTON_RTOL * first)`. NaN is never accepted.
+pub fn within_default_tolerances(norm: f64, first: f64) -> bool {
+    let first = if first.is_finite() { first } else { 0.0 };
+    norm <= NEWTON_ATOL.max(NEWTON_RTOL * first)
+}
+
+/// A solve `out` that SNES ended without converging (stagnation, its iteration limit, a failed
+/// line search) at a state `x` that the code's default tolerances accept: tolerances tightened
+/// below the residual's round-off floor (`-snes_atol 1e-13` on a stiff case) leave Newton
+/// iterating at the floor until the stagnation test stops it, and that state is the converged
+/// one. Only a solve whose last norm SNES computed is already within those tolerances, and that
+/// met no domain error or linear failure, is checked: the residual is evaluated at `x`, and when
+/// its norm is accepted ([`within_default_tolerances`] against the solve's first norm) it
+/// becomes the last entry of `out.residual_history`, `out` is marked converged and its reason
+/// says why; otherwise `out` is left as it was.
+///
+/// Collective.
+pub(super) fn accept_at_floor<'p>(
+    asm: &mut Assembler<'p>,
+    x: &Vector<'p>,
+    out: &mut SolveOutcome,
+) -> Result<(), PetscError> {
+    let (Some(&first), Some(&last)) = (out.residual_history.first(), out.residual_history.last())
+    else {
+        return Ok(());
+    };
+    if out.converged
+        || out.linear_failed
+        || out.domain_error.is_some()
+        || out.iterations == 0
+        || !within_default_tolerances(last, first)
+    {
+        return Ok(());
+    }
+    let mut f = x.duplicate()?;
+    match asm.residual(x, &mut f) {
+        Ok(()) => {}
+        Err(ProblemError::Domain(_)) => return Ok(()),
+        Err(ProblemError::Fatal(message)) => {
+            return Err(PetscError {
+                code: 83,
+                function: "residual evaluation of the convergence check",
+                message,
+            })
+        }
+    }
+    let norm = f.norm2()?;
+    if within_default_tolerances(norm, first) {
+        out.converged = true;
+        out.reason = format!(
+            "{}, at a residual norm of {norm:.3e}, within the default tolerances \
+             (absolute {NEWTON_ATOL:e}, {NEWTON_RTOL:e} of the first norm {first:.3e}): accepted",
+            out.reason
+        );
+        if let Some(l) = out.residual_history.last_mut() {
+            *l = norm;
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -141,5 +203,15 @@ mod tests {
         assert!(!residual_converged(1e-3, 0.1));
         assert!(!residual_converged(f64::NAN, 1.0));
         assert!(!residual_converged(1.0, f64::NAN));
+    }
+
+    #[test]
+    fn the_default_tolerances_accept_what_snes_would_have() {
+        assert!(within_default_tolerances(NEWTON_ATOL, 1e-30));
+        assert!(within_default_tolerances(3e-12, 1.0));
+        assert!(within_default_tolerances(0.9e-6, 1e4));
+        assert!(!within_default_tolerances(2e-6, 1e4));
+        assert!(!within_default_tolerances(f64::NAN, 1.0));
+        assert!(!within_default_tolerances(1e-3, f64::NAN));
     }
 }

@@ -9,7 +9,7 @@ use super::rescue::{PseudoTransient, Rescue};
 use super::sizer::StepSizer;
 use super::{with_overrides, LoadPosition, SolverError, StepControl, StepRecord, System};
 use crate::petsc::{SolveOutcome, Vector};
-use crate::solver::judge::judge;
+use crate::solver::judge::{accept_at_floor, judge};
 use std::time::Instant;
 
 /// The debug switches of the load stepping: environment variables, read once (set: on).
@@ -236,12 +236,15 @@ impl<'c, 'p> Stepper<'c, 'p> {
         }
     }
 
-    /// A Newton solve from `sys.x` and the run's own verdict on it: a solve SNES calls converged
-    /// whose residual is not (an option changed SNES's test) is a failed one.
+    /// A Newton solve from `sys.x` and the run's own verdict on it: a solve that stopped at a state
+    /// the default tolerances accept is converged whatever SNES's reason ([`accept_at_floor`]); a
+    /// solve SNES calls converged whose residual is not (an option changed SNES's test) is a
+    /// failed one.
     ///
     /// Collective.
     fn solve(&self, sys: &mut System<'_, 'p>) -> Result<SolveOutcome, SolverError> {
         let mut out = sys.solve()?;
+        accept_at_floor(sys.asm, sys.x, &mut out)?;
         if out.converged {
             if let Some(why) = judge(sys.asm, sys.x, &mut out, &self.control.newton_overrides)? {
                 out.converged = false;
