@@ -1,11 +1,12 @@
 //! 3D Hertz (`cases/hertz_3d.toml`, a quarter sphere on a rigid flat with `sliding` rollers on both
 //! symmetry planes): the Q1N2 peak of the nominal contact pressure against Hertz's p0 for the run's
-//! own load on the coarsest study mesh, and 1 and 2 ranks agree.
+//! own load on the coarsest study mesh, its profile along the symmetry planes against the one away
+//! from them, and 1 and 2 ranks agree.
 mod common;
 
-/// The Q1N2 peak error on this mesh as measured (+16.10 %, about 3 cells across the contact
+/// The Q1N2 peak error on this mesh as measured (+2.08 %, about 3 cells across the contact
 /// radius; cases/studies/hertz_3d_refinement.toml, mesh8), and the band a change may move it in.
-const PEAK_ERROR: f64 = 0.1610;
+const PEAK_ERROR: f64 = 0.0208;
 const PEAK_BAND: f64 = 0.003;
 use common::*;
 
@@ -14,6 +15,52 @@ fn hertz_p0_sphere(p: f64) -> f64 {
     let e_star = 1.0 / (1.0 - 0.3f64 * 0.3);
     let a = (3.0 * p / (4.0 * e_star)).cbrt();
     3.0 * p / (2.0 * std::f64::consts::PI * a * a)
+}
+
+/// How far the mean relative error of the nominal pressure against Hertz's profile within 5
+/// degrees of a symmetry plane may lie from the one at 20 to 45 degrees (both between 0.1 and
+/// 0.5 contact radii, the `surface` grid of the last step). A projection onto the quarter's own
+/// interpolation, blind to the mirror image, puts the first 8.1 % above the second on this mesh.
+const PROFILE_BAND: f64 = 0.03;
+
+/// The mean of `p / p_hertz(r) - 1` over the `surface` grid's samples between 0.1 and 0.5
+/// contact radii from the contact centre (the line x = y = 0) within 5 degrees of either
+/// symmetry plane, and at 20 to 45 degrees from the nearer one; Hertz's profile for the full load
+/// `full`.
+fn profile_near_and_away_from_the_planes(d: &std::path::Path, full: f64) -> (f64, f64) {
+    let f = hdf5::File::open(d.join("results.h5")).expect("open results.h5");
+    let x = f
+        .dataset("grids/surface/coordinates")
+        .expect("surface coordinates")
+        .read_raw::<f64>()
+        .expect("read coordinates");
+    let p = h5_last(d, "surface", "contact_pressure_nominal");
+    let e_star = 1.0 / (1.0 - 0.3f64 * 0.3);
+    let a = (3.0 * full / (4.0 * e_star)).cbrt();
+    let p0 = hertz_p0_sphere(full);
+    let (mut near, mut away) = (Vec::new(), Vec::new());
+    for (i, &pi) in p.iter().enumerate() {
+        let r = x[3 * i].hypot(x[3 * i + 1]);
+        if !(0.1 * a..=0.5 * a).contains(&r) {
+            continue;
+        }
+        let phi = x[3 * i + 1].atan2(x[3 * i]).to_degrees();
+        let from_plane = phi.min(90.0 - phi);
+        let err = pi / (p0 * (1.0 - (r / a).powi(2)).sqrt()) - 1.0;
+        if from_plane < 5.0 {
+            near.push(err);
+        } else if (20.0..=45.0).contains(&from_plane) {
+            away.push(err);
+        }
+    }
+    assert!(
+        near.len() > 10 && away.len() > 10,
+        "samples {} near, {} away",
+        near.len(),
+        away.len()
+    );
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    (mean(&near), mean(&away))
 }
 
 #[test]
@@ -37,6 +84,21 @@ fn q1n2_peak_pressure_of_the_quarter_sphere_against_hertz_on_1_and_2_ranks() {
     eprintln!(
         "load {full:.6e}, peak {peak:.6e}, error {:+.3} %",
         100.0 * err
+    );
+    // the profile along the symmetry planes as away from them (the projection is the mirrored
+    // whole surface's, symmetric across the planes)
+    let (near, away) = profile_near_and_away_from_the_planes(d, full);
+    eprintln!(
+        "against Hertz's profile: {:+.2} % within 5 degrees of a plane, {:+.2} % at 20 to 45",
+        100.0 * near,
+        100.0 * away
+    );
+    assert!(
+        (near - away).abs() < PROFILE_BAND,
+        "nominal pressure against Hertz's profile: {:+.2} % within 5 degrees of a plane, \
+         {:+.2} % at 20 to 45 degrees",
+        100.0 * near,
+        100.0 * away
     );
     assert!(full > 1.4e-3 && full < 1.7e-3, "full load {full}");
     assert!(

@@ -134,6 +134,7 @@ pub(super) fn contact_fields(
     asm: &Assembler,
     n_nodes: usize,
     root: bool,
+    ties: &[Vec<(u32, u32)>],
 ) -> Option<Vec<(&'static str, usize, Vec<f64>)>> {
     let c = asm.coupling_set::<ContactSystem>()?;
     let (fp, fg) = c.l2_rhs();
@@ -171,10 +172,13 @@ pub(super) fn contact_fields(
     for s in 0..c.surfaces().len() {
         // (field in `out`, component, projection)
         let (ps, gs) = (&sp[s * nt..(s + 1) * nt], &sg[s * nt..(s + 1) * nt]);
+        // the scalar fields are symmetric across a symmetry plane (the traction's components
+        // are not all): projected with the surface's ties
+        let tie: &[(u32, u32)] = ties.get(s).map_or(&[], |t| &t[..]);
         let mut proj = vec![
-            (0, 0, c.l2_project(s, ps, &mc)),
-            (1, 0, c.l2_project(s, ps, &mn)),
-            (2, 0, c.l2_project(s, gs, &mc)),
+            (0, 0, c.l2_project(s, ps, &mc, tie)),
+            (1, 0, c.l2_project(s, ps, &mn, tie)),
+            (2, 0, c.l2_project(s, gs, &mc, tie)),
         ];
         if frictional {
             // blocks of `sf` per surface: the traction's components, stick, slip
@@ -185,7 +189,8 @@ pub(super) fn contact_fields(
                     _ => (5, 0),
                 };
                 let f = &sf[(s * nb + b) * nt..(s * nb + b + 1) * nt];
-                proj.push((field, comp, c.l2_project(s, f, &mc)));
+                let t = if b < dim { &[][..] } else { tie };
+                proj.push((field, comp, c.l2_project(s, f, &mc, t)));
             }
         }
         for t in c.surface_nodes(s) {
@@ -252,6 +257,9 @@ pub(super) struct Output<'p> {
     /// Reference positions of the contact quadrature points ("contact_points" grid, rank 0;
     /// empty without contact) [n][dim].
     pub(super) point_ref: Vec<f64>,
+    /// Per contact surface, the ties of its scalar fields' L2 projections at the symmetry planes
+    /// (the `sliding` conditions' planes) that cut it ([`crate::contact::system::symmetry_ties`]).
+    pub(super) symmetry_ties: Vec<Vec<(u32, u32)>>,
 }
 
 impl<'p> Output<'p> {
@@ -310,6 +318,17 @@ impl<'p> Output<'p> {
                 .flatten()
                 .collect(),
             point_ref,
+            symmetry_ties: {
+                let planes =
+                    crate::contact::system::sliding_planes(&model.skews, &model.coords, dim);
+                model
+                    .contact_surfaces
+                    .iter()
+                    .map(|surf| {
+                        crate::contact::system::symmetry_ties(surf, &planes, &model.coords, dim)
+                    })
+                    .collect()
+            },
         };
         let iterative = super::options::linear_route(case, dofs)
             == crate::scene::schema::LinearSolver::Iterative;
@@ -469,7 +488,7 @@ impl<'p> Output<'p> {
             cells[2 * self.n_cells + g] = rank;
         }
         let root_proc = comm.process_at_rank(0);
-        let contact = contact_fields(asm, self.n_nodes, self.root);
+        let contact = contact_fields(asm, self.n_nodes, self.root, &self.symmetry_ties);
         let points = gather_points(asm);
         if self.root {
             let mut global = vec![0.0; 3 * self.n_cells];

@@ -188,8 +188,18 @@ impl ContactSystem {
     /// pressure, the contact force per reference area, the measure a geometrically linear theory
     /// such as Hertz's predicts; it differs from the current one by the surface stretch). Returns
     /// values per surface node (zero off the surface).
-    pub fn l2_project(&self, s: usize, f: &[f64], mass: &[f64]) -> Vec<f64> {
+    ///
+    /// `ties` (from [`symmetry_ties`], global node ids `(node, representative)`) restrict the
+    /// projection to fields whose value at `node` equals that at `representative`: with the ties
+    /// of a surface cut by symmetry planes the projection is the whole (mirrored) surface's, whose
+    /// field is symmetric. Empty: the projection onto the surface's whole interpolation.
+    pub fn l2_project(&self, s: usize, f: &[f64], mass: &[f64], ties: &[(u32, u32)]) -> Vec<f64> {
         let nt = self.all_nodes.len();
+        // (tied node, its representative) as surface-node indices
+        let tied: Vec<(usize, usize)> = ties
+            .iter()
+            .map(|&(a, r)| (self.node_index(a), self.node_index(r)))
+            .collect();
         let start: usize = self.surfaces[..s]
             .iter()
             .flat_map(|surf| surf.elements.iter().map(|el| el.basis.n_nodes().pow(2)))
@@ -210,9 +220,24 @@ impl ContactSystem {
             blocks.push(Me);
             slots.push(sl);
         }
+        // the tied nodes' unknowns are their representatives': `T^T M T` with `T` the expansion
+        for &(t, r) in &tied {
+            diag[r] += diag[t];
+            diag[t] = 0.0;
+        }
         let on: Vec<bool> = diag.iter().map(|&d| d > 0.0).collect();
-        let apply = |v: &[f64], out: &mut [f64]| {
+        let mut w = vec![0.0; if tied.is_empty() { 0 } else { nt }];
+        let mut apply = |v: &[f64], out: &mut [f64]| {
             out.fill(0.0);
+            let v = if tied.is_empty() {
+                v
+            } else {
+                w.copy_from_slice(v);
+                for &(t, r) in &tied {
+                    w[t] = v[r];
+                }
+                &w[..]
+            };
             for (Me, sl) in blocks.iter().zip(&slots) {
                 let n = sl.len();
                 for a in 0..n {
@@ -223,9 +248,24 @@ impl ContactSystem {
                     out[sl[a]] += acc;
                 }
             }
+            for &(t, r) in &tied {
+                out[r] += out[t];
+                out[t] = 0.0;
+            }
         };
         // preconditioned conjugate gradients on the surface's nodes
         let mut x = vec![0.0; nt];
+        let mut f_t;
+        let f = if tied.is_empty() {
+            f
+        } else {
+            f_t = f.to_vec();
+            for &(t, r) in &tied {
+                f_t[r] += f_t[t];
+                f_t[t] = 0.0;
+            }
+            &f_t[..]
+        };
         let mut r: Vec<f64> = (0..nt).map(|i| if on[i] { f[i] } else { 0.0 }).collect();
         let mut z: Vec<f64> = (0..nt)
             .map(|i| if on[i] { r[i] / diag[i] } else { 0.0 })
@@ -256,6 +296,135 @@ impl ContactSystem {
                 p[i] = z[i] + beta * p[i];
             }
         }
+        for &(t, r) in &tied {
+            x[t] = x[r];
+        }
         x
     }
+}
+
+/// The ties that make the L2 projection on surface `surf` the whole surface's where symmetry
+/// planes cut it: `(node, representative)` pairs of global node ids. A plane is a `sliding`
+/// condition's (normal `n`, through its nodes, which must lie on one plane); an element edge lies
+/// on it when the row of the element's control points along that edge does. The whole surface
+/// continues a NURBS face (degree >= 2 across the edge) smoothly into its mirror image, so a
+/// symmetric field on it has zero slope across the plane: the next row of control values equals
+/// the row on the plane. Rows are tied to rows per element; the ties of two planes meeting at a
+/// corner are merged, each node tied to one representative. Only NURBS faces get ties (a C^0
+/// face's mirror image is continuous without one). `coords`: reference coordinates of the global
+/// nodes [n][dim].
+pub fn symmetry_ties(
+    surf: &crate::contact::surface::ContactSurface,
+    planes: &[([f64; 3], f64)],
+    coords: &[f64],
+    dim: usize,
+) -> Vec<(u32, u32)> {
+    use crate::contact::basis::FaceBasis;
+    use std::collections::BTreeMap;
+    let extent = coords
+        .iter()
+        .fold(0.0f64, |m, &x| m.max(x.abs()))
+        .max(1e-300);
+    let on_plane = |a: u32, (n, c): &([f64; 3], f64)| {
+        let x = &coords[a as usize * dim..(a as usize + 1) * dim];
+        ((0..dim).map(|i| x[i] * n[i]).sum::<f64>() - c).abs() <= 1e-9 * extent
+    };
+    // union-find over global node ids
+    let mut parent: BTreeMap<u32, u32> = BTreeMap::new();
+    fn find(parent: &mut BTreeMap<u32, u32>, a: u32) -> u32 {
+        let mut r = a;
+        while let Some(&p) = parent.get(&r) {
+            if p == r {
+                break;
+            }
+            r = p;
+        }
+        parent.insert(a, r);
+        r
+    }
+    for el in &surf.elements {
+        let FaceBasis::Nurbs(d) = &el.basis else {
+            continue;
+        };
+        let (nu, nv) = (d.p + 1, d.q + 1);
+        let node = |i: usize, j: usize| el.nodes[j * nu + i];
+        // (rows along the edge: the row on the plane and the next one) per edge of the face
+        let mut edges: Vec<(Vec<u32>, Vec<u32>)> = Vec::new();
+        if d.p >= 2 {
+            for (i0, i1) in [(0, 1), (d.p, d.p - 1)] {
+                edges.push((
+                    (0..nv).map(|j| node(i0, j)).collect(),
+                    (0..nv).map(|j| node(i1, j)).collect(),
+                ));
+            }
+        }
+        if d.q >= 2 {
+            for (j0, j1) in [(0, 1), (d.q, d.q - 1)] {
+                edges.push((
+                    (0..nu).map(|i| node(i, j0)).collect(),
+                    (0..nu).map(|i| node(i, j1)).collect(),
+                ));
+            }
+        }
+        for (row, next) in &edges {
+            let cut = planes.iter().any(|pl| {
+                row.iter().all(|&a| on_plane(a, pl)) && next.iter().all(|&a| !on_plane(a, pl))
+            });
+            if !cut {
+                continue;
+            }
+            for (&a, &b) in row.iter().zip(next) {
+                let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+                if ra != rb {
+                    let (lo, hi) = (ra.min(rb), ra.max(rb));
+                    parent.insert(hi, lo);
+                    parent.insert(lo, lo);
+                }
+            }
+        }
+    }
+    let nodes: Vec<u32> = parent.keys().copied().collect();
+    nodes
+        .into_iter()
+        .filter_map(|a| {
+            let r = find(&mut parent, a);
+            (r != a).then_some((a, r))
+        })
+        .collect()
+}
+
+/// The planes of the `sliding` conditions whose nodes lie on one plane: (unit normal, offset
+/// `n . x`), for [`symmetry_ties`]. `coords`: reference coordinates [n][dim].
+pub fn sliding_planes(
+    skews: &[crate::assembly::skew::SkewBc],
+    coords: &[f64],
+    dim: usize,
+) -> Vec<([f64; 3], f64)> {
+    use crate::assembly::skew::SkewKind;
+    let extent = coords
+        .iter()
+        .fold(0.0f64, |m, &x| m.max(x.abs()))
+        .max(1e-300);
+    let mut out = Vec::new();
+    for sk in skews {
+        let SkewKind::Sliding { normal } = &sk.kind else {
+            continue;
+        };
+        let offset = |a: u32| {
+            let x = &coords[a as usize * dim..(a as usize + 1) * dim];
+            (0..dim).map(|i| x[i] * normal[i]).sum::<f64>()
+        };
+        let Some(&first) = sk.nodes.first() else {
+            continue;
+        };
+        let c = offset(first);
+        if sk
+            .nodes
+            .iter()
+            .all(|&a| (offset(a) - c).abs() <= 1e-9 * extent)
+        {
+            out.push((*normal, c));
+        }
+    }
+    out
 }
