@@ -20,7 +20,7 @@ fn hertz_p0_sphere(p: f64) -> f64 {
 /// How far the mean relative error of the nominal pressure against Hertz's profile within 5
 /// degrees of a symmetry plane may lie from the one at 20 to 45 degrees (both between 0.1 and
 /// 0.5 contact radii, the `surface` grid of the last step). A projection onto the quarter's own
-/// interpolation, blind to the mirror image, puts the first 8.1 % above the second on this mesh.
+/// interpolation, blind to the mirror image, puts the first well above the second.
 const PROFILE_BAND: f64 = 0.03;
 
 /// The mean of `p / p_hertz(r) - 1` over the `surface` grid's samples between 0.1 and 0.5
