@@ -28,7 +28,7 @@ const PROFILE_BAND: f64 = 0.03;
 /// symmetry plane, and at 20 to 45 degrees from the nearer one; Hertz's profile for the full load
 /// `full`.
 fn profile_near_and_away_from_the_planes(d: &std::path::Path, full: f64) -> (f64, f64) {
-    let f = hdf5::File::open(d.join("results.h5")).expect("open results.h5");
+    let f = h5_open(d.join("results.h5")).expect("open results.h5");
     let x = f
         .dataset("grids/surface/coordinates")
         .expect("surface coordinates")
