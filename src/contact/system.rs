@@ -341,10 +341,18 @@ impl ContactSystem {
         for pair in &self.pairs {
             for pass in &pair.passes {
                 let k = pass.k;
+                // 3D segments: the set-up points' count per element (the grid's, fixed; an
+                // element grown for more shows its first ones)
+                let shown = pass
+                    .segments
+                    .as_ref()
+                    .filter(|s| s.three_d())
+                    .map(|s| s.per_element());
                 for oe in &pass.elems {
                     let e = oe.e as usize;
                     let el = &self.surfaces[k].elements[e];
-                    for q in oe.first..oe.first + oe.slots {
+                    let n = shown.map_or(oe.slots, |s| s.min(oe.slots));
+                    for q in oe.first..oe.first + n {
                         let qp = &pass.points[q];
                         let (x, _, _) =
                             crate::contact::surface::frame(el, dim, self.pos[k].of(e), &qp.xi);

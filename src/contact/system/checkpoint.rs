@@ -26,8 +26,8 @@ fn get2(r: &[f64]) -> Option<(u32, [f64; 2])> {
 
 impl ContactSystem {
     /// The committed state of every point this rank integrates, [`ROW`] values per point: every
-    /// slot of a segmented element, placed or not (a restart places the points again, each slot's
-    /// projection its warm start).
+    /// slot of a segmented element, placed or not (a restart gives a 3D segmented element as many
+    /// slots again and places the points again, each slot's projection its warm start).
     pub fn export_points(&self) -> Vec<f64> {
         let mut out = Vec::new();
         for (pi, pair) in self.pairs.iter().enumerate() {
@@ -88,6 +88,40 @@ impl ContactSystem {
             .map(|r| ((r[0] as usize, r[1] as usize, r[3] as u32), r[ROW - 1]))
             .collect();
         self.last_update = None;
+        // 3D segments: an element whose placements had grown it gets its rows' room again
+        let mut grown: std::collections::HashMap<(usize, usize, u32), usize> =
+            std::collections::HashMap::new();
+        for &(pi, qi, e, j) in index.keys() {
+            let n = grown.entry((pi, qi, e)).or_insert(0);
+            *n = (*n).max(j + 1);
+        }
+        for (pi, pair) in self.pairs.iter_mut().enumerate() {
+            for (qi, pass) in pair.passes.iter_mut().enumerate() {
+                let Some(most) = pass
+                    .segments
+                    .as_ref()
+                    .filter(|s| s.three_d())
+                    .map(|s| s.most_points())
+                else {
+                    continue;
+                };
+                let mut need = Vec::new();
+                for (i, el) in pass.elems.iter().enumerate() {
+                    let Some(&n) = grown.get(&(pi, qi, el.e)) else {
+                        continue;
+                    };
+                    if n > most {
+                        return Err(format!(
+                            "contact pair {pi}, pass {qi}, surface element {}: state for point {} (its segments hold at most {most})",
+                            el.e,
+                            n - 1
+                        ));
+                    }
+                    need.push((i, n));
+                }
+                super::segments::reserve(pass, &need);
+            }
+        }
         for (pi, pair) in self.pairs.iter_mut().enumerate() {
             for (qi, pass) in pair.passes.iter_mut().enumerate() {
                 for el in &pass.elems {

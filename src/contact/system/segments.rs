@@ -39,8 +39,10 @@
 //! the element's degree (6 points for Q1N2). An element that one image covers, or whose images do
 //! not tile it, keeps its tensor rule. Points are held while every image corner moved less than
 //! [`KEEP`], and for the rest of a load factor once an element was placed [`HOLD`] times at it.
-//! Each element reserves room for the most points its layout may need; the walks over its points
-//! visit only those placed (`OwnElem::n`). This passes the 3D non-matching patch test;
+//! Each element starts with room for its tensor rule's points; a placement that needs more grows
+//! it ([`reserve`]: the pass's points are laid out again, once per update, each element's range
+//! moved), so an element holds the most points its placements have needed so far, and the walks
+//! over its points visit only those placed (`OwnElem::n`). This passes the 3D non-matching patch test;
 //! `docs/formulations.md` has what it costs on Table 4's twist.
 #![allow(non_snake_case)]
 
@@ -105,8 +107,6 @@ pub(crate) struct Segments {
     layouts: Vec<Option<Layout>>,
     /// 3D: per element, whether its points are the tensor rule's (no images cut it).
     tensor: Vec<bool>,
-    /// 3D: points per element.
-    per3: usize,
     /// 3D: per element, the load factor of its last placement and how often it was placed at it.
     moves: Vec<(f64, u32)>,
 }
@@ -116,14 +116,74 @@ pub(crate) struct Segments {
 type Layout = Vec<(u32, [[f64; 2]; 4])>;
 
 impl Segments {
-    /// Points per element.
+    /// Points per element at set-up: in 2D room for every segment, in 3D the tensor rule's (an
+    /// element grows when a placement needs more, [`reserve`]).
     pub(crate) fn per_element(&self) -> usize {
         if self.tri.is_empty() {
             self.slots * self.zeta.len()
         } else {
-            self.per3
+            self.zeta.len() * self.zeta.len()
         }
     }
+
+    /// Whether the pass is integrated over 3D segments (its elements' point counts vary).
+    pub(crate) fn three_d(&self) -> bool {
+        !self.tri.is_empty()
+    }
+
+    /// 3D: the points a placement on `cells` takes (`None`: the tensor rule).
+    fn points_on(&self, cells: Option<&[Cell]>) -> usize {
+        let tensor = self.zeta.len() * self.zeta.len();
+        cells.map_or(tensor, |cs| {
+            cs.iter()
+                .map(|c| if c.len() == 3 { self.tri.len() } else { tensor })
+                .sum()
+        })
+    }
+
+    /// 3D: the most points a placement can take (every triangle of the most the pass allows).
+    pub(crate) fn most_points(&self) -> usize {
+        (self.slots * self.tri.len()).max(self.zeta.len() * self.zeta.len())
+    }
+}
+
+/// Gives element `i` (own, then halo) of `ps` room for at least `n` points for each `(i, n)` of
+/// `need`: where one has less, the pass's points (and the partner bases stored at them) are laid
+/// out again in element order, each element's range moved and the grown ones padded with unused
+/// points (weight 0, no state); the points keep their state and order. Elements never shrink.
+pub(crate) fn reserve(ps: &mut crate::contact::half_pass::Pass, need: &[(usize, usize)]) {
+    let mut want: Vec<usize> = ps.elems.iter().chain(&ps.halo).map(|o| o.slots).collect();
+    let mut grows = false;
+    for &(i, n) in need {
+        if n > want[i] {
+            want[i] = n;
+            grows = true;
+        }
+    }
+    if !grows {
+        return;
+    }
+    let total: usize = want.iter().sum();
+    let old = std::mem::take(&mut ps.points);
+    let mut old_bases = std::mem::take(&mut ps.bases);
+    let keep_bases = !old_bases.is_empty();
+    let mut points = Vec::with_capacity(total);
+    let mut bases = Vec::with_capacity(if keep_bases { total } else { 0 });
+    for (oe, &n) in ps.elems.iter_mut().chain(ps.halo.iter_mut()).zip(&want) {
+        let first = points.len();
+        points.extend_from_slice(&old[oe.first..oe.first + oe.slots]);
+        points.resize(first + n, QPoint::default());
+        if keep_bases {
+            for q in oe.first..oe.first + oe.slots {
+                bases.push(old_bases.get_mut(q).map(std::mem::take).unwrap_or_default());
+            }
+            bases.resize(first + n, Default::default());
+        }
+        oe.first = first;
+        oe.slots = n;
+    }
+    ps.points = points;
+    ps.bases = bases;
 }
 
 /// Whether a pair's pass is integrated over segments: one-pass, a weighted gap, frictionless,
@@ -175,7 +235,6 @@ impl ContactSystem {
             let r = (1.5 * ratio).ceil() + 1.0;
             let slots = (4.0 * r * r).min(MAX_TRIANGLES as f64) as usize;
             let tri = triangle_rule(n_g);
-            let per3 = (slots * tri.len()).max(n_g * n_g);
             return Segments {
                 zeta,
                 wz,
@@ -185,7 +244,6 @@ impl ContactSystem {
                 tri,
                 layouts: Vec::new(),
                 tensor: Vec::new(),
-                per3,
                 moves: Vec::new(),
             };
         }
@@ -198,7 +256,6 @@ impl ContactSystem {
             tri: Vec::new(),
             layouts: Vec::new(),
             tensor: Vec::new(),
-            per3: 0,
             moves: Vec::new(),
         }
     }
@@ -226,6 +283,9 @@ impl ContactSystem {
                 seg.tensor.resize(n_all, true);
                 seg.moves.resize(n_all, (f64::NAN, 0));
                 let boxed = self.boxed_in_grid(l);
+                // 3D: the elements placed again (index, element, cells, images), placed after the
+                // loop once every element has the room its cells need
+                let mut placing: Vec<(usize, usize, Option<Vec<Cell>>, Layout)> = Vec::new();
                 for i in 0..n_all {
                     if self.dim == 3 {
                         let e = {
@@ -258,17 +318,7 @@ impl ContactSystem {
                             eprintln!("seg3d: load {} element {e} placed again: {} images (was {:?}), moved {mv:e}, {} triangles; {:?} -> {:?}", self.lambda, layout.len(), old.map(|p| p.len()), tris.as_ref().map_or(0, |t| t.iter().map(|c| c.len() - 2).sum::<usize>()), old.map(|p| p.iter().map(|x| x.0).collect::<Vec<_>>()), layout.iter().map(|x| x.0).collect::<Vec<_>>());
                         }
                         if !kept {
-                            self.place_points3(
-                                pi,
-                                si,
-                                i,
-                                e,
-                                tris.as_deref(),
-                                &seg,
-                                region.as_ref(),
-                            );
-                            seg.layouts[i] = Some(layout);
-                            seg.tensor[i] = tris.is_none();
+                            placing.push((i, e, tris, layout));
                         }
                         continue;
                     }
@@ -288,6 +338,18 @@ impl ContactSystem {
                         self.place_points(pi, si, i, e, &cuts, &seg, region.as_ref());
                         seg.placed[i] = Some(cuts);
                     }
+                }
+                if !placing.is_empty() {
+                    let need: Vec<(usize, usize)> = placing
+                        .iter()
+                        .map(|(i, _, cells, _)| (*i, seg.points_on(cells.as_deref())))
+                        .collect();
+                    reserve(&mut self.pairs[pi].passes[si], &need);
+                }
+                for (i, e, cells, layout) in placing {
+                    self.place_points3(pi, si, i, e, cells.as_deref(), &seg, region.as_ref());
+                    seg.layouts[i] = Some(layout);
+                    seg.tensor[i] = cells.is_none();
                 }
                 self.pairs[pi].passes[si].segments = Some(seg);
             }
@@ -760,7 +822,8 @@ impl ContactSystem {
     }
 
     /// Moves the points of element `i` (element `e` of its surface) of pass `si` of pair `pi` to
-    /// `pts` (surface coordinates and weights; the element's remaining slots get weight 0): their
+    /// `pts` (surface coordinates and weights; the element's remaining slots get weight 0; it has
+    /// room for them, [`reserve`]): their
     /// basis, reference Jacobian and the weighted gap's weight functions with them.
     #[allow(clippy::too_many_arguments)]
     fn write_points(
@@ -782,13 +845,11 @@ impl ContactSystem {
             .iter()
             .flat_map(|&t| self.X[t as usize * dim..(t as usize + 1) * dim].to_vec())
             .collect();
-        let per = seg.per_element();
         // at least one point, so that the element's basis arrays keep their shape
         if pts.is_empty() {
             pts.push(([0.0, 0.0], 0.0));
         }
         let used = pts.len();
-        debug_assert!(used <= per, "{used} points in {per} slots");
         let (mut N, mut dN, mut ddN) = (
             [0.0; MAX_FACE_NODES],
             [0.0; 2 * MAX_FACE_NODES],
@@ -799,7 +860,11 @@ impl ContactSystem {
         let mut phi = Vec::with_capacity(used * nk);
         let ps = &mut self.pairs[pi].passes[si];
         let n_own = ps.elems.len();
-        let first = ps.elems.get(i).unwrap_or_else(|| &ps.halo[i - n_own]).first;
+        let (first, per) = {
+            let oe = ps.elems.get(i).unwrap_or_else(|| &ps.halo[i - n_own]);
+            (oe.first, oe.slots)
+        };
+        debug_assert!(used <= per, "{used} points in {per} slots");
         for (j, &(xi, w)) in pts.iter().enumerate() {
             el.basis.eval(&xi[..m], &mut N, &mut dN, &mut ddN);
             bN[j * nk..(j + 1) * nk].copy_from_slice(&N[..nk]);
@@ -1146,7 +1211,6 @@ mod tests {
                 tri: triangle_rule(n_g),
                 layouts: Vec::new(),
                 tensor: Vec::new(),
-                per3: 0,
                 moves: Vec::new(),
             };
             let (mut by_cells, mut by_tris) = (Vec::new(), Vec::new());
@@ -1195,10 +1259,9 @@ mod tests {
         assert!(clip_convex(&apart, &square).len() < 3);
     }
 
-    #[test]
-    fn the_grid_finds_the_master_elements_near_a_slave_element_that_testing_every_one_finds() {
-        use crate::contact::pair::Partner;
-        let case = r#"
+    /// A hemispherical shell on a box: its outer surface against the box's top, whose finer
+    /// elements cut the shell's.
+    const SHELL_ON_BOX: &str = r#"
 [case]
 name = "near"
 dim = 3
@@ -1238,7 +1301,79 @@ eps_n = 1.0
 name = "s"
 steps = 1
 "#;
-        let mut h = crate::contact::tests::Harness::new(case);
+
+    #[test]
+    fn an_element_whose_cells_need_more_points_than_it_had_is_grown_and_integrates_exactly() {
+        let mut h = crate::contact::tests::Harness::new(SHELL_ON_BOX);
+        let n = h.n();
+        h.eval(&vec![0.0; n], false);
+        let sys = &h.sys;
+        let (mut grown, mut checked) = (0, 0);
+        for ps in sys.pairs.iter().flat_map(|p| &p.passes) {
+            let Some(seg) = ps.segments.as_ref().filter(|s| s.three_d()) else {
+                continue;
+            };
+            let per = seg.per_element();
+            // the ranges tile the points in element order, each within its room
+            let mut next = 0;
+            for oe in ps.elems.iter().chain(&ps.halo) {
+                assert_eq!(oe.first, next, "element {}", oe.e);
+                assert!(oe.n <= oe.slots && oe.slots >= per, "element {}", oe.e);
+                next += oe.slots;
+            }
+            assert_eq!(next, ps.points.len());
+            for oe in ps.elems.iter().chain(&ps.halo) {
+                grown += (oe.n > per) as usize;
+                // the placed points integrate the element's square [-1, 1]^2: its area and
+                // x^a y^b (degree 4: every cell's rule is exact to it for Q1N2) exactly
+                let pts = &ps.points[oe.first..oe.first + oe.n];
+                for (a, b) in [(0, 0), (2, 0), (0, 2), (2, 2), (4, 0), (1, 1), (3, 1)] {
+                    let moment = |k: i32| {
+                        if k % 2 == 1 {
+                            0.0
+                        } else {
+                            2.0 / f64::from(k + 1)
+                        }
+                    };
+                    let exact = moment(a) * moment(b);
+                    let got: f64 = pts
+                        .iter()
+                        .map(|q| q.w * q.xi[0].powi(a) * q.xi[1].powi(b))
+                        .sum();
+                    assert!(
+                        (got - exact).abs() < 1e-12,
+                        "element {} ({} points): x^{a} y^{b} {got} against {exact}",
+                        oe.e,
+                        oe.n
+                    );
+                }
+                // the rest of its room is unused
+                for q in &ps.points[oe.first + oe.n..oe.first + oe.slots] {
+                    assert_eq!(q.w, 0.0, "element {}", oe.e);
+                }
+                checked += 1;
+            }
+        }
+        assert!(checked > 10, "{checked} elements checked");
+        assert!(grown > 0, "no element placed more than its set-up points");
+        // a fresh system given the checkpoint rows gets the grown elements' room back
+        let rows = h.sys.export_points();
+        let mut fresh = crate::contact::tests::Harness::new(SHELL_ON_BOX);
+        fresh.sys.import_points(&rows).unwrap();
+        let slots = |sys: &crate::contact::ContactSystem| -> Vec<usize> {
+            sys.pairs
+                .iter()
+                .flat_map(|p| &p.passes)
+                .flat_map(|ps| ps.elems.iter().map(|o| o.slots))
+                .collect()
+        };
+        assert_eq!(slots(&fresh.sys), slots(&h.sys));
+    }
+
+    #[test]
+    fn the_grid_finds_the_master_elements_near_a_slave_element_that_testing_every_one_finds() {
+        use crate::contact::pair::Partner;
+        let mut h = crate::contact::tests::Harness::new(SHELL_ON_BOX);
         let n = h.n();
         h.eval(&vec![0.0; n], false);
         let sys = &mut h.sys;
