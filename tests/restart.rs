@@ -569,10 +569,10 @@ fn augmented_multipliers_killed_and_restarted_equal_an_uninterrupted_run() {
     assert!(d <= 1e-12, "difference {d:e}");
 }
 
-/// The mortar gap's multipliers live on the control points (rows keyed by global node in the
+/// The weighted gap's multipliers live on the control points (rows keyed by global node in the
 /// checkpoint): a restart that lost them would take other rounds.
 #[test]
-fn mortar_multipliers_killed_and_restarted_equal_an_uninterrupted_run() {
+fn weighted_gap_multipliers_killed_and_restarted_equal_an_uninterrupted_run() {
     let sets = [
         "contact.0.eps_n=1e2",
         "contact.0.gap=weighted",
@@ -581,7 +581,7 @@ fn mortar_multipliers_killed_and_restarted_equal_an_uninterrupted_run() {
         "output.plots=false",
     ];
     let (_, d) = kill_and_restart(
-        "mortar-augmented-np1",
+        "weighted-gap-augmented-np1",
         None,
         "hertz_2d.toml",
         &sets,

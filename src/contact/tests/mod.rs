@@ -20,7 +20,7 @@ use std::path::Path;
 
 mod element_mean;
 mod friction;
-mod mortar;
+mod weighted_gap;
 mod projection;
 mod rigid;
 mod tangents;

@@ -1,4 +1,4 @@
-//! The mortar gap (`gap = "weighted"`) end to end: the contact patch test on non-matching meshes in
+//! The weighted gap (`gap = "weighted"`) end to end: the contact patch test on non-matching meshes in
 //! 2D and 3D, Hertz at one refinement, the same answer on 1 and 2 ranks (halo elements across the
 //! METIS split), the augmented Lagrangian on the control points, `weighted_linear` on a Q1C2
 //! surface, Coulomb friction with `weighted_mean`, the scope refused by key, PETSc's own
@@ -8,7 +8,7 @@ mod common;
 use common::*;
 
 #[test]
-fn mortar_gap_passes_the_contact_patch_test_in_2d_and_3d() {
+fn weighted_gap_passes_the_contact_patch_test_in_2d_and_3d() {
     // non-matching meshes pressed together: homogeneous compression, the same pressure at every
     // point of both surfaces, and each half-pass carrying the load the top reaction measures
     // (measured: uniform to 2e-12 in 2D, 6e-12 in 3D)
@@ -23,7 +23,7 @@ fn mortar_gap_passes_the_contact_patch_test_in_2d_and_3d() {
             ("Q1N2", "weighted_mean"),
         ] {
             let d = run_case(
-                &format!("mortar/patch-{dim}d-{fam}-{gap}"),
+                &format!("weighted_gap/patch-{dim}d-{fam}-{gap}"),
                 file,
                 1,
                 &[
@@ -66,7 +66,7 @@ fn mortar_gap_passes_the_contact_patch_test_in_2d_and_3d() {
 }
 
 #[test]
-fn one_pass_mortar_passes_the_contact_patch_test_alike_on_1_and_2_ranks() {
+fn one_pass_weighted_gap_passes_the_contact_patch_test_alike_on_1_and_2_ranks() {
     // one-pass: the slave (upper) surface's control points carry the pressure, the master takes
     // the opposite traction at the slave's points. On matching meshes the slave's pressure is
     // uniform. On the non-matching ones it is uniform in 2D, where the slave's elements are
@@ -114,7 +114,7 @@ fn one_pass_mortar_passes_the_contact_patch_test_alike_on_1_and_2_ranks() {
                     }
                     let sets: Vec<&str> = sets.iter().map(String::as_str).collect();
                     let d = run_case(
-                        &format!("mortar/one-pass-patch-{dim}d-{fam}-{gap}-{tag}-np{np}"),
+                        &format!("weighted_gap/one-pass-patch-{dim}d-{fam}-{gap}-{tag}-np{np}"),
                         file,
                         np,
                         &sets,
@@ -213,7 +213,7 @@ fn one_pass_weighted_gap_over_3d_segments_passes_the_non_matching_patch_test() {
         let c = case("contact_patch_3d.toml");
         let mut runs = Vec::new();
         for (np, env) in [(1, "default"), (2, "default"), (1, "0")] {
-            let d = scratch(&format!("mortar/seg3d-patch-{fam}-{gap}-np{np}-{env}"));
+            let d = scratch(&format!("weighted_gap/seg3d-patch-{fam}-{gap}-np{np}-{env}"));
             let switch: &[(&str, &str)] = match env {
                 "0" => &[("NURBS_CONTACT_SEGMENTS_3D", "0")],
                 _ => &[],
@@ -271,16 +271,16 @@ fn one_pass_weighted_gap_over_3d_segments_passes_the_non_matching_patch_test() {
 }
 
 #[test]
-fn one_pass_mortar_slides_without_the_cylinders_sawtooth() {
+fn one_pass_weighted_gap_slides_without_the_cylinders_sawtooth() {
     // ironing at 8 block elements per unit length, two block elements of sliding in 20 steps
     // (the frictionless sliding state is periodic in the block element): the cylinder's
     // horizontal force, max - min (measured: 1.06e-4 with the
-    // mortar gap, 2.10e-3 with the pointwise one-pass, 7.49e-3 for the two-half-pass cylinder pass
+    // weighted gap, 2.10e-3 with the pointwise one-pass, 7.49e-3 for the two-half-pass cylinder pass
     // and 1.90e-3 for its block pass)
     let mut amp = Vec::new();
     for gap in ["weighted", "pointwise"] {
         let d = run_case(
-            &format!("mortar/ironing-sawtooth-one-pass-{gap}"),
+            &format!("weighted_gap/ironing-sawtooth-one-pass-{gap}"),
             "ironing_2d.toml",
             1,
             &[
@@ -309,7 +309,7 @@ fn one_pass_mortar_slides_without_the_cylinders_sawtooth() {
     }
     assert!(
         amp[0] < 3e-4 && amp[0] < amp[1] / 5.0,
-        "sawtooth: mortar {:e}, pointwise {:e}",
+        "sawtooth: weighted {:e}, pointwise {:e}",
         amp[0],
         amp[1]
     );
@@ -326,7 +326,7 @@ fn one_pass_weighted_gap_presses_a_faceted_block_without_cutbacks() {
     // iterates and not in others: the points were re-placed at every Newton iteration and the
     // last step took 4 cutbacks and a rescue (measured before the bisector cut).
     let d = run_case(
-        "mortar/faceted-press-one-pass-weighted",
+        "weighted_gap/faceted-press-one-pass-weighted",
         "ironing_2d.toml",
         1,
         &[
@@ -349,7 +349,7 @@ fn one_pass_weighted_gap_presses_a_faceted_block_without_cutbacks() {
 }
 
 #[test]
-fn mortar_gap_hertz_at_eight_elements_across_the_contact_on_1_and_2_ranks() {
+fn weighted_gap_hertz_at_eight_elements_across_the_contact_on_1_and_2_ranks() {
     // measured: nominal peak +0.54 % (Q1C1) and +2.07 % (Q1N2) from
     // Hertz at n_arc 128; the pointwise gap gives +0.77 % and +1.95 %
     for (fam, lo, hi) in [("Q1C1", 0.0, 0.01), ("Q1N2", 0.01, 0.03)] {
@@ -368,9 +368,9 @@ fn mortar_gap_hertz_at_eight_elements_across_the_contact_on_1_and_2_ranks() {
 }
 
 #[test]
-fn mortar_mean_meets_hertz_at_eight_elements_across_the_contact_on_1_and_2_ranks() {
+fn weighted_mean_meets_hertz_at_eight_elements_across_the_contact_on_1_and_2_ranks() {
     // measured: Q1N2 nominal peak +0.35 % from Hertz at n_arc 128
-    // (pointwise +1.95 %, mortar +2.07 %), at eps_n 1e5 +0.56 %
+    // (pointwise +1.95 %, weighted +2.07 %), at eps_n 1e5 +0.56 %
     for (eps, hi) in [("1e4", 0.005), ("1e5", 0.007)] {
         let sets = [
             "contact.0.gap=weighted_mean",
@@ -390,10 +390,10 @@ fn mortar_mean_meets_hertz_at_eight_elements_across_the_contact_on_1_and_2_ranks
 }
 
 #[test]
-fn mortar_gap_3d_hemisphere_is_the_same_on_1_and_2_ranks() {
+fn weighted_gap_3d_hemisphere_is_the_same_on_1_and_2_ranks() {
     // the METIS split cuts the enriched surfaces: each rank projects its halo's points (the
-    // unit test `mortar_gap_split_over_two_ranks_sums_to_the_whole` checks the halo's sums)
-    // mortar_mean on the coarse scene (4^3 block, 4^2 shell), keeping the test short
+    // unit test `weighted_gap_split_over_two_ranks_sums_to_the_whole` checks the halo's sums)
+    // weighted_mean on the coarse scene (4^3 block, 4^2 shell), keeping the test short
     let coarse = [
         "meshes.block.divisions=[4,4,4]",
         "meshes.shell.n_surface=4",
@@ -404,13 +404,13 @@ fn mortar_gap_3d_hemisphere_is_the_same_on_1_and_2_ranks() {
         let mut sets = vec![gap_set.as_str(), "output.plots=false"];
         sets.extend_from_slice(size);
         let d1 = run_case(
-            &format!("mortar/hemi-{gap}-np1"),
+            &format!("weighted_gap/hemi-{gap}-np1"),
             "hemisphere_block_3d.toml",
             1,
             &sets,
         );
         let d2 = run_case(
-            &format!("mortar/hemi-{gap}-np2"),
+            &format!("weighted_gap/hemi-{gap}-np2"),
             "hemisphere_block_3d.toml",
             2,
             &sets,
@@ -426,14 +426,14 @@ fn mortar_gap_3d_hemisphere_is_the_same_on_1_and_2_ranks() {
 }
 
 #[test]
-fn mortar_gap_augmented_does_not_depend_on_the_penalty() {
+fn weighted_gap_augmented_does_not_depend_on_the_penalty() {
     // one multiplier per control point: the rounds drive every pressed control point's weighted
     // gap to within tol, so the load no longer depends on eps_n (measured, Q1N2 at n_arc 32:
     // 8.476193e-3 at eps_n 1e2 in 16 rounds, 8.476150e-3 at 1e4 in 3, 5e-6 apart)
     let mut loads = Vec::new();
     for eps in ["1e2", "1e4"] {
         let d = run_case(
-            &format!("mortar/augmented-{eps}"),
+            &format!("weighted_gap/augmented-{eps}"),
             "hertz_2d.toml",
             1,
             &[
@@ -455,7 +455,7 @@ fn mortar_gap_augmented_does_not_depend_on_the_penalty() {
         loads.push(last(&d, "P_flat_disk_arc_y"));
     }
     let plain = run_case(
-        "mortar/plain-1e2",
+        "weighted_gap/plain-1e2",
         "hertz_2d.toml",
         1,
         &[
@@ -477,16 +477,16 @@ fn mortar_gap_augmented_does_not_depend_on_the_penalty() {
 }
 
 #[test]
-fn mortar_linear_gap_takes_a_q1c2_surface() {
+fn weighted_linear_gap_takes_a_q1c2_surface() {
     // the corner weights are non-negative on any family: Q1C2, which `weighted` refuses, runs
     let (_, peak, p) = hertz_peaks_with("Q1C2", 64, 1, &["contact.0.gap=weighted_linear"]);
     let e = hertz_error(peak, p);
     // measured +13.61 % at this coarse mesh (4 elements across the contact), +0.66 % at n_arc 128
-    assert!(e.abs() < 0.2, "Q1C2 mortar_linear n_arc 64: {e:+.4}");
+    assert!(e.abs() < 0.2, "Q1C2 weighted_linear n_arc 64: {e:+.4}");
 }
 
 #[test]
-fn mortar_gap_outside_its_scope_is_refused_with_the_key() {
+fn weighted_gap_outside_its_scope_is_refused_with_the_key() {
     for (file, sets, want) in [
         ("peeling_2d.toml", vec!["contact.0.gap=weighted"], "penalty"),
         (
@@ -522,7 +522,7 @@ fn mortar_gap_outside_its_scope_is_refused_with_the_key() {
 }
 
 #[test]
-fn mortar_mean_carries_coulomb_friction_alike_on_one_and_two_ranks() {
+fn weighted_mean_carries_coulomb_friction_alike_on_one_and_two_ranks() {
     // Cattaneo-Mindlin at the coarse mesh: pressed, then shifted with mu = 0.3; the tangential
     // traction of every point is the return mapping with the interpolated pressure (measured
     // Q/(mu P) 0.5076 against the pointwise gap's 0.5093, 8 sticking and 16 slipping points)
@@ -536,9 +536,9 @@ fn mortar_mean_carries_coulomb_friction_alike_on_one_and_two_ranks() {
         .copied()
         .chain(["contact.0.gap=weighted_mean"])
         .collect();
-    let d1 = run_case("mortar/cm-mean-np1", "cattaneo_mindlin_2d.toml", 1, &mean);
-    let d2 = run_case("mortar/cm-mean-np2", "cattaneo_mindlin_2d.toml", 2, &mean);
-    let dp = run_case("mortar/cm-pointwise", "cattaneo_mindlin_2d.toml", 1, &sets);
+    let d1 = run_case("weighted_gap/cm-mean-np1", "cattaneo_mindlin_2d.toml", 1, &mean);
+    let d2 = run_case("weighted_gap/cm-mean-np2", "cattaneo_mindlin_2d.toml", 2, &mean);
+    let dp = run_case("weighted_gap/cm-pointwise", "cattaneo_mindlin_2d.toml", 1, &sets);
     for d in [&d1, &d2, &dp] {
         assert_eq!(summary(d)["status"], "converged", "{}", d.display());
     }
@@ -566,15 +566,15 @@ fn mortar_mean_carries_coulomb_friction_alike_on_one_and_two_ranks() {
 }
 
 #[test]
-fn petsc_jacobian_check_holds_along_the_one_pass_mortar_twisting_press() {
-    // Table 4's mesh 2 (Q1N2), one-pass mortar, the press (20 steps, the twist left out), with
+fn petsc_jacobian_check_holds_along_the_one_pass_weighted_gap_twisting_press() {
+    // Table 4's mesh 2 (Q1N2), one-pass weighted gap, the press (20 steps, the twist left out), with
     // PETSc's finite-difference check of the assembled Jacobian at every Newton iterate. From load
-    // 0.7 on, cube points beyond the shell's rim weigh into the mortar gaps by their distance to
+    // 0.7 on, cube points beyond the shell's rim weigh into the weighted gaps by their distance to
     // the rim; element projections that stalled at `xi = -1 + ulp` gave those distances errors of
     // up to 5e-5 that changed with the probes, and the check differed by up to 0.06 here (up to
     // 2.2 over the whole run). Measured with the fix: at most 2.7e-8 over 65 checks.
     let (d, out) = run_case_output_with(
-        "mortar/twist-jacobian-check",
+        "weighted_gap/twist-jacobian-check",
         "twisting_3d.toml",
         1,
         &[

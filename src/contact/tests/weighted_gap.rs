@@ -1,4 +1,4 @@
-//! The mortar gap: its tangent against central differences (deformable partners smooth and
+//! The weighted gap (`gap = "weighted"`): its tangent against central differences (deformable partners smooth and
 //! faceted, rigid partners, 2D and 3D), the halo that makes each rank's control-point gaps whole,
 //! and the pressure it interpolates.
 
@@ -10,17 +10,17 @@ const MORTAR_LINEAR: &str = "law = \"penalty\"\neps_n = 100.0\ngap = \"weighted_
 const MORTAR_MEAN: &str = "law = \"penalty\"\neps_n = 100.0\ngap = \"weighted_mean\"";
 
 #[test]
-fn mortar_gap_tangent_matches_central_differences() {
+fn weighted_gap_tangent_matches_central_differences() {
     // every point's traction depends on the gaps of every point in the supports of its element's
     // control points, and so on their partners and on the neighbouring elements' unknowns
-    mortar_tangents(MORTAR, &[("Q1N2.1", "Q1N3")], 0.06);
+    weighted_gap_tangents(MORTAR, &[("Q1N2.1", "Q1N3")], 0.06);
 }
 
 #[test]
-fn mortar_mean_tangent_matches_central_differences() {
+fn weighted_mean_tangent_matches_central_differences() {
     // the control points' weighted means of the points' penalty pressures: points join one by
     // one, and each point's active flag and area enter the mean
-    mortar_tangents(MORTAR_MEAN, &[("Q1N2.1", "Q1N3")], 0.06);
+    weighted_gap_tangents(MORTAR_MEAN, &[("Q1N2.1", "Q1N3")], 0.06);
 }
 
 #[test]
@@ -95,15 +95,15 @@ fn tangents_with_multipliers_match_central_differences() {
 }
 
 #[test]
-fn mortar_linear_gap_tangent_matches_central_differences() {
+fn weighted_linear_gap_tangent_matches_central_differences() {
     // weights of the linear parent's corners: any surface family, Q1C2 and Q1CH included (the
     // hemisphere pressed deeper: a corner's weight spans four coarse elements, whose mean gap is
     // still open at the depth of the control-point test)
-    mortar_tangents(MORTAR_LINEAR, &[("Q1C2", "Q1CH"), ("Q1CH", "Q1N2.1")], 0.2);
+    weighted_gap_tangents(MORTAR_LINEAR, &[("Q1C2", "Q1CH"), ("Q1CH", "Q1N2.1")], 0.2);
 }
 
 #[test]
-fn mortar_gaps_friction_tangent_matches_central_differences_in_stick_and_slip() {
+fn weighted_gaps_friction_tangent_matches_central_differences_in_stick_and_slip() {
     // a slipping point's traction is `p_q (n_q + mu s_q)` with `p_q` interpolated from the
     // control points: the pressure's variation acts along the slip direction too
     for gap in ["weighted", "weighted_mean"] {
@@ -119,7 +119,7 @@ fn mortar_gaps_friction_tangent_matches_central_differences_in_stick_and_slip() 
 }
 
 #[test]
-fn one_pass_mortar_tangent_matches_central_differences_and_balances_momentum() {
+fn one_pass_weighted_gap_tangent_matches_central_differences_and_balances_momentum() {
     // one-pass: the master element carries the opposite of each slave point's traction, whose
     // pressure is interpolated from the slave's control points; the master rows then vary with
     // the weighted gaps of every point in those control points' supports (cross blocks: a
@@ -164,7 +164,7 @@ fn one_pass_mortar_tangent_matches_central_differences_and_balances_momentum() {
 
 /// FD checks of `law` on 2D pairs (three, then `extra_2d`), 3D blocks, the hemisphere (pressed
 /// by `hemisphere_depth`) and rigid partners.
-fn mortar_tangents(law: &str, extra_2d: &[(&str, &str)], hemisphere_depth: f64) {
+fn weighted_gap_tangents(law: &str, extra_2d: &[(&str, &str)], hemisphere_depth: f64) {
     for &(block, disk) in [("Q1C1", "Q1C1"), ("Q1N2", "Q1N2"), ("Q1C1", "Q1N2")]
         .iter()
         .chain(extra_2d)
@@ -251,7 +251,7 @@ fn split_eval(h: &Harness, u: &[f64]) -> (Vec<f64>, Vec<f64>) {
 }
 
 #[test]
-fn mortar_gap_split_over_two_ranks_sums_to_the_whole() {
+fn weighted_gap_split_over_two_ranks_sums_to_the_whole() {
     // each part projects the points of its halo (the other part's elements that share a control
     // point with its own) so that every control point's gap is whole: the parts' residuals and
     // tangents add up to the one-part ones to round-off
@@ -305,7 +305,7 @@ fn mortar_gap_split_over_two_ranks_sums_to_the_whole() {
 }
 
 #[test]
-fn mortar_tangents_hold_at_the_hemispheres_collapsed_control_points() {
+fn weighted_gap_tangents_hold_at_the_hemispheres_collapsed_control_points() {
     // The NURBS hemisphere's patch collapses two of its edges to single control points on the
     // rim, which then appear three times in each of their elements' lists. Pressed by 0.85 the
     // weighted gaps of those two control points close; their columns once took the first entry
