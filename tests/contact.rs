@@ -511,6 +511,10 @@ fn every_attempt_of_a_step_has_its_own_pattern_rebuild_budget() {
         rebuilds >= 20,
         "too few pattern rebuilds to test: {rebuilds}"
     );
+    // the pattern's sizes are reported (a contact run has both)
+    let coo = s["contact_pattern"]["coo_entries"].as_u64().unwrap();
+    let regions = s["contact_pattern"]["region_entries"].as_u64().unwrap();
+    assert!(regions > 0 && coo > 0, "{}", s["contact_pattern"]);
     let mut on_budget = 0;
     for st in s["steps"].as_array().unwrap() {
         let fails = st["failed_attempts"].as_array().unwrap();

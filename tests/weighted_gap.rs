@@ -213,7 +213,9 @@ fn one_pass_weighted_gap_over_3d_segments_passes_the_non_matching_patch_test() {
         let c = case("contact_patch_3d.toml");
         let mut runs = Vec::new();
         for (np, env) in [(1, "default"), (2, "default"), (1, "0")] {
-            let d = scratch(&format!("weighted_gap/seg3d-patch-{fam}-{gap}-np{np}-{env}"));
+            let d = scratch(&format!(
+                "weighted_gap/seg3d-patch-{fam}-{gap}-np{np}-{env}"
+            ));
             let switch: &[(&str, &str)] = match env {
                 "0" => &[("NURBS_CONTACT_SEGMENTS_3D", "0")],
                 _ => &[],
@@ -536,9 +538,24 @@ fn weighted_mean_carries_coulomb_friction_alike_on_one_and_two_ranks() {
         .copied()
         .chain(["contact.0.gap=weighted_mean"])
         .collect();
-    let d1 = run_case("weighted_gap/cm-mean-np1", "cattaneo_mindlin_2d.toml", 1, &mean);
-    let d2 = run_case("weighted_gap/cm-mean-np2", "cattaneo_mindlin_2d.toml", 2, &mean);
-    let dp = run_case("weighted_gap/cm-pointwise", "cattaneo_mindlin_2d.toml", 1, &sets);
+    let d1 = run_case(
+        "weighted_gap/cm-mean-np1",
+        "cattaneo_mindlin_2d.toml",
+        1,
+        &mean,
+    );
+    let d2 = run_case(
+        "weighted_gap/cm-mean-np2",
+        "cattaneo_mindlin_2d.toml",
+        2,
+        &mean,
+    );
+    let dp = run_case(
+        "weighted_gap/cm-pointwise",
+        "cattaneo_mindlin_2d.toml",
+        1,
+        &sets,
+    );
     for d in [&d1, &d2, &dp] {
         assert_eq!(summary(d)["status"], "converged", "{}", d.display());
     }

@@ -767,11 +767,18 @@ fn finish_and_report(
                 &mut coo_entries,
                 SystemOperation::sum(),
             );
+            let mut region_entries = 0u64;
+            comm.all_reduce_into(
+                &(t.region_entries as u64),
+                &mut region_entries,
+                SystemOperation::sum(),
+            );
             io::ContactPatternStats {
                 rebuilds: t.pattern_rebuilds,
                 missing_blocks: total,
                 ring,
                 coo_entries,
+                region_entries,
             }
         }),
         contact_data: contact_data(comm, asm),

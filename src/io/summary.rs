@@ -186,6 +186,11 @@ pub struct ContactPatternStats {
     /// set-up. Absent in summaries written before it existed.
     #[serde(default)]
     pub coo_entries: u64,
+    /// Entries of the contact blocks' shared regions in the largest pattern a rank built, summed
+    /// over ranks: each holds the COO entry its value goes to (4 bytes). Absent in summaries
+    /// written before it existed.
+    #[serde(default)]
+    pub region_entries: u64,
 }
 
 /// What each rank holds for contact and what it receives per evaluation (the measure of

@@ -67,6 +67,9 @@ pub struct Timers {
     pub pattern_rebuilds: usize,
     /// COO entries of the largest pattern built on this rank.
     pub coo_entries: usize,
+    /// Entries of the coupling blocks' shared regions (one `u32` of the region map each) in the
+    /// largest pattern built on this rank.
+    pub region_entries: usize,
 }
 
 /// Per element set: the element unknowns' local and global indices, flattened.

@@ -145,6 +145,7 @@ impl Assembler<'_> {
                         map_len += n;
                         start = end;
                     }
+                    self.timers.region_entries = self.timers.region_entries.max(map_len);
                     let mut map = vec![u32::MAX; map_len];
                     // (matrix row, region, row of the region) of the rows merged
                     let mut merged: Vec<(PetscInt, u32, u32)> = Vec::new();

@@ -20,10 +20,10 @@ use std::path::Path;
 
 mod element_mean;
 mod friction;
-mod weighted_gap;
 mod projection;
 mod rigid;
 mod tangents;
+mod weighted_gap;
 
 /// A deterministic pseudo-random value in [-1, 1].
 pub(crate) fn rnd(state: &mut u64) -> f64 {
