@@ -428,3 +428,65 @@ pub fn sliding_planes(
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Model;
+    use std::path::Path;
+
+    /// The quarter sphere of `cases/hertz_3d.toml` (Q1N2 patch, `sliding` rollers on x = 0 and
+    /// y = 0): both planes are found, every group of tied control points holds one on a plane and
+    /// neighbours of it only, and at the corner the rows of both planes are merged into one group.
+    #[test]
+    fn a_quarter_spheres_patch_is_tied_across_its_two_symmetry_planes() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/hertz_3d.toml");
+        let sets = vec![
+            "bodies.ball.element=\"Q1N2\"".to_string(),
+            "meshes.ball.divisions=[4,4,3]".to_string(),
+        ];
+        let case = crate::scene::load_case(&path, &sets).expect("case");
+        let model = Model::build(&case).expect("model");
+        let dim = model.dim;
+        let planes = sliding_planes(&model.skews, &model.coords, dim);
+        assert_eq!(planes.len(), 2, "{planes:?}");
+        let surf = &model.contact_surfaces[0];
+        let ties = symmetry_ties(surf, &planes, &model.coords, dim);
+        assert!(!ties.is_empty());
+        let x = |a: u32| &model.coords[a as usize * dim..(a as usize + 1) * dim];
+        let on = |a: u32, (n, c): &([f64; 3], f64)| {
+            ((0..dim).map(|i| x(a)[i] * n[i]).sum::<f64>() - c).abs() < 1e-9
+        };
+        let h = surf.h;
+        // groups of control points with one value: each holds a point on a plane, and its points
+        // are neighbours in the patch
+        let mut groups: std::collections::BTreeMap<u32, Vec<u32>> = Default::default();
+        for &(a, r) in &ties {
+            assert!(
+                ties.iter().all(|&(b, _)| b != r),
+                "representative {r} is itself tied"
+            );
+            groups.entry(r).or_insert_with(|| vec![r]).push(a);
+        }
+        for (r, g) in &groups {
+            assert!(
+                g.iter().any(|&a| planes.iter().any(|p| on(a, p))),
+                "group of {r} off the planes: {g:?}"
+            );
+            for &a in g {
+                let d: f64 = (0..dim)
+                    .map(|i| (x(a)[i] - x(*r)[i]).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                assert!(d < 1.5 * h, "{a} tied to {r} at {d} (element size {h})");
+            }
+        }
+        // the corner point of both planes shares its value with its neighbours on both sides
+        let corner: Vec<&Vec<u32>> = groups
+            .values()
+            .filter(|g| g.iter().any(|&a| planes.iter().all(|p| on(a, p))))
+            .collect();
+        assert_eq!(corner.len(), 1, "{corner:?}");
+        assert!(corner[0].len() >= 4, "corner group {:?}", corner[0]);
+    }
+}
