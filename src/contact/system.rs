@@ -39,7 +39,7 @@ pub use checkpoint::ROW as CHECKPOINT_ROW;
 pub use footprint::Footprint;
 pub use pressure::{sliding_planes, symmetry_ties};
 pub use sanity::{PassDepth, PassSlip};
-pub(crate) use segments::Segments;
+pub(crate) use segments::{segmented, Segments};
 
 /// Values per point of [`ContactSystem::point_records`].
 pub const POINT_RECORD: usize = 18;
