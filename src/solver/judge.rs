@@ -55,7 +55,6 @@ pub(super) fn judge<'p>(
     out: &mut SolveOutcome,
     overrides: &[String],
 ) -> Result<Option<String>, PetscError> {
-    let mut f = x.duplicate()?;
     let claimed = || {
         format!(
             "SNES reported {} after {} Newton iteration{}",
@@ -74,24 +73,16 @@ pub(super) fn judge<'p>(
             )
         }
     };
-    match asm.residual(x, &mut f) {
-        Ok(()) => {}
-        Err(ProblemError::Domain(e)) => {
+    let norm = match residual_norm(asm, x)? {
+        Ok(norm) => norm,
+        Err(e) => {
             return Ok(Some(format!(
                 "{}, but the residual cannot be evaluated at its solution: {e}{}",
                 claimed(),
                 blame()
             )))
         }
-        Err(ProblemError::Fatal(message)) => {
-            return Err(PetscError {
-                code: 83,
-                function: "residual evaluation of the convergence check",
-                message,
-            })
-        }
-    }
-    let norm = f.norm2()?;
+    };
     let seen = out
         .residual_history
         .iter()
@@ -159,19 +150,9 @@ pub(super) fn accept_at_floor<'p>(
     {
         return Ok(());
     }
-    let mut f = x.duplicate()?;
-    match asm.residual(x, &mut f) {
-        Ok(()) => {}
-        Err(ProblemError::Domain(_)) => return Ok(()),
-        Err(ProblemError::Fatal(message)) => {
-            return Err(PetscError {
-                code: 83,
-                function: "residual evaluation of the convergence check",
-                message,
-            })
-        }
-    }
-    let norm = f.norm2()?;
+    let Ok(norm) = residual_norm(asm, x)? else {
+        return Ok(());
+    };
     if within_default_tolerances(norm, first) {
         out.converged = true;
         out.reason = format!(
@@ -184,6 +165,26 @@ pub(super) fn accept_at_floor<'p>(
         }
     }
     Ok(())
+}
+
+/// The residual norm at `x`, or the domain error that kept the residual from being evaluated there
+/// (a fatal one is an error).
+///
+/// Collective.
+fn residual_norm<'p>(
+    asm: &mut Assembler<'p>,
+    x: &Vector<'p>,
+) -> Result<Result<f64, String>, PetscError> {
+    let mut f = x.duplicate()?;
+    match asm.residual(x, &mut f) {
+        Ok(()) => Ok(Ok(f.norm2()?)),
+        Err(ProblemError::Domain(e)) => Ok(Err(e)),
+        Err(ProblemError::Fatal(message)) => Err(PetscError {
+            code: 83,
+            function: "residual evaluation of the convergence check",
+            message,
+        }),
+    }
 }
 
 #[cfg(test)]
