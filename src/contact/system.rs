@@ -37,7 +37,7 @@ mod segments;
 mod setup;
 pub use checkpoint::ROW as CHECKPOINT_ROW;
 pub use footprint::Footprint;
-pub use pressure::{sliding_planes, symmetry_ties};
+pub use pressure::{symmetry_planes, symmetry_ties};
 pub use sanity::{PassDepth, PassSlip};
 pub(crate) use segments::{segmented, Segments};
 

@@ -319,8 +319,12 @@ impl<'p> Output<'p> {
                 .collect(),
             point_ref,
             symmetry_ties: {
-                let planes =
-                    crate::contact::system::sliding_planes(&model.skews, &model.coords, dim);
+                let planes = crate::contact::system::symmetry_planes(
+                    &model.skews,
+                    &model.bcs,
+                    &model.coords,
+                    dim,
+                );
                 model
                     .contact_surfaces
                     .iter()

@@ -304,8 +304,9 @@ impl ContactSystem {
 }
 
 /// The ties that make the L2 projection on surface `surf` the whole surface's where symmetry
-/// planes cut it: `(node, representative)` pairs of global node ids. A plane is a `sliding`
-/// condition's (normal `n`, through its nodes, which must lie on one plane); an element edge lies
+/// planes cut it: `(node, representative)` pairs of global node ids. The planes are
+/// [`symmetry_planes`]'s; one counts for the surface only where the surface lies on one side of it
+/// (a line support through the body's middle is no symmetry plane); an element edge lies
 /// on it when the row of the element's control points along that edge does. The whole surface
 /// continues a NURBS face (degree >= 2 across the edge) smoothly into its mirror image, so a
 /// symmetric field on it has zero slope across the plane: the next row of control values equals
@@ -329,6 +330,36 @@ pub fn symmetry_ties(
         let x = &coords[a as usize * dim..(a as usize + 1) * dim];
         ((0..dim).map(|i| x[i] * n[i]).sum::<f64>() - c).abs() <= 1e-9 * extent
     };
+    // the planes the whole surface lies on one side of
+    let side = |a: u32, (n, c): &([f64; 3], f64)| {
+        let x = &coords[a as usize * dim..(a as usize + 1) * dim];
+        let d = (0..dim).map(|i| x[i] * n[i]).sum::<f64>() - c;
+        if d.abs() <= 1e-9 * extent {
+            0
+        } else if d > 0.0 {
+            1
+        } else {
+            -1
+        }
+    };
+    let planes: Vec<([f64; 3], f64)> = planes
+        .iter()
+        .filter(|pl| {
+            let sides = surf
+                .elements
+                .iter()
+                .flat_map(|el| el.nodes.iter())
+                .map(|&a| side(a, pl));
+            let (mut above, mut below) = (false, false);
+            for s in sides {
+                above |= s > 0;
+                below |= s < 0;
+            }
+            !(above && below)
+        })
+        .copied()
+        .collect();
+    let planes = &planes[..];
     // union-find over global node ids
     let mut parent: BTreeMap<u32, u32> = BTreeMap::new();
     fn find(parent: &mut BTreeMap<u32, u32>, a: u32) -> u32 {
@@ -393,37 +424,95 @@ pub fn symmetry_ties(
         .collect()
 }
 
-/// The planes of the `sliding` conditions whose nodes lie on one plane: (unit normal, offset
-/// `n . x`), for [`symmetry_ties`]. `coords`: reference coordinates [n][dim].
-pub fn sliding_planes(
+/// The symmetry planes of a model: (unit normal, offset `n . x`) of every `sliding` condition
+/// whose nodes lie on one plane, and of every roller written as one displacement component held
+/// at zero in every stage (`fixed`, or `displacement` with zero values) whose nodes lie on one
+/// plane normal to that component's axis; in both cases the nodes must cover a face of the plane
+/// (not one point, nor in 3D one line: those are supports against rigid motion). For
+/// [`symmetry_ties`]. A plane stated twice is listed once. `coords`: reference coordinates
+/// [n][dim].
+pub fn symmetry_planes(
     skews: &[crate::assembly::skew::SkewBc],
+    bcs: &[crate::assembly::dirichlet::DirichletBc],
     coords: &[f64],
     dim: usize,
 ) -> Vec<([f64; 3], f64)> {
+    use crate::assembly::dirichlet::Prescription;
     use crate::assembly::skew::SkewKind;
     let extent = coords
         .iter()
         .fold(0.0f64, |m, &x| m.max(x.abs()))
         .max(1e-300);
-    let mut out = Vec::new();
-    for sk in skews {
-        let SkewKind::Sliding { normal } = &sk.kind else {
-            continue;
+    let x = |a: u32| {
+        let mut p = [0.0; 3];
+        p[..dim].copy_from_slice(&coords[a as usize * dim..(a as usize + 1) * dim]);
+        p
+    };
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let norm = |a: [f64; 3]| (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    // whether `nodes` cover a face of the plane, not a point or (3D) a line of it: a support
+    // that holds a point or a line is no symmetry plane
+    let spans_face = |nodes: &[u32]| {
+        let Some(&first) = nodes.first() else {
+            return false;
         };
-        let offset = |a: u32| {
-            let x = &coords[a as usize * dim..(a as usize + 1) * dim];
-            (0..dim).map(|i| x[i] * normal[i]).sum::<f64>()
+        let p0 = x(first);
+        let Some(p1) = nodes
+            .iter()
+            .map(|&a| x(a))
+            .max_by(|a, b| norm(sub(*a, p0)).total_cmp(&norm(sub(*b, p0))))
+        else {
+            return false;
         };
-        let Some(&first) = sk.nodes.first() else {
-            continue;
-        };
-        let c = offset(first);
-        if sk
-            .nodes
+        let e = sub(p1, p0);
+        if norm(e) <= 1e-9 * extent {
+            return false;
+        }
+        dim == 2
+            || nodes.iter().any(|&a| {
+                let d = sub(x(a), p0);
+                let c = [
+                    d[1] * e[2] - d[2] * e[1],
+                    d[2] * e[0] - d[0] * e[2],
+                    d[0] * e[1] - d[1] * e[0],
+                ];
+                norm(c) > 1e-9 * extent * norm(e)
+            })
+    };
+    // the plane with `normal` through every node of `nodes`, if they lie on one and cover a face
+    let plane_of = |normal: [f64; 3], nodes: &[u32]| {
+        let offset = |a: u32| (0..dim).map(|i| x(a)[i] * normal[i]).sum::<f64>();
+        let c = offset(*nodes.first()?);
+        (nodes
             .iter()
             .all(|&a| (offset(a) - c).abs() <= 1e-9 * extent)
-        {
-            out.push((*normal, c));
+            && spans_face(nodes))
+        .then_some((normal, c))
+    };
+    let sliding = skews.iter().filter_map(|sk| match &sk.kind {
+        SkewKind::Sliding { normal } => plane_of(*normal, &sk.nodes),
+        _ => None,
+    });
+    let rollers = bcs.iter().filter_map(|bc| {
+        let &[c] = bc.components.as_slice() else {
+            return None;
+        };
+        let zero = match &bc.kind {
+            Prescription::Fixed => true,
+            Prescription::Displacement(v) => v.iter().flatten().all(|&x| x == 0.0),
+            Prescription::Rotation { .. } => false,
+        };
+        let mut normal = [0.0; 3];
+        normal[c] = 1.0;
+        zero.then(|| plane_of(normal, &bc.nodes)).flatten()
+    });
+    let mut out: Vec<([f64; 3], f64)> = Vec::new();
+    for (n, c) in sliding.chain(rollers) {
+        let same = |(m, d): &([f64; 3], f64)| {
+            (0..3).all(|i| (m[i] - n[i]).abs() <= 1e-12) && (d - c).abs() <= 1e-9 * extent
+        };
+        if !out.iter().any(same) {
+            out.push((n, c));
         }
     }
     out
@@ -448,7 +537,7 @@ mod tests {
         let case = crate::scene::load_case(&path, &sets).expect("case");
         let model = Model::build(&case).expect("model");
         let dim = model.dim;
-        let planes = sliding_planes(&model.skews, &model.coords, dim);
+        let planes = symmetry_planes(&model.skews, &model.bcs, &model.coords, dim);
         assert_eq!(planes.len(), 2, "{planes:?}");
         let surf = &model.contact_surfaces[0];
         let ties = symmetry_ties(surf, &planes, &model.coords, dim);
@@ -488,5 +577,88 @@ mod tests {
             .collect();
         assert_eq!(corner.len(), 1, "{corner:?}");
         assert!(corner[0].len() >= 4, "corner group {:?}", corner[0]);
+    }
+
+    /// The same quarter sphere with its rollers written as `fixed` components (x on x = 0, y on
+    /// y = 0) instead of `sliding` conditions: the same two planes and the same ties; a `fixed`
+    /// condition on two components or off a plane is not one.
+    #[test]
+    fn rollers_written_as_fixed_components_are_the_same_symmetry_planes() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/hertz_3d.toml");
+        let text = std::fs::read_to_string(&path).expect("case");
+        let sets = vec![
+            "bodies.ball.element=\"Q1N2\"".to_string(),
+            "meshes.ball.divisions=[4,4,3]".to_string(),
+        ];
+        let build = |text: &str, name: &str| {
+            let dir = std::env::temp_dir().join(format!(
+                "nurbs-contact-rollers-{}-{name}",
+                std::process::id()
+            ));
+            std::fs::create_dir_all(&dir).expect("scratch dir");
+            let file = dir.join("case.toml");
+            std::fs::write(&file, text).expect("write case");
+            let case = crate::scene::load_case(&file, &sets).expect("case");
+            let model = Model::build(&case).expect("model");
+            std::fs::remove_dir_all(&dir).ok();
+            model
+        };
+        let roller = |set: &str, c: &str| {
+            format!(
+                "[[bcs]]\nbody = \"ball\"\nset = \"{set}\"\nkind = \"fixed\"\ncomponents = [{c}]\n"
+            )
+        };
+        let replace = |rollers: &str| {
+            let start = text
+                .find("[[bcs]]\nbody = \"ball\"\nset = \"xmin\"")
+                .expect("xmin rollers");
+            let end = text.find("[[contact]]").expect("contact table");
+            format!("{}{rollers}\n{}", &text[..start], &text[end..])
+        };
+        let ties_and_planes = |m: &Model| {
+            let planes = symmetry_planes(&m.skews, &m.bcs, &m.coords, m.dim);
+            let ties = symmetry_ties(&m.contact_surfaces[0], &planes, &m.coords, m.dim);
+            (planes, ties)
+        };
+        let sliding = ties_and_planes(&build(&text, "sliding"));
+        let fixed = build(
+            &replace(&format!(
+                "{}\n{}",
+                roller("xmin", "\"x\""),
+                roller("ymin", "\"y\"")
+            )),
+            "fixed",
+        );
+        assert!(fixed.skews.is_empty());
+        let fixed = ties_and_planes(&fixed);
+        assert_eq!(fixed.0.len(), 2, "{:?}", fixed.0);
+        for (n, c) in &sliding.0 {
+            assert!(
+                fixed.0.iter().any(|(m, d)| m == n && (d - c).abs() < 1e-12),
+                "plane {n:?} {c} of the sliding rollers missing: {:?}",
+                fixed.0
+            );
+        }
+        assert_eq!(sliding.1, fixed.1, "the ties differ");
+        // x and y held together on x = 0 is a clamp, not a symmetry plane
+        let clamped = build(&replace(&roller("xmin", "\"x\", \"y\"")), "clamped");
+        assert!(ties_and_planes(&clamped).0.is_empty());
+        // the 3D contact patch test holds lines of nodes in x and y against rigid motion: no
+        // planes of those, and no ties on its surfaces
+        let patch = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/contact_patch_3d.toml");
+        let sets = vec![
+            "bodies.lower.element=\"Q1N2\"".to_string(),
+            "bodies.upper.element=\"Q1N2\"".to_string(),
+        ];
+        let case = crate::scene::load_case(&patch, &sets).expect("patch case");
+        let m = Model::build(&case).expect("patch model");
+        let planes = symmetry_planes(&m.skews, &m.bcs, &m.coords, m.dim);
+        assert!(
+            planes.iter().all(|(n, _)| n[2] == 1.0),
+            "only the base's z planes: {planes:?}"
+        );
+        for surf in &m.contact_surfaces {
+            assert!(symmetry_ties(surf, &planes, &m.coords, m.dim).is_empty());
+        }
     }
 }
