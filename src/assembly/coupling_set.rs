@@ -114,6 +114,15 @@ pub trait CouplingSet: Any + Send {
         Vec::new()
     }
 
+    /// Whether the set, after a converged solve, may change its discretisation for another solve
+    /// and does nothing else in [`augment`](Self::augment) (contact: 3D segments, placed again
+    /// where the converged state moved them, and no augmented pair): the solver may then let the
+    /// first solve of a step stop short of its tolerance, have the set placed there, and solve on
+    /// (`crate::solver::settle`).
+    fn places_after_solve(&self) -> bool {
+        false
+    }
+
     /// After a converged solve, with the violations max-reduced over every rank and the rounds
     /// this step has made: accept, update the multipliers for another solve, or give up.
     fn augment(&mut self, _violations: &[f64], _rounds: usize) -> Augment {

@@ -504,6 +504,14 @@ impl Assembler<'_> {
         out
     }
 
+    /// Whether the coupling set's rounds after a converged solve only change its discretisation
+    /// ([`CouplingSet::places_after_solve`]; the same on every rank).
+    pub fn places_after_solve(&self) -> bool {
+        self.coupled
+            .as_ref()
+            .is_some_and(|c| c.set.places_after_solve())
+    }
+
     /// Augmentation rounds of the current load step so far (0 without augmentation).
     pub fn augmentation_rounds(&self) -> usize {
         self.coupled.as_ref().map_or(0, |c| c.rounds)

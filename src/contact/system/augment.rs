@@ -52,6 +52,20 @@ impl ContactSystem {
         out
     }
 
+    /// Whether a pass is integrated over 3D segments and no pair is augmented: the rounds after
+    /// a converged solve then only place the segments' points again
+    /// ([`crate::assembly::CouplingSet::places_after_solve`]).
+    pub fn places_after_solve(&self) -> bool {
+        self.pairs
+            .iter()
+            .all(|p| p.def.formulation.augmented().is_none())
+            && self.pairs.iter().flat_map(|p| &p.passes).any(|ps| {
+                ps.segments
+                    .as_ref()
+                    .is_some_and(super::segments::Segments::three_d)
+            })
+    }
+
     /// Per pair, the largest violation of the contact conditions at its points at the last
     /// evaluation (0 without augmentation).
     fn multiplier_violations(&self) -> Vec<f64> {

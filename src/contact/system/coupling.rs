@@ -84,6 +84,10 @@ impl CouplingSet for ContactSystem {
         ContactSystem::augmentation_violations(self)
     }
 
+    fn places_after_solve(&self) -> bool {
+        ContactSystem::places_after_solve(self)
+    }
+
     fn augment(&mut self, violations: &[f64], rounds: usize) -> Augment {
         ContactSystem::augment(self, violations, rounds)
     }
