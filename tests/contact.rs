@@ -515,6 +515,13 @@ fn every_attempt_of_a_step_has_its_own_pattern_rebuild_budget() {
     let coo = s["contact_pattern"]["coo_entries"].as_u64().unwrap();
     let regions = s["contact_pattern"]["region_entries"].as_u64().unwrap();
     assert!(regions > 0 && coo > 0, "{}", s["contact_pattern"]);
+    // the contact rows' column patterns: at most one column per contact COO entry
+    let run_columns = s["contact_pattern"]["run_columns"].as_u64().unwrap();
+    assert!(
+        run_columns > 0 && run_columns < coo,
+        "{}",
+        s["contact_pattern"]
+    );
     let mut on_budget = 0;
     for st in s["steps"].as_array().unwrap() {
         let fails = st["failed_attempts"].as_array().unwrap();

@@ -34,30 +34,143 @@ pub struct CooSink<'a> {
     pub offsets: &'a [usize],
     /// The COO value array handed to `MatSetValuesCOO`.
     pub values: &'a mut [f64],
-    /// Where the entries of coupling block `slot - first_scattered` go.
+    /// Where the rows of coupling block `slot - first_scattered` go.
     pub scattered: &'a [BlockScatter],
-    /// The COO entry of each entry of the coupling blocks' regions.
-    pub region_map: &'a [u32],
+    /// The column patterns of the coupling blocks' rows.
+    pub runs: &'a CouplingRuns,
     /// The slot of the first coupling block.
     pub first_scattered: usize,
+    /// Where each column of the block being added is in its row's run (scratch).
+    positions: Vec<u32>,
 }
 
-/// Where a coupling block's entries go in the COO values: blocks that share rows (contact: those
-/// of one surface element) share one dense `[rows][stride]` region from `base`, the union of their
-/// rows and columns, in the region map, which holds the COO entry of each region entry (regions
-/// that hold the same matrix entry map it to one COO entry). Entry `(a, b)` of the block is added
-/// at COO entry `region_map[base + rows[a] * stride + cols[b]]`; `u32::MAX` drops a row
-/// (constrained, or no unknown) or a column (no unknown).
+impl<'a> CooSink<'a> {
+    /// A sink over `values`, laid out as `offsets` says, with the coupling blocks from slot
+    /// `first_scattered` on placed through `scattered` and `runs`.
+    pub fn new(
+        offsets: &'a [usize],
+        values: &'a mut [f64],
+        scattered: &'a [BlockScatter],
+        runs: &'a CouplingRuns,
+        first_scattered: usize,
+    ) -> Self {
+        CooSink {
+            offsets,
+            values,
+            scattered,
+            runs,
+            first_scattered,
+            positions: Vec::new(),
+        }
+    }
+
+    /// Adds `k` [rows.len()][cols.len()], block row `a` into the run `rows[a]`, at the entries of
+    /// the global columns `cols` (negative: dropped).
+    fn add_runs(&mut self, rows: &[(u32, u32)], cols: &[i32], k: &[f64]) {
+        let runs = self.runs;
+        let nc = cols.len();
+        // the rows of a node share their column pattern: their columns are looked up once
+        let mut looked_up = u32::MAX;
+        for (a, &(pattern, start)) in rows.iter().enumerate() {
+            if pattern == DROPPED {
+                continue;
+            }
+            if pattern != looked_up {
+                runs.positions(pattern, cols, &mut self.positions);
+                looked_up = pattern;
+            }
+            let run = &mut self.values[start as usize..];
+            for (&o, &v) in self.positions.iter().zip(&k[a * nc..(a + 1) * nc]) {
+                if o != DROPPED {
+                    run[o as usize] += v;
+                }
+            }
+        }
+    }
+}
+
+/// A dropped row or column of a coupling block (constrained, or no unknown).
+pub const DROPPED: u32 = u32::MAX;
+
+/// Where a coupling block's rows go in the COO values: each row of the coupling blocks that reaches
+/// the matrix has a run of COO entries, the merged entries of its matrix row (one per column that
+/// any block puts in that row) or, for a skew row, its own entries of its region (their values are
+/// scaled onto the node's other rows entry by entry). Entry `(a, b)` of the block is added at the
+/// entry of the block's global column `b` in the run of block row `a`.
 #[derive(Debug, Clone, Default)]
 pub struct BlockScatter {
-    /// First COO entry of the shared region.
-    pub base: usize,
-    /// Columns of the shared region.
-    pub stride: usize,
-    /// Row of the shared region of each block row.
-    pub rows: Vec<u32>,
-    /// Column of the shared region of each block column.
-    pub cols: Vec<u32>,
+    /// The run of each block row: its column pattern (`DROPPED`: the row is dropped) and its first
+    /// COO entry.
+    pub rows: Vec<(u32, u32)>,
+}
+
+/// The columns of the coupling blocks' runs, one pattern per distinct run layout (the rows of a
+/// node share one): its columns sorted, with where each is in the run. The size follows the COO
+/// entries of the coupling blocks, not their regions' entries (neighbouring regions overlap).
+#[derive(Debug, Clone, Default)]
+pub struct CouplingRuns {
+    /// Start of each pattern in `cols` and `offsets`. [n_patterns + 1]
+    pub start: Vec<usize>,
+    /// Each pattern's columns, sorted ascending.
+    pub cols: Vec<i32>,
+    /// Where each of them is in the run (from the run's first COO entry).
+    pub offsets: Vec<u32>,
+}
+
+impl CouplingRuns {
+    /// No patterns.
+    pub fn new() -> Self {
+        CouplingRuns {
+            start: vec![0],
+            cols: Vec::new(),
+            offsets: Vec::new(),
+        }
+    }
+
+    /// Adds a pattern from a run's columns in COO order and returns its index.
+    pub fn push(&mut self, run_cols: &[i32]) -> u32 {
+        let from = self.cols.len();
+        let mut pairs: Vec<(i32, u32)> =
+            run_cols.iter().zip(0u32..).map(|(&g, o)| (g, o)).collect();
+        pairs.sort_unstable();
+        self.cols.extend(pairs.iter().map(|p| p.0));
+        self.offsets.extend(pairs.iter().map(|p| p.1));
+        self.start.push(self.cols.len());
+        debug_assert!(self.cols[from..].windows(2).all(|w| w[0] < w[1]));
+        (self.start.len() - 2) as u32
+    }
+
+    /// Number of patterns.
+    pub fn len(&self) -> usize {
+        self.start.len().saturating_sub(1)
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Where each of the global columns `cols` is in a run of `pattern` (`DROPPED` for a negative
+    /// column), into `out`.
+    ///
+    /// Panics if a column is not in the pattern (the pattern was built from the blocks' columns).
+    pub fn positions(&self, pattern: u32, cols: &[i32], out: &mut Vec<u32>) {
+        let p = pattern as usize;
+        let (pc, po) = (
+            &self.cols[self.start[p]..self.start[p + 1]],
+            &self.offsets[self.start[p]..self.start[p + 1]],
+        );
+        out.clear();
+        out.extend(cols.iter().map(|&g| {
+            if g < 0 {
+                return DROPPED;
+            }
+            match pc.binary_search(&g) {
+                Ok(i) => po[i],
+                Err(_) => panic!("column {g} is not in the coupling pattern's row"),
+            }
+        }));
+    }
 }
 
 impl MatrixSink for CooSink<'_> {
@@ -65,56 +178,28 @@ impl MatrixSink for CooSink<'_> {
         let start = self.offsets[slot];
         self.values[start..start + k_e.len()].copy_from_slice(k_e);
     }
-    fn add_block(&mut self, slot: usize, _rows: &[i32], _cols: &[i32], k: &[f64]) {
+    fn add_block(&mut self, slot: usize, _rows: &[i32], cols: &[i32], k: &[f64]) {
         if slot < self.first_scattered {
             let start = self.offsets[slot];
             self.values[start..start + k.len()].copy_from_slice(k);
             return;
         }
-        let s = &self.scattered[slot - self.first_scattered];
-        let nc = s.cols.len();
-        for (a, &ra) in s.rows.iter().enumerate() {
-            if ra == u32::MAX {
-                continue;
-            }
-            let at = &self.region_map[s.base + ra as usize * s.stride..][..s.stride];
-            for (&cb, &v) in s.cols.iter().zip(&k[a * nc..(a + 1) * nc]) {
-                if cb != u32::MAX {
-                    self.values[at[cb as usize] as usize] += v;
-                }
-            }
-        }
+        let scattered = self.scattered;
+        let s = &scattered[slot - self.first_scattered];
+        debug_assert_eq!(s.rows.len() * cols.len(), k.len());
+        self.add_runs(&s.rows, cols, k);
     }
     fn add_cross(
         &mut self,
         (row_slot, row_from): (usize, usize),
-        (col_slot, col_from): (usize, usize),
+        (_col_slot, _col_from): (usize, usize),
         rows: &[i32],
         cols: &[i32],
         k: &[f64],
     ) {
         let scattered = self.scattered;
-        let first = self.first_scattered;
-        let (sr, sc) = (&scattered[row_slot - first], &scattered[col_slot - first]);
-        assert!(
-            sr.base == sc.base && sr.stride == sc.stride,
-            "a cross block spans two regions (slots {row_slot} and {col_slot})"
-        );
-        let (base, stride) = (sr.base, sr.stride);
-        let rmap = &sr.rows[row_from..row_from + rows.len()];
-        let cmap = &sc.cols[col_from..col_from + cols.len()];
-        let nc = cols.len();
-        for (a, &ra) in rmap.iter().enumerate() {
-            if ra == u32::MAX {
-                continue;
-            }
-            let at = &self.region_map[base + ra as usize * stride..][..stride];
-            for (&cb, &v) in cmap.iter().zip(&k[a * nc..(a + 1) * nc]) {
-                if cb != u32::MAX {
-                    self.values[at[cb as usize] as usize] += v;
-                }
-            }
-        }
+        let sr = &scattered[row_slot - self.first_scattered];
+        self.add_runs(&sr.rows[row_from..row_from + rows.len()], cols, k);
     }
 }
 
@@ -159,123 +244,88 @@ impl MatrixSink for DenseSink {
 mod tests {
     use super::*;
 
-    /// Two coupling blocks of one region (rows of an element, columns of it and of two partners
+    /// Two coupling blocks of one row's run (rows of an element, columns of it and of two partners
     /// that share an unknown) add up in the COO values as in a dense matrix, a dropped row and
-    /// column included.
+    /// column included; the run's columns are not in ascending order.
     #[test]
-    fn scattered_blocks_sum_into_their_shared_region() {
+    fn scattered_blocks_sum_into_their_rows_runs() {
         // block 0: rows [0, 1], cols [0, 1, 2, 3]; block 1: rows [0, 1], cols [0, 1, 3, -1]
         let rows = [0, 1];
         let (c0, c1) = ([0, 1, 2, 3], [0, 1, 3, -1]);
         let k0: Vec<f64> = (0..8).map(|i| 1.0 + i as f64).collect();
         let k1: Vec<f64> = (0..8).map(|i| 10.0 * (1.0 + i as f64)).collect();
-        // the region: rows [0, 1] x union of columns [0, 1, 2, 3], row 1 dropped (constrained)
-        let union = [0, 1, 2, 3];
+        // row 0's run: COO entries 2.. with columns [2, 0, 3, 1]; row 1 dropped (constrained)
+        let run = [2, 0, 3, 1];
+        let mut runs = CouplingRuns::new();
+        let p = runs.push(&run);
         let scattered = vec![
             BlockScatter {
-                base: 2,
-                stride: 4,
-                rows: vec![0, u32::MAX],
-                cols: vec![0, 1, 2, 3],
-            },
-            BlockScatter {
-                base: 2,
-                stride: 4,
-                rows: vec![0, u32::MAX],
-                cols: vec![0, 1, 3, u32::MAX],
-            },
+                rows: vec![(p, 2), (DROPPED, 0)],
+            };
+            2
         ];
         let offsets = [0, 2, 6];
         let mut values = vec![0.0; 6];
-        // the region's entries are COO entries 2.. in order
-        let region_map: Vec<u32> = (0..6).collect();
-        let mut sink = CooSink {
-            offsets: &offsets,
-            values: &mut values,
-            scattered: &scattered,
-            region_map: &region_map,
-            first_scattered: 1,
-        };
+        let mut sink = CooSink::new(&offsets, &mut values, &scattered, &runs, 1);
         sink.add_block(1, &rows, &c0, &k0);
         sink.add_block(2, &rows, &c1, &k1);
         let mut dense = DenseSink::new(4);
         dense.add_block(0, &[0, -1], &c0, &k0);
         dense.add_block(0, &[0, -1], &c1, &k1);
         assert_eq!(&values[..2], &[0.0, 0.0]);
-        for (b, &j) in union.iter().enumerate() {
-            assert_eq!(values[2 + b], dense.a[j as usize], "column {j}");
+        for (o, &j) in run.iter().enumerate() {
+            assert_eq!(values[2 + o], dense.a[j as usize], "column {j}");
         }
+        assert_eq!(values[2..], [3.0, 11.0, 4.0 + 30.0, 2.0 + 20.0]);
     }
 
-    /// Two regions that hold the same matrix entry map it to one COO entry, which receives the
-    /// sum of both blocks' values there, as the dense matrix does.
+    /// Blocks of two regions that hold the same matrix entries add into one run, and the rows of a
+    /// node (same columns in the same order) share one column pattern at their own entries; the
+    /// values are those of the dense matrix.
     #[test]
-    fn regions_sharing_a_matrix_entry_add_into_one_coo_entry() {
-        // region 0: row [0] x cols [0, 1]; region 1: row [0] x cols [1, 2]; matrix entry (0, 1)
-        // in both: COO entries 0 (0,0), 1 (0,1), 2 (0,2)
+    fn regions_sharing_a_row_add_into_one_run() {
+        // region 0: rows [0, 1] x cols [0, 1]; region 1: rows [0, 1] x cols [1, 2]; rows 0 and 1
+        // have the runs [0, 1, 2] at COO entries 0.. and 3..
+        let mut runs = CouplingRuns::new();
+        let p = runs.push(&[0, 1, 2]);
         let scattered = vec![
             BlockScatter {
-                base: 0,
-                stride: 2,
-                rows: vec![0],
-                cols: vec![0, 1],
-            },
-            BlockScatter {
-                base: 2,
-                stride: 2,
-                rows: vec![0],
-                cols: vec![0, 1],
-            },
+                rows: vec![(p, 0), (p, 3)],
+            };
+            2
         ];
-        let region_map = [0, 1, 1, 2];
-        let offsets = [0, 3];
-        let mut values = vec![0.0; 3];
-        let mut sink = CooSink {
-            offsets: &offsets,
-            values: &mut values,
-            scattered: &scattered,
-            region_map: &region_map,
-            first_scattered: 0,
-        };
-        sink.add_block(0, &[0], &[0, 1], &[1.0, 2.0]);
-        sink.add_block(1, &[0], &[1, 2], &[30.0, 40.0]);
+        let offsets = [0, 6];
+        let mut values = vec![0.0; 6];
+        let k0 = [1.0, 2.0, 3.0, 4.0];
+        let k1 = [10.0, 20.0, 30.0, 40.0];
+        let mut sink = CooSink::new(&offsets, &mut values, &scattered, &runs, 0);
+        sink.add_block(0, &[0, 1], &[0, 1], &k0);
+        sink.add_block(1, &[0, 1], &[1, 2], &k1);
         let mut dense = DenseSink::new(3);
-        dense.add_block(0, &[0], &[0, 1], &[1.0, 2.0]);
-        dense.add_block(1, &[0], &[1, 2], &[30.0, 40.0]);
-        assert_eq!(values, dense.a[..3]);
-        assert_eq!(values, [1.0, 32.0, 40.0]);
+        dense.add_block(0, &[0, 1], &[0, 1], &k0);
+        dense.add_block(1, &[0, 1], &[1, 2], &k1);
+        assert_eq!(values, dense.a[..6]);
+        assert_eq!(values, [1.0, 12.0, 20.0, 3.0, 34.0, 40.0]);
     }
 
     /// A cross block (the rows of one block from a row on, the columns of another) lands where
-    /// the dense matrix puts it, within the region the two blocks share.
+    /// the dense matrix puts it.
     #[test]
     fn cross_blocks_add_rows_of_one_block_times_columns_of_another() {
-        // region rows [0, 1, 2] x cols [0, 1, 2, 3]; block 0: rows [0, 1], cols [0, 1];
-        // block 1: rows [0, 1, 2], cols [0, 1, 2, 3] (row 1 constrained)
+        // rows [0, 1, 2] x cols [0, 1, 2, 3], row 1 constrained; runs: row 0 at 0.., row 2 at 8..
+        let mut runs = CouplingRuns::new();
+        let p = runs.push(&[0, 1, 2, 3]);
         let scattered = vec![
             BlockScatter {
-                base: 0,
-                stride: 4,
-                rows: vec![0, u32::MAX],
-                cols: vec![0, 1],
+                rows: vec![(p, 0), (DROPPED, 0)],
             },
             BlockScatter {
-                base: 0,
-                stride: 4,
-                rows: vec![0, u32::MAX, 2],
-                cols: vec![0, 1, 2, 3],
+                rows: vec![(p, 0), (DROPPED, 0), (p, 8)],
             },
         ];
         let offsets = [0, 12];
         let mut values = vec![0.0; 12];
-        let region_map: Vec<u32> = (0..12).collect();
-        let mut sink = CooSink {
-            offsets: &offsets,
-            values: &mut values,
-            scattered: &scattered,
-            region_map: &region_map,
-            first_scattered: 0,
-        };
+        let mut sink = CooSink::new(&offsets, &mut values, &scattered, &runs, 0);
         // rows of block 1 from row 1 (global 1, 2), columns of block 1 from column 2 (global 2, 3)
         let k = [1.0, 2.0, 3.0, 4.0];
         sink.add_cross((1, 1), (1, 2), &[1, 2], &[2, 3], &k);
@@ -291,5 +341,17 @@ mod tests {
             }
         }
         assert_eq!(&values[8..], &[5.0, 6.0, 3.0, 4.0]);
+    }
+
+    /// A column missing from its row's pattern is a bug in the pattern, not a value to drop.
+    #[test]
+    #[should_panic(expected = "column 5 is not in the coupling pattern's row")]
+    fn a_column_outside_the_pattern_panics() {
+        let mut runs = CouplingRuns::new();
+        let p = runs.push(&[3, 1]);
+        let mut out = Vec::new();
+        runs.positions(p, &[1, -1, 3], &mut out);
+        assert_eq!(out, [1, DROPPED, 0]);
+        runs.positions(p, &[5], &mut out);
     }
 }

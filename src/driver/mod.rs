@@ -773,12 +773,19 @@ fn finish_and_report(
                 &mut region_entries,
                 SystemOperation::sum(),
             );
+            let mut run_columns = 0u64;
+            comm.all_reduce_into(
+                &(t.run_columns as u64),
+                &mut run_columns,
+                SystemOperation::sum(),
+            );
             io::ContactPatternStats {
                 rebuilds: t.pattern_rebuilds,
                 missing_blocks: total,
                 ring,
                 coo_entries,
                 region_entries,
+                run_columns,
             }
         }),
         contact_data: contact_data(comm, asm),

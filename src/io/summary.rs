@@ -187,10 +187,15 @@ pub struct ContactPatternStats {
     #[serde(default)]
     pub coo_entries: u64,
     /// Entries of the contact blocks' shared regions in the largest pattern a rank built, summed
-    /// over ranks: each holds the COO entry its value goes to (4 bytes). Absent in summaries
-    /// written before it existed.
+    /// over ranks (neighbouring regions overlap: their entries over `coo_entries` tell by how
+    /// much). Absent in summaries written before it existed.
     #[serde(default)]
     pub region_entries: u64,
+    /// Columns of the contact rows' column patterns in the largest pattern a rank built, summed
+    /// over ranks: each holds the column and its place in the row's run of COO entries (8 bytes);
+    /// the rows of a node share a pattern. Absent in summaries written before it existed.
+    #[serde(default)]
+    pub run_columns: u64,
 }
 
 /// What each rank holds for contact and what it receives per evaluation (the measure of

@@ -13,8 +13,8 @@
 //!   a pass integrated over 3D segments holds more points, [`SEGMENT_ELEMENT_BYTES`]);
 //! - the Jacobian: [`COO_ENTRY_BYTES`] per entry of the COO pattern (PETSc's matrix, its COO maps
 //!   and the assembler's index and value arrays), the cells' element matrices `(n_nodes dim)^2` and
-//!   the contact band's distinct entries, and [`REGION_ENTRY_BYTES`] per entry of the contact
-//!   blocks' shared regions (the region map; below);
+//!   the contact band's distinct entries, and [`PATTERN_COLUMN_BYTES`] per column of the contact
+//!   rows' column patterns (a node's rows share one: the distinct entries over the dimension);
 //! - the linear solver of the route that runs ([`linear_bytes`]);
 //! - the heap terms times [`ALLOCATOR_FACTOR`] (allocator slack and pages freed but kept).
 //!
@@ -58,8 +58,11 @@ pub const SEGMENT_ELEMENT_BYTES: f64 = 150e3;
 /// Bytes per entry of the COO pattern: PETSc's matrix and COO maps and the assembler's arrays.
 pub const COO_ENTRY_BYTES: f64 = 24.0;
 
-/// Bytes per entry of the contact blocks' shared regions: the COO entry its value goes to.
-pub const REGION_ENTRY_BYTES: f64 = 4.0;
+/// Bytes per column of the contact rows' column patterns (its global column and its place in the
+/// row's run of COO entries). The rows of a node share a pattern, so there are about the band's
+/// distinct entries over the dimension (the scale scene's e4: 98,799 with the paper's formulation,
+/// 300,027 with the one-pass weighted gap, `contact_pattern.run_columns` of summary.json).
+pub const PATTERN_COLUMN_BYTES: f64 = 8.0;
 
 /// Region entries per distinct matrix entry of the contact band, two half-passes (measured on the
 /// scale scene's size e4: 1,042,146 region entries, about 0.30e6 distinct contact entries).
@@ -129,7 +132,8 @@ impl PeakEstimate {
             .map(|n| n * n)
             .sum();
         let band = contact_band_entries(model);
-        let contact = COO_ENTRY_BYTES * band.distinct + REGION_ENTRY_BYTES * band.regions;
+        let contact =
+            COO_ENTRY_BYTES * band.distinct + PATTERN_COLUMN_BYTES * band.distinct / dim as f64;
         PeakEstimate {
             per_rank: PROCESS_BYTES + mesh.mesh_bytes() + ALLOCATOR_FACTOR * data,
             matrix: ALLOCATOR_FACTOR * (COO_ENTRY_BYTES * coo_cells + contact),
@@ -264,20 +268,20 @@ mod tests {
         let weighted_gap = ["contact.0.formulation=\"weighted_gap\""];
         let rows: [(&str, &[&str], &str, f64); 8] = [
             ("contact_patch_3d.toml", &[], "direct", 62_112.0),
-            ("twisting_3d.toml", &[], "direct", 65_200.0),
-            ("hemisphere_block_3d.toml", &[], "direct", 159_424.0),
+            ("twisting_3d.toml", &[], "direct", 65_424.0),
+            ("hemisphere_block_3d.toml", &[], "direct", 149_372.0),
             ("hemisphere_twist_scale_3d.toml", &[], "direct", 404_796.0),
             (
                 "hemisphere_twist_scale_3d.toml",
                 &[],
                 "iterative",
-                263_576.0,
+                244_868.0,
             ),
             (
                 "hemisphere_twist_scale_3d.toml",
                 &weighted_gap,
                 "iterative",
-                377_256.0,
+                330_324.0,
             ),
             (
                 "hemisphere_twist_scale_3d.toml",

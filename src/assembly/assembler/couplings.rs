@@ -14,7 +14,7 @@
 
 use super::{fatal, Assembler, MatrixAssembly};
 use crate::assembly::coupling_set::{Augment, Block, CouplingSet};
-use crate::assembly::BlockScatter;
+use crate::assembly::{BlockScatter, CouplingRuns};
 use crate::petsc::{Matrix, PetscError, PetscInt, ProblemError, Scatter, Snes, Vector};
 use mpi::collective::SystemOperation;
 use mpi::datatype::{Partition, PartitionMut};
@@ -32,9 +32,9 @@ pub(super) struct CouplingHook<'p> {
     pub(super) blocks: Vec<Block>,
     pub(super) first_slot: usize,
     pub(super) block_scatter: Vec<BlockScatter>,
-    /// The COO entry of each entry of the blocks' shared regions (regions of different keys
+    /// The column patterns of the blocks' rows' runs of COO entries (regions of different keys
     /// share the entries of a matrix entry; see `build_pattern`).
-    pub(super) region_map: Vec<u32>,
+    pub(super) runs: CouplingRuns,
     /// Neighbour rings reserved around the needed blocks (see [`CouplingSet::band_blocks`]).
     pub(super) ring: usize,
     /// A Jacobian since the last pattern needed a coupling outside it.
@@ -90,7 +90,7 @@ impl<'p> Assembler<'p> {
             blocks: Vec::new(),
             first_slot: 0,
             block_scatter: Vec::new(),
-            region_map: Vec::new(),
+            runs: CouplingRuns::new(),
             ring,
             stale: false,
             missing_blocks: 0,

@@ -12,7 +12,7 @@ use super::coupling_set::Block;
 use super::dofmap::{DofMap, GlobalDof};
 use super::element_set::{ElementFailure, ElementSet};
 use super::rigid_coupling::NodeOffsets;
-use super::sink::{CooSink, MatrixSink};
+use super::sink::{CooSink, CouplingRuns, MatrixSink};
 use super::skew::SkewRows;
 use crate::petsc::{
     Matrix, NonlinearProblem, Petsc, PetscError, PetscInt, ProblemError, Scatter, Vector,
@@ -67,9 +67,12 @@ pub struct Timers {
     pub pattern_rebuilds: usize,
     /// COO entries of the largest pattern built on this rank.
     pub coo_entries: usize,
-    /// Entries of the coupling blocks' shared regions (one `u32` of the region map each) in the
-    /// largest pattern built on this rank.
+    /// Entries of the coupling blocks' shared regions (the union of their rows times the union
+    /// of their columns; neighbouring regions overlap) in the largest pattern built on this rank.
     pub region_entries: usize,
+    /// Columns of the coupling rows' column patterns (see
+    /// [`CouplingRuns`](super::sink::CouplingRuns)) in the largest pattern built on this rank.
+    pub run_columns: usize,
 }
 
 /// Per element set: the element unknowns' local and global indices, flattened.
@@ -563,28 +566,23 @@ impl NonlinearProblem for Assembler<'_> {
                 // coupling blocks add into their shared regions, and reserved blocks that are not
                 // needed now must not keep old values
                 let mut scattered = Vec::new();
-                let mut region_map = Vec::new();
+                let mut runs = CouplingRuns::new();
                 let mut first_scattered = usize::MAX;
                 if let Some(c) = &mut self.coupled {
                     let (a, b) = (offsets[c.first_slot], offsets[offsets.len() - 2]);
                     values[a..b].fill(0.0);
                     scattered = std::mem::take(&mut c.block_scatter);
-                    region_map = std::mem::take(&mut c.region_map);
+                    runs = std::mem::take(&mut c.runs);
                     first_scattered = c.first_slot;
                 }
                 let res = {
-                    let mut sink = CooSink {
-                        offsets: &offsets,
-                        values: &mut values,
-                        scattered: &scattered,
-                        region_map: &region_map,
-                        first_scattered,
-                    };
+                    let mut sink =
+                        CooSink::new(&offsets, &mut values, &scattered, &runs, first_scattered);
                     self.guarded_loop(x, Some(&mut sink))
                 };
                 if let Some(c) = &mut self.coupled {
                     c.block_scatter = scattered;
-                    c.region_map = region_map;
+                    c.runs = runs;
                 }
                 // Skew rows' element entries onto the other rows of their node.
                 for &(src, dst, a) in &self.skew_copy {

@@ -3,7 +3,7 @@
 
 use super::{Assembler, MatrixAssembly};
 use crate::assembly::skew::{SkewRow, SkewRows};
-use crate::assembly::{BlockScatter, MatrixSink};
+use crate::assembly::{BlockScatter, CouplingRuns, MatrixSink, DROPPED};
 use crate::petsc::{Matrix, PetscError, PetscInt};
 use std::time::Instant;
 
@@ -38,7 +38,7 @@ fn note_skew(
     }
 }
 
-/// A COO entry's index as the region map stores it.
+/// A COO entry's index as the coupling rows' runs store it.
 fn coo_index(i: usize) -> Result<u32, PetscError> {
     u32::try_from(i).map_err(|_| PetscError {
         code: 0,
@@ -56,6 +56,136 @@ fn sorted_union<'a>(lists: impl Iterator<Item = &'a [PetscInt]>) -> Vec<PetscInt
     u.sort_unstable();
     u.dedup();
     u
+}
+
+/// The coupling blocks' regions as the pattern lays them out: blocks that share a region (the
+/// union of their rows times the union of their columns) are added together.
+#[derive(Default)]
+struct Regions {
+    /// Per region: its rows that reach the matrix, its columns, its first row over all regions.
+    regions: Vec<(Vec<PetscInt>, Vec<PetscInt>, usize)>,
+    /// Per block: its region's first row, and the row of the region of each block row
+    /// (`DROPPED`: the row does not reach the matrix).
+    block_rows: Vec<(usize, Vec<u32>)>,
+    /// Rows of all regions.
+    n_rows: usize,
+    /// Entries of all regions (rows that reach the matrix times columns).
+    entries: usize,
+}
+
+impl Regions {
+    /// Adds a region shared by the blocks whose (rows, columns) are `dofs` (negative: no
+    /// unknown); `keep` says which rows reach the matrix.
+    fn add(&mut self, dofs: &[(Vec<PetscInt>, Vec<PetscInt>)], keep: impl Fn(PetscInt) -> bool) {
+        let all_rows = sorted_union(dofs.iter().map(|d| &d.0[..]));
+        let all_cols = sorted_union(dofs.iter().map(|d| &d.1[..]));
+        let kept: Vec<PetscInt> = all_rows.into_iter().filter(|&gi| keep(gi)).collect();
+        for (r, _) in dofs {
+            let pos = |g: &PetscInt| kept.binary_search(g).map_or(DROPPED, |p| p as u32);
+            self.block_rows
+                .push((self.n_rows, r.iter().map(pos).collect()));
+        }
+        self.entries += kept.len() * all_cols.len();
+        let n = kept.len();
+        self.regions.push((kept, all_cols, self.n_rows));
+        self.n_rows += n;
+    }
+
+    /// Pushes the regions' COO entries onto `rows` and `cols` and returns where each block's rows
+    /// go. A matrix row's entries are merged over the regions into one run of consecutive
+    /// entries, in the order the regions first reach its columns; a skew row keeps a run per
+    /// region (its scaling noted in `scale` and `extra`). `target` says where a row goes
+    /// ([`row_target`]); `n_global` bounds the columns.
+    #[allow(clippy::type_complexity)]
+    fn runs<'a>(
+        &self,
+        target: impl Fn(PetscInt) -> (PetscInt, Option<&'a SkewRow>),
+        n_global: usize,
+        (rows, cols): (&mut Vec<PetscInt>, &mut Vec<PetscInt>),
+        (scale, extra): (
+            &mut Vec<(usize, f64)>,
+            &mut Vec<(PetscInt, PetscInt, usize, f64)>,
+        ),
+    ) -> Result<(Vec<BlockScatter>, CouplingRuns), PetscError> {
+        // the run of each region row: its column pattern and its first COO entry
+        let mut run_of = vec![(DROPPED, 0u32); self.n_rows];
+        let mut runs = CouplingRuns::new();
+        // (matrix row, region, row of the region) of the rows merged
+        let mut merged: Vec<(PetscInt, u32, u32)> = Vec::new();
+        for (ri, (kept, all_cols, first)) in self.regions.iter().enumerate() {
+            // the region's skew rows share a pattern, its columns in order
+            let mut skew_pattern = DROPPED;
+            for (a, &gi) in kept.iter().enumerate() {
+                let (row, sk) = target(gi);
+                let Some(sr) = sk else {
+                    merged.push((row, ri as u32, a as u32));
+                    continue;
+                };
+                if skew_pattern == DROPPED {
+                    skew_pattern = runs.push(all_cols);
+                }
+                run_of[first + a] = (skew_pattern, coo_index(rows.len())?);
+                for &gj in all_cols {
+                    note_skew(sr, rows.len(), gj, scale, extra);
+                    rows.push(row);
+                    cols.push(gj);
+                }
+            }
+        }
+        merged.sort_unstable();
+        // whether a column is in the current row's run yet
+        let mut in_run = vec![false; n_global];
+        // the last merged run: its first COO entry, its end, its pattern
+        let mut last: Option<(usize, usize, u32)> = None;
+        let mut i = 0;
+        while i < merged.len() {
+            let row = merged[i].0;
+            let j = i + merged[i..].iter().take_while(|m| m.0 == row).count();
+            let run_start = rows.len();
+            for &(_, ri, _) in &merged[i..j] {
+                for &gj in &self.regions[ri as usize].1 {
+                    let seen = &mut in_run[gj as usize];
+                    if !*seen {
+                        *seen = true;
+                        rows.push(row);
+                        cols.push(gj);
+                    }
+                }
+            }
+            for &g in &cols[run_start..] {
+                in_run[g as usize] = false;
+            }
+            // the unknowns of a node have the same columns in the same order
+            let pattern = match last {
+                Some((s, e, p)) if cols[s..e] == cols[run_start..] => p,
+                _ => runs.push(&cols[run_start..]),
+            };
+            last = Some((run_start, rows.len(), pattern));
+            let at = coo_index(run_start)?;
+            coo_index(rows.len())?;
+            for &(_, ri, a) in &merged[i..j] {
+                run_of[self.regions[ri as usize].2 + a as usize] = (pattern, at);
+            }
+            i = j;
+        }
+        let scattered = self
+            .block_rows
+            .iter()
+            .map(|(first, rr)| BlockScatter {
+                rows: rr
+                    .iter()
+                    .map(|&a| {
+                        if a == DROPPED {
+                            (DROPPED, 0)
+                        } else {
+                            run_of[first + a as usize]
+                        }
+                    })
+                    .collect(),
+            })
+            .collect();
+        Ok((scattered, runs))
+    }
 }
 
 impl Assembler<'_> {
@@ -94,11 +224,13 @@ impl Assembler<'_> {
                 // and of its partner). Blocks whose keys share the first two components (contact:
                 // the half-pass and the surface element) share one region, the union of their rows
                 // times the union of their columns, and the regions' entries are merged before
-                // PETSc sees them: each (row, column) of the regions gets one COO entry, and
-                // `region_map` says which. The regions of neighbouring surface elements overlap
-                // in most of their entries (the weighted gaps' rows reach every column of their
-                // control points' supports), and PETSc would otherwise hold, sort and sum each of
-                // them once per region. Skew rows keep an entry per region (their values are
+                // PETSc sees them: each (row, column) of the regions gets one COO entry. The regions
+                // of neighbouring surface elements overlap in most of their entries (the weighted
+                // gaps' rows reach every column of their control points' supports), and PETSc
+                // would otherwise hold, sort and sum each of them once per region. A matrix row's
+                // merged entries are one run of consecutive COO entries; a block row finds its
+                // columns in its row's run through the run's column pattern (`CouplingRuns`), which
+                // the rows of a node share. Skew rows keep a run per region (their values are
                 // scaled onto the node's other rows entry by entry).
                 if let Some(c) = &mut self.coupled {
                     c.blocks = match c.preset.take() {
@@ -106,10 +238,7 @@ impl Assembler<'_> {
                         None => c.set.band_blocks(c.ring),
                     };
                     c.first_slot = self.coo_offsets.len() - 1;
-                    c.block_scatter.clear();
-                    // per region: its rows that reach the matrix, its columns, its first map entry
-                    let mut regions: Vec<(Vec<PetscInt>, Vec<PetscInt>, usize)> = Vec::new();
-                    let mut map_len = 0;
+                    let mut regions = Regions::default();
                     let mut start = 0;
                     while start < c.blocks.len() {
                         let key = (c.blocks[start].0, c.blocks[start].1);
@@ -122,80 +251,23 @@ impl Assembler<'_> {
                             .iter()
                             .map(|b| c.set.block_dofs(b))
                             .collect();
-                        let all_rows = sorted_union(dofs.iter().map(|d| &d.0[..]));
-                        let all_cols = sorted_union(dofs.iter().map(|d| &d.1[..]));
                         // rows that reach the matrix (not constrained, or skew rows moved)
-                        let kept: Vec<PetscInt> = all_rows
-                            .into_iter()
-                            .filter(|&gi| row_target(&self.constrained, &self.skew, gi).0 >= 0)
-                            .collect();
-                        let pos = |set: &[PetscInt], g: &i32| {
-                            set.binary_search(g).map_or(u32::MAX, |p| p as u32)
-                        };
-                        for (r, cl) in &dofs {
-                            c.block_scatter.push(BlockScatter {
-                                base: map_len,
-                                stride: all_cols.len(),
-                                rows: r.iter().map(|g| pos(&kept, g)).collect(),
-                                cols: cl.iter().map(|g| pos(&all_cols, g)).collect(),
-                            });
-                        }
-                        let n = kept.len() * all_cols.len();
-                        regions.push((kept, all_cols, map_len));
-                        map_len += n;
+                        regions.add(&dofs, |gi| {
+                            row_target(&self.constrained, &self.skew, gi).0 >= 0
+                        });
                         start = end;
                     }
-                    self.timers.region_entries = self.timers.region_entries.max(map_len);
-                    let mut map = vec![u32::MAX; map_len];
-                    // (matrix row, region, row of the region) of the rows merged
-                    let mut merged: Vec<(PetscInt, u32, u32)> = Vec::new();
-                    for (ri, (kept, all_cols, base)) in regions.iter().enumerate() {
-                        for (a, &gi) in kept.iter().enumerate() {
-                            let (row, sk) = row_target(&self.constrained, &self.skew, gi);
-                            let Some(sr) = sk else {
-                                merged.push((row, ri as u32, a as u32));
-                                continue;
-                            };
-                            let at = base + a * all_cols.len();
-                            for (b, &gj) in all_cols.iter().enumerate() {
-                                note_skew(sr, rows.len(), gj, &mut scale, &mut extra);
-                                map[at + b] = coo_index(rows.len())?;
-                                rows.push(row);
-                                cols.push(gj);
-                            }
-                        }
-                    }
-                    merged.sort_unstable();
-                    // the COO entry of each column of the current row (`u32::MAX`: none yet)
-                    let mut entry_of = vec![u32::MAX; self.dofs.n_global()];
-                    let mut touched: Vec<PetscInt> = Vec::new();
-                    let mut i = 0;
-                    while i < merged.len() {
-                        let row = merged[i].0;
-                        let j = i + merged[i..].iter().take_while(|m| m.0 == row).count();
-                        for &(_, ri, a) in &merged[i..j] {
-                            let (_, all_cols, base) = &regions[ri as usize];
-                            let at = base + a as usize * all_cols.len();
-                            for (b, &gj) in all_cols.iter().enumerate() {
-                                let e = &mut entry_of[gj as usize];
-                                if *e == u32::MAX {
-                                    *e = coo_index(rows.len())?;
-                                    touched.push(gj);
-                                    rows.push(row);
-                                    cols.push(gj);
-                                }
-                                map[at + b] = *e;
-                            }
-                        }
-                        for g in touched.drain(..) {
-                            entry_of[g as usize] = u32::MAX;
-                        }
-                        i = j;
-                    }
+                    self.timers.region_entries = self.timers.region_entries.max(regions.entries);
+                    (c.block_scatter, c.runs) = regions.runs(
+                        |gi| row_target(&self.constrained, &self.skew, gi),
+                        self.dofs.n_global(),
+                        (&mut rows, &mut cols),
+                        (&mut scale, &mut extra),
+                    )?;
+                    self.timers.run_columns = self.timers.run_columns.max(c.runs.cols.len());
                     // (every region's entries lie between the first region's start and here)
                     self.coo_offsets
-                        .extend(std::iter::repeat_n(rows.len(), regions.len()));
-                    c.region_map = map;
+                        .extend(std::iter::repeat_n(rows.len(), regions.regions.len()));
                 }
                 // A final block with the diagonal of every owned row: identity rows of the
                 // constrained unknowns, the pseudo-transient damping (or zero) on the free ones.
@@ -310,5 +382,117 @@ impl MatrixSink for PetscSink<'_, '_, '_> {
         if let Err(e) = self.mat.add_values(&self.rows, cols, k) {
             self.err.get_or_insert(e);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::assembly::{CooSink, DenseSink};
+
+    /// Overlapping regions with a skew row, a constrained row and a column without an unknown:
+    /// blocks and a cross block added through the runs, the skew rows' values moved as the
+    /// assembler moves them, give the dense matrix's values; the rows of a node share a pattern.
+    #[test]
+    fn overlapping_regions_with_a_skew_row_give_the_dense_matrix() {
+        let n = 8;
+        // row 3 is skew (x_3 = 0.5 x_4 + 2 x_5), row 7 constrained
+        let sr = SkewRow {
+            dep: 3,
+            others: vec![(4, 0.5), (5, 2.0)],
+        };
+        let target = |gi: PetscInt| match gi {
+            3 => (4, Some(&sr)),
+            7 => (-1, None),
+            g => (g, None),
+        };
+        let blocks: Vec<Vec<(Vec<PetscInt>, Vec<PetscInt>)>> = vec![
+            vec![
+                (vec![0, 3, 7], vec![0, 3, 7, 1]),
+                (vec![0, 3, 7], vec![0, 3, 7, 5, -1, 6]),
+            ],
+            vec![
+                (vec![1, 0, 3], vec![1, 0, 3, 2]),
+                (vec![1, 0, 3], vec![1, 0, 3, 6, 5]),
+            ],
+            vec![(vec![5, 6], vec![5, 6, 2])],
+        ];
+        let mut regions = Regions::default();
+        for dofs in &blocks {
+            regions.add(dofs, |gi| target(gi).0 >= 0);
+        }
+        // entries before the regions' (an element block)
+        let (mut rows, mut cols) = (vec![0, 0], vec![0, 1]);
+        let (mut scale, mut extra) = (Vec::new(), Vec::new());
+        let (scattered, runs) = regions
+            .runs(target, n, (&mut rows, &mut cols), (&mut scale, &mut extra))
+            .unwrap();
+        // a skew pattern in each of the two regions with row 3, one for each of the merged rows
+        // 0 and 1, and one that rows 5 and 6 (a node: only in the last region) share
+        assert_eq!(runs.len(), 2 + 2 + 1);
+        let (r5, r6) = (scattered[4].rows[0], scattered[4].rows[1]);
+        assert_eq!(r5.0, r6.0);
+        assert_eq!(r6.1, r5.1 + 3);
+        let mut copies = Vec::new();
+        for (o, gj, src, a) in extra {
+            copies.push((src, rows.len(), a));
+            rows.push(o);
+            cols.push(gj);
+        }
+        let mut values = vec![0.0; rows.len()];
+        let offsets = [0, 2];
+        let mut sink = CooSink::new(&offsets, &mut values, &scattered, &runs, 1);
+        let mut dense = DenseSink::new(n);
+        let mut slot = 1;
+        let mut next = 1.0;
+        for dofs in &blocks {
+            for (r, c) in dofs {
+                let k: Vec<f64> = (0..r.len() * c.len()).map(|i| next + i as f64).collect();
+                next += k.len() as f64;
+                sink.add_block(slot, r, c, &k);
+                let dense_rows: Vec<_> = r.iter().map(|&g| if g == 7 { -1 } else { g }).collect();
+                dense.add_block(slot, &dense_rows, c, &k);
+                slot += 1;
+            }
+        }
+        // rows of the first region's second block from its row 1 (3, 7) times the columns of
+        // its first block from column 2 (7, 1)
+        let k = [100.0, 200.0, 300.0, 400.0];
+        sink.add_cross((2, 1), (1, 2), &[3, 7], &[7, 1], &k);
+        dense.add_cross((2, 1), (1, 2), &[3, -1], &[7, 1], &k);
+        for &(src, dst, a) in &copies {
+            values[dst] = a * values[src];
+        }
+        for &(i, a) in &scale {
+            values[i] *= a;
+        }
+        let mut coo = vec![0.0; n * n];
+        for ((&i, &j), &v) in rows.iter().zip(&cols).zip(&values) {
+            coo[i as usize * n + j as usize] += v;
+        }
+        let mut expect = dense.a.clone();
+        for j in 0..n {
+            let d = expect[3 * n + j];
+            expect[4 * n + j] += 0.5 * d;
+            expect[5 * n + j] += 2.0 * d;
+            expect[3 * n + j] = 0.0;
+        }
+        for i in 0..n {
+            for j in 0..n {
+                assert_eq!(coo[i * n + j], expect[i * n + j], "entry ({i}, {j})");
+            }
+        }
+        // a matrix row's entries are merged: each (row, column) of the merged rows at most once
+        let mut seen: Vec<_> = rows[2..]
+            .iter()
+            .zip(&cols[2..])
+            .take(rows.len() - 2 - copies.len())
+            .filter(|(&i, _)| i != 4)
+            .collect();
+        let all = seen.len();
+        seen.sort_unstable();
+        seen.dedup();
+        assert_eq!(seen.len(), all);
+        assert!(all > 0);
     }
 }
