@@ -524,18 +524,28 @@ mod tests {
     use crate::model::Model;
     use std::path::Path;
 
+    /// The model of shipped case `file` with `sets`.
+    fn shipped(file: &str, sets: &[&str]) -> Model {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("cases")
+            .join(file);
+        let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+        let case = crate::scene::load_case(&path, &sets).expect("case");
+        Model::build(&case).expect("model")
+    }
+
     /// The quarter sphere of `cases/hertz_3d.toml` (Q1N2 patch, `sliding` rollers on x = 0 and
     /// y = 0): both planes are found, every group of tied control points holds one on a plane and
     /// neighbours of it only, and at the corner the rows of both planes are merged into one group.
     #[test]
     fn a_quarter_spheres_patch_is_tied_across_its_two_symmetry_planes() {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/hertz_3d.toml");
-        let sets = vec![
-            "bodies.ball.element=\"Q1N2\"".to_string(),
-            "meshes.ball.divisions=[4,4,3]".to_string(),
-        ];
-        let case = crate::scene::load_case(&path, &sets).expect("case");
-        let model = Model::build(&case).expect("model");
+        let model = shipped(
+            "hertz_3d.toml",
+            &[
+                "bodies.ball.element=\"Q1N2\"",
+                "meshes.ball.divisions=[4,4,3]",
+            ],
+        );
         let dim = model.dim;
         let planes = symmetry_planes(&model.skews, &model.bcs, &model.coords, dim);
         assert_eq!(planes.len(), 2, "{planes:?}");
@@ -645,13 +655,13 @@ mod tests {
         assert!(ties_and_planes(&clamped).0.is_empty());
         // the 3D contact patch test holds lines of nodes in x and y against rigid motion: no
         // planes of those, and no ties on its surfaces
-        let patch = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/contact_patch_3d.toml");
-        let sets = vec![
-            "bodies.lower.element=\"Q1N2\"".to_string(),
-            "bodies.upper.element=\"Q1N2\"".to_string(),
-        ];
-        let case = crate::scene::load_case(&patch, &sets).expect("patch case");
-        let m = Model::build(&case).expect("patch model");
+        let m = shipped(
+            "contact_patch_3d.toml",
+            &[
+                "bodies.lower.element=\"Q1N2\"",
+                "bodies.upper.element=\"Q1N2\"",
+            ],
+        );
         let planes = symmetry_planes(&m.skews, &m.bcs, &m.coords, m.dim);
         assert!(
             planes.iter().all(|(n, _)| n[2] == 1.0),
