@@ -108,6 +108,13 @@ pub trait CouplingSet: Any + Send {
     /// Back to the state of the last [`commit`](Self::commit).
     fn rollback(&mut self);
 
+    /// Whether the set does anything after a converged solve ([`augment`](Self::augment):
+    /// contact: an augmented pair, or 3D segments to place again). The same on every rank; cheap,
+    /// unlike [`augmentation_violations`](Self::augmentation_violations).
+    fn augments(&self) -> bool {
+        false
+    }
+
     /// Augmented Lagrangian: this rank's largest constraint violation per group of the set
     /// (contact: per pair) at the last evaluation; empty when the set does not augment.
     fn augmentation_violations(&self) -> Vec<f64> {

@@ -107,7 +107,7 @@ pub struct BlockScatter {
 /// The columns of the coupling blocks' runs, one pattern per distinct run layout (the rows of a
 /// node share one): its columns sorted, with where each is in the run. The size follows the COO
 /// entries of the coupling blocks, not their regions' entries (neighbouring regions overlap).
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct CouplingRuns {
     /// Start of each pattern in `cols` and `offsets`. [n_patterns + 1]
     pub start: Vec<usize>,
@@ -115,6 +115,12 @@ pub struct CouplingRuns {
     pub cols: Vec<i32>,
     /// Where each of them is in the run (from the run's first COO entry).
     pub offsets: Vec<u32>,
+}
+
+impl Default for CouplingRuns {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 impl CouplingRuns {

@@ -469,11 +469,7 @@ impl Assembler<'_> {
     /// Collective.
     pub fn augment(&mut self, x: &Vector) -> Augment {
         // the same on every rank (the set's groups are replicated): no communication when off
-        if self
-            .coupled
-            .as_ref()
-            .is_none_or(|c| c.set.augmentation_violations().is_empty())
-        {
+        if self.coupled.as_ref().is_none_or(|c| !c.set.augments()) {
             return Augment::Satisfied;
         }
         // the gaps and pressures at `x` itself (the last evaluation of the solve is there, but

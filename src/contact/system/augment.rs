@@ -33,6 +33,20 @@ use crate::assembly::Augment;
 const SEGMENT_ROUNDS: usize = 3;
 
 impl ContactSystem {
+    /// Whether a pair is augmented or a pass is integrated over 3D segments: exactly when
+    /// [`augmentation_violations`](Self::augmentation_violations) is not empty, without
+    /// computing it.
+    pub fn augments(&self) -> bool {
+        self.pairs.iter().any(|p| {
+            p.def.formulation.augmented().is_some()
+                || p.passes.iter().any(|ps| {
+                    ps.segments
+                        .as_ref()
+                        .is_some_and(super::segments::Segments::three_d)
+                })
+        })
+    }
+
     /// This rank's largest violation of the contact conditions per pair at the last evaluation
     /// (0 for pairs without augmentation), then with 3D segments each pair's drift of its placed
     /// points ([`ContactSystem::segment_drift`]); empty when no pair is augmented or segmented in

@@ -80,6 +80,10 @@ impl CouplingSet for ContactSystem {
         ContactSystem::rollback(self);
     }
 
+    fn augments(&self) -> bool {
+        ContactSystem::augments(self)
+    }
+
     fn augmentation_violations(&self) -> Vec<f64> {
         ContactSystem::augmentation_violations(self)
     }

@@ -435,3 +435,57 @@ fn weighted_gaps_stay_continuous_where_points_pass_the_partners_end() {
         }
     }
 }
+
+#[test]
+fn augments_says_exactly_when_there_are_violations_to_reduce() {
+    // the assembler asks `augments` after every converged solve instead of computing the
+    // violations (the 3D segments' drift re-clips every pressed element) only to see them empty
+    let plain = |gap: &str, algorithm: &str| {
+        format!("law = \"penalty\"\neps_n = 100.0\ngap = \"{gap}\"\nalgorithm = \"{algorithm}\"")
+    };
+    let augmented = |gap: &str, algorithm: &str| {
+        format!(
+            "{}\naugmented = {{ tol = 1e-12, max = 100 }}",
+            plain(gap, algorithm)
+        )
+    };
+    let cases = [
+        (
+            case_2d("Q1N2", "Q1N2", &plain("pointwise", "two_half_pass")),
+            false,
+        ),
+        (
+            case_2d("Q1N2", "Q1N2", &plain("weighted", "one_pass")),
+            false,
+        ),
+        (
+            case_2d("Q1N2", "Q1N2", &augmented("pointwise", "two_half_pass")),
+            true,
+        ),
+        (
+            case_3d_hemisphere("Q1N2", "Q1N2", &plain("pointwise", "two_half_pass")),
+            false,
+        ),
+        (
+            case_3d_hemisphere("Q1N2", "Q1N2", &plain("weighted", "one_pass")),
+            true,
+        ),
+        (
+            case_3d_hemisphere("Q1N2", "Q1N2", &augmented("weighted", "two_half_pass")),
+            true,
+        ),
+    ];
+    for (i, (case, expected)) in cases.iter().enumerate() {
+        let mut h = Harness::new(case);
+        let three_d = i >= 3;
+        let u = if three_d {
+            pressed_3d(&h, 0.08, [0.05, 0.08], 2e-3, 23)
+        } else {
+            pressed(&h, 0.08, 0.13, 2e-3, 11)
+        };
+        h.eval(&u, false);
+        let violations = h.sys.augmentation_violations();
+        assert_eq!(h.sys.augments(), !violations.is_empty(), "case {i}");
+        assert_eq!(h.sys.augments(), *expected, "case {i}");
+    }
+}
