@@ -61,6 +61,13 @@ fn generate(case: &Case, name: &str, spec: &MeshSpec) -> Result<(Mesh, Vec<Strin
                 p.divisions,
                 p.grading,
             ),
+            Generator::SphereCap(p) => mesh::quarter_sphere::sphere_cap(
+                p.center,
+                p.radius,
+                p.extent,
+                p.divisions,
+                p.grading,
+            ),
         },
         MeshSpec::File(f) => {
             mesh::gmsh::read_gmsh_with_warnings(&case.resolve_path(&f.file)).map(|(m, w)| {

@@ -136,6 +136,7 @@ impl JsonSchema for MeshSpec {
                 tagged::<HemisphereParams>(g, tag, "hemisphere", "generator"),
                 tagged::<HemisphereParams>(g, tag, "hemisphere_nurbs", "generator"),
                 tagged::<QuarterSphereParams>(g, tag, "quarter_sphere", "generator"),
+                tagged::<QuarterSphereParams>(g, tag, "sphere_cap", "generator"),
                 FileMesh::json_schema(g).to_value(),
             ],
         })

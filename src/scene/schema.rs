@@ -143,11 +143,12 @@ pub enum Generator {
     Hemisphere(HemisphereParams),
     HemisphereNurbs(HemisphereParams),
     QuarterSphere(QuarterSphereParams),
+    SphereCap(QuarterSphereParams),
 }
 
 impl Generator {
     /// Names accepted for `generator`.
-    pub const NAMES: [&'static str; 7] = [
+    pub const NAMES: [&'static str; 8] = [
         "rectangle",
         "half_disk",
         "sector",
@@ -155,6 +156,7 @@ impl Generator {
         "hemisphere",
         "hemisphere_nurbs",
         "quarter_sphere",
+        "sphere_cap",
     ];
 
     /// The spatial dimension of the mesh this generator builds.
@@ -164,7 +166,8 @@ impl Generator {
             Generator::Box(_)
             | Generator::Hemisphere(_)
             | Generator::HemisphereNurbs(_)
-            | Generator::QuarterSphere(_) => 3,
+            | Generator::QuarterSphere(_)
+            | Generator::SphereCap(_) => 3,
         }
     }
 
@@ -178,6 +181,7 @@ impl Generator {
             Generator::Hemisphere(_) => "hemisphere",
             Generator::HemisphereNurbs(_) => "hemisphere_nurbs",
             Generator::QuarterSphere(_) => "quarter_sphere",
+            Generator::SphereCap(_) => "sphere_cap",
         }
     }
 
@@ -187,7 +191,8 @@ impl Generator {
             Generator::Rectangle(_)
             | Generator::Box(_)
             | Generator::Sector(_)
-            | Generator::QuarterSphere(_) => "divisions",
+            | Generator::QuarterSphere(_)
+            | Generator::SphereCap(_) => "divisions",
             Generator::HalfDisk(_) => "n_arc",
             Generator::Hemisphere(_) | Generator::HemisphereNurbs(_) => "n_surface",
         }
@@ -290,6 +295,10 @@ pub struct HemisphereParams {
 /// `generator = "quarter_sphere"`: the quarter (x >= cx, y >= cy) of the lowest cap of the ball of
 /// `radius` around `center`, between the exact spherical patch `sphere` and the plane z = cz (a
 /// sphere pressed on a flat with two symmetry planes; see `crate::mesh::quarter_sphere`).
+/// `generator = "sphere_cap"` takes the same keys and builds the whole cap: that quarter mirrored
+/// across x = cx and y = cy (4 x the cells, `divisions` and `grading` per quadrant, one patch
+/// over the four quadrants; node sets `xmid`, `ymid` on the mirror planes, `axis`, and `xmin` ...
+/// `ymax` on the four far sides).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct QuarterSphereParams {
@@ -1037,6 +1046,7 @@ impl<'de> Deserialize<'de> for MeshSpec {
                     "hemisphere" => Generator::Hemisphere(from_table(table)?),
                     "hemisphere_nurbs" => Generator::HemisphereNurbs(from_table(table)?),
                     "quarter_sphere" => Generator::QuarterSphere(from_table(table)?),
+                    "sphere_cap" => Generator::SphereCap(from_table(table)?),
                     other => {
                         return Err(de::Error::custom(nest_message(
                             &format!(

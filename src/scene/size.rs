@@ -87,6 +87,12 @@ impl MeshSize {
                 let [nu, nv, nz] = p.divisions.map(f);
                 (3, (nu + 1.0) * (nv + 1.0) * (nz + 1.0), nu * nv * nz)
             }
+            Generator::SphereCap(p) => {
+                // the quarter mirrored: 2 n_u x 2 n_v x n_z cells
+                let [nu, nv, nz] = p.divisions.map(f);
+                let (mu, mv) = (2.0 * nu, 2.0 * nv);
+                (3, (mu + 1.0) * (mv + 1.0) * (nz + 1.0), mu * mv * nz)
+            }
             Generator::HalfDisk(p) => {
                 // O-grid: core n_bot x n_side, ring n_arc x n_radial (see mesh::half_disk)
                 let n_side = ((p.n_arc.saturating_add(2)) / 4).max(1);

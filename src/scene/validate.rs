@@ -377,7 +377,7 @@ fn check_meshes(case: &Case, dim_ok: bool, v: &mut Issues) {
                         }
                         v.divisions(k("divisions"), &p.divisions);
                     }
-                    Generator::QuarterSphere(p) => {
+                    Generator::QuarterSphere(p) | Generator::SphereCap(p) => {
                         v.point(k("center"), &p.center);
                         v.extent(k("radius"), &[p.radius], &p.center);
                         if !(p.extent > 0.0 && p.extent < p.radius) {
