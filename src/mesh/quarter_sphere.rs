@@ -160,6 +160,87 @@ fn check_parameters(
     Ok(())
 }
 
+/// Node (i, j, k) of a cap's grid of `[n_u, n_v]` cells per layer: `(k (n_v + 1) + j) (n_u + 1) + i`.
+fn grid_node([nu, nv]: [usize; 2], i: usize, j: usize, k: usize) -> u32 {
+    ((k * (nv + 1) + j) * (nu + 1) + i) as u32
+}
+
+/// The nodes of layer `k`, i fastest.
+fn layer_nodes(n: [usize; 2], k: usize) -> Vec<u32> {
+    (0..=n[1])
+        .flat_map(|j| (0..=n[0]).map(move |i| grid_node(n, i, j, k)))
+        .collect()
+}
+
+/// The nodes of every layer with i = `fixed_i` and / or j = `fixed_j`.
+fn side_nodes(
+    n: [usize; 2],
+    nz: usize,
+    fixed_i: Option<usize>,
+    fixed_j: Option<usize>,
+) -> Vec<u32> {
+    (0..=nz)
+        .flat_map(|k| (0..=n[1]).flat_map(move |j| (0..=n[0]).map(move |i| (i, j, k))))
+        .filter(|&(i, j, _)| fixed_i.is_none_or(|f| f == i) && fixed_j.is_none_or(|f| f == j))
+        .map(|(i, j, k)| grid_node(n, i, j, k))
+        .collect()
+}
+
+/// The solid below a cap's surface grid `base` ([(n_v + 1)][(n_u + 1)] points, i fastest): each
+/// point's vertical line from the surface up to the plane z = cz at the fractions `pz`; Hex8
+/// cells `(k n_v + j) n_u + i`; the face and node sets `sphere` (local faces 0 of layer 0) and
+/// `top` (local faces 1 of the last layer), and the node sets `xmin`, `xmax`, `ymin`, `ymax` of
+/// the grid's four sides.
+fn solid(center: [f64; 3], base: &[[f64; 3]], n: [usize; 2], pz: &[f64]) -> Mesh {
+    let ([nu, nv], nz) = (n, pz.len() - 1);
+    let mut mesh = Mesh::new(3);
+    for &s in pz {
+        for x in base {
+            let z = if s == 1.0 {
+                center[2]
+            } else {
+                x[2] + (center[2] - x[2]) * s
+            };
+            mesh.push_node(&[x[0], x[1], z]);
+        }
+    }
+    let node = |i: usize, j: usize, k: usize| grid_node(n, i, j, k);
+    for k in 0..nz {
+        for j in 0..nv {
+            for i in 0..nu {
+                mesh.push_cell(
+                    CellKind::Hex8,
+                    &[
+                        node(i, j, k),
+                        node(i + 1, j, k),
+                        node(i + 1, j + 1, k),
+                        node(i, j + 1, k),
+                        node(i, j, k + 1),
+                        node(i + 1, j, k + 1),
+                        node(i + 1, j + 1, k + 1),
+                        node(i, j + 1, k + 1),
+                    ],
+                );
+            }
+        }
+    }
+    let cell = |i: usize, j: usize, k: usize| ((k * nv + j) * nu + i) as u32;
+    let faces = |k: usize, f: u8| -> Vec<(u32, u8)> {
+        (0..nv)
+            .flat_map(|j| (0..nu).map(move |i| (cell(i, j, k), f)))
+            .collect()
+    };
+    mesh.face_sets.insert("sphere".into(), faces(0, 0));
+    mesh.face_sets.insert("top".into(), faces(nz - 1, 1));
+    mesh.insert_node_set("sphere", layer_nodes(n, 0));
+    mesh.insert_node_set("top", layer_nodes(n, nz));
+    mesh.insert_node_set("xmin", side_nodes(n, nz, Some(0), None));
+    mesh.insert_node_set("xmax", side_nodes(n, nz, Some(nu), None));
+    mesh.insert_node_set("ymin", side_nodes(n, nz, None, Some(0)));
+    mesh.insert_node_set("ymax", side_nodes(n, nz, None, Some(nv)));
+    mesh
+}
+
 /// The quarter cap of the ball of radius `R` around `center` = c: the solid between the exact
 /// spherical patch around the lowest point `c - (0, 0, R)` and the plane z = cz, on the side
 /// x >= cx, y >= cy. The patch reaches `extent` from the symmetry planes: x - cx = extent on the
@@ -201,7 +282,6 @@ pub fn quarter_sphere(
         graded(nv, grading[1]),
         graded(nz, grading[2]),
     );
-    let mut mesh = Mesh::new(3);
     let mut base = Vec::with_capacity((nu + 1) * (nv + 1));
     for &v in &pv {
         for &u in &pu {
@@ -216,70 +296,15 @@ pub fn quarter_sphere(
             base.push(x);
         }
     }
-    for &s in &pz {
-        for x in &base {
-            let z = if s == 1.0 {
-                center[2]
-            } else {
-                x[2] + (center[2] - x[2]) * s
-            };
-            mesh.push_node(&[x[0], x[1], z]);
-        }
-    }
-    let node = |i: usize, j: usize, k: usize| ((k * (nv + 1) + j) * (nu + 1) + i) as u32;
-    for k in 0..nz {
-        for j in 0..nv {
-            for i in 0..nu {
-                mesh.push_cell(
-                    CellKind::Hex8,
-                    &[
-                        node(i, j, k),
-                        node(i + 1, j, k),
-                        node(i + 1, j + 1, k),
-                        node(i, j + 1, k),
-                        node(i, j, k + 1),
-                        node(i + 1, j, k + 1),
-                        node(i + 1, j + 1, k + 1),
-                        node(i, j + 1, k + 1),
-                    ],
-                );
-            }
-        }
-    }
-    let cell = |i: usize, j: usize, k: usize| ((k * nv + j) * nu + i) as u32;
-    let layer = |k: usize| -> Vec<u32> {
-        (0..=nv)
-            .flat_map(|j| (0..=nu).map(move |i| node(i, j, k)))
-            .collect()
-    };
-    let faces = |k: usize, f: u8| -> Vec<(u32, u8)> {
-        (0..nv)
-            .flat_map(|j| (0..nu).map(move |i| (cell(i, j, k), f)))
-            .collect()
-    };
-    mesh.face_sets.insert("sphere".into(), faces(0, 0));
-    mesh.face_sets.insert("top".into(), faces(nz - 1, 1));
-    mesh.insert_node_set("sphere", layer(0));
-    mesh.insert_node_set("top", layer(nz));
-    let side = |fixed_i: Option<usize>, fixed_j: Option<usize>| -> Vec<u32> {
-        (0..=nz)
-            .flat_map(|k| (0..=nv).flat_map(move |j| (0..=nu).map(move |i| (i, j, k))))
-            .filter(|&(i, j, _)| fixed_i.is_none_or(|f| f == i) && fixed_j.is_none_or(|f| f == j))
-            .map(|(i, j, k)| node(i, j, k))
-            .collect()
-    };
-    mesh.insert_node_set("xmin", side(Some(0), None));
-    mesh.insert_node_set("xmax", side(Some(nu), None));
-    mesh.insert_node_set("ymin", side(None, Some(0)));
-    mesh.insert_node_set("ymax", side(None, Some(nv)));
-    mesh.insert_node_set("pole", vec![node(0, 0, 0)]);
+    let mut mesh = solid(center, &base, [nu, nv], &pz);
+    mesh.insert_node_set("pole", vec![grid_node([nu, nv], 0, 0, 0)]);
     mesh.exact_surfaces.insert(
         "sphere".into(),
         ExactPatch {
             surface,
             params_u: pu,
             params_v: pv,
-            nodes: layer(0),
+            nodes: layer_nodes([nu, nv], 0),
         },
     );
     Ok(mesh)
@@ -370,74 +395,19 @@ pub fn sphere_cap(
             }
         }
     }
-    let mut mesh = Mesh::new(3);
-    for &s in &pz {
-        for x in &base {
-            let z = if s == 1.0 {
-                center[2]
-            } else {
-                x[2] + (center[2] - x[2]) * s
-            };
-            mesh.push_node(&[x[0], x[1], z]);
-        }
-    }
-    let node = |i: usize, j: usize, k: usize| ((k * (mv + 1) + j) * (mu + 1) + i) as u32;
-    for k in 0..nz {
-        for j in 0..mv {
-            for i in 0..mu {
-                mesh.push_cell(
-                    CellKind::Hex8,
-                    &[
-                        node(i, j, k),
-                        node(i + 1, j, k),
-                        node(i + 1, j + 1, k),
-                        node(i, j + 1, k),
-                        node(i, j, k + 1),
-                        node(i + 1, j, k + 1),
-                        node(i + 1, j + 1, k + 1),
-                        node(i, j + 1, k + 1),
-                    ],
-                );
-            }
-        }
-    }
-    let cell = |i: usize, j: usize, k: usize| ((k * mv + j) * mu + i) as u32;
-    let layer = |k: usize| -> Vec<u32> {
-        (0..=mv)
-            .flat_map(|j| (0..=mu).map(move |i| node(i, j, k)))
-            .collect()
-    };
-    let faces = |k: usize, f: u8| -> Vec<(u32, u8)> {
-        (0..mv)
-            .flat_map(|j| (0..mu).map(move |i| (cell(i, j, k), f)))
-            .collect()
-    };
-    mesh.face_sets.insert("sphere".into(), faces(0, 0));
-    mesh.face_sets.insert("top".into(), faces(nz - 1, 1));
-    mesh.insert_node_set("sphere", layer(0));
-    mesh.insert_node_set("top", layer(nz));
-    let side = |fixed_i: Option<usize>, fixed_j: Option<usize>| -> Vec<u32> {
-        (0..=nz)
-            .flat_map(|k| (0..=mv).flat_map(move |j| (0..=mu).map(move |i| (i, j, k))))
-            .filter(|&(i, j, _)| fixed_i.is_none_or(|f| f == i) && fixed_j.is_none_or(|f| f == j))
-            .map(|(i, j, k)| node(i, j, k))
-            .collect()
-    };
-    mesh.insert_node_set("xmin", side(Some(0), None));
-    mesh.insert_node_set("xmax", side(Some(mu), None));
-    mesh.insert_node_set("ymin", side(None, Some(0)));
-    mesh.insert_node_set("ymax", side(None, Some(mv)));
+    let mut mesh = solid(center, &base, [mu, mv], &pz);
+    let side = |i: Option<usize>, j: Option<usize>| side_nodes([mu, mv], nz, i, j);
     mesh.insert_node_set("xmid", side(Some(nu), None));
     mesh.insert_node_set("ymid", side(None, Some(nv)));
     mesh.insert_node_set("axis", side(Some(nu), Some(nv)));
-    mesh.insert_node_set("pole", vec![node(nu, nv, 0)]);
+    mesh.insert_node_set("pole", vec![grid_node([mu, mv], nu, nv, 0)]);
     mesh.exact_surfaces.insert(
         "sphere".into(),
         ExactPatch {
             surface,
             params_u,
             params_v,
-            nodes: layer(0),
+            nodes: layer_nodes([mu, mv], 0),
         },
     );
     Ok(mesh)
