@@ -167,7 +167,11 @@ def table():
             cells.append("" if not r else ("failed" if not r["ok"] else f"{100*(r['ratio']/REF_R-1):+.3f}"))
         if any(cells):
             print(f"| {fam} {gap} {eps}{' + AL' if al else ''} | " + " | ".join(cells) + " |")
-    print("\nunknowns (Q1C1 / Q1N2): " + ", ".join(f"{n}: {get('Q1C1','pointwise','1e4',False,n)['unknowns']} / {get('Q1N2','pointwise','1e4',False,n)['unknowns']}" for n in cols))
+    def unknowns(fam, n):
+        r = get(fam, "pointwise", "1e4", False, n)
+        return str(r["unknowns"]) if r and r.get("ok") else "-"
+    print("\nunknowns (Q1C1 / Q1N2; - where that run is not in the results): "
+          + ", ".join(f"{n}: {unknowns('Q1C1', n)} / {unknowns('Q1N2', n)}" for n in cols))
 
 
 if __name__ == "__main__":
