@@ -1,6 +1,6 @@
-//! Clean interrupts: the first SIGINT or SIGTERM asks the run to stop after the step in progress
-//! (all ranks agree at the step boundary); a second one ends the process at once with the
-//! conventional code (128 + signal).
+//! Clean interrupts: the first SIGINT or SIGTERM asks the run to stop at its next Newton
+//! iteration or step boundary (all ranks agree there, one reduction each); a second one ends the
+//! process at once with the conventional code (128 + signal).
 
 use mpi::collective::SystemOperation;
 use mpi::topology::SimpleCommunicator;

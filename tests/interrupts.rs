@@ -1,6 +1,7 @@
-//! Clean interrupts: a SIGINT or SIGTERM during a run stops it after the step in
-//! progress, every converged step is in valid results, `summary.json` says `interrupted`, the exit
-//! code is the signal's (130, 143), and on 2 ranks all ranks agree on where to stop.
+//! Clean interrupts: a SIGINT or SIGTERM during a run stops it at the next Newton iteration, the
+//! step in progress given up; every converged step is in valid results, `summary.json` says
+//! `interrupted`, the exit code is the signal's (130, 143), and on 2 ranks all ranks agree on where
+//! to stop.
 
 mod common;
 use common::*;
@@ -151,7 +152,7 @@ fn assert_interrupted(out: &Path, signal: &str, err: &str) {
 }
 
 #[test]
-fn sigint_and_sigterm_on_one_rank_stop_after_the_step_with_their_codes() {
+fn sigint_and_sigterm_on_one_rank_stop_the_run_with_their_codes() {
     for (sig, code) in [("INT", 130), ("TERM", 143)] {
         let dir = scratch(&format!("interrupt/np1-{sig}"));
         let mut child = start(&dir, 1);
@@ -189,4 +190,153 @@ fn sigint_to_one_rank_stops_both_at_the_same_step() {
     let (rc, err) = finish(child);
     assert_eq!(rc, Some(130), "{err}");
     assert_interrupted(&dir.join("out"), "SIGINT", &err);
+}
+
+/// Three load steps of a few hundred Newton iterations each (full steps damped to a tenth: the
+/// residual falls by about 0.9 per iteration), so that a signal sent as soon as the first step is
+/// in history.csv lands long before the second converges.
+const SLOW_STEPS: &str = r#"
+[case]
+name = "interrupt_slow_steps"
+dim = 3
+
+[meshes.block]
+generator = "box"
+origin = [0.0, 0.0, 0.0]
+size = [1.0, 1.0, 1.0]
+divisions = [6, 6, 6]
+
+[bodies.block]
+mesh = "block"
+element = "Q1C1"
+[bodies.block.material]
+model = "neo_hookean"
+E = 1.0
+nu = 0.3
+
+[[bcs]]
+body = "block"
+set = "zmin"
+kind = "fixed"
+
+[[bcs]]
+body = "block"
+set = "zmax"
+kind = "displacement"
+components = ["z"]
+value = [[-0.1]]
+
+[[stages]]
+name = "compress"
+steps = 3
+
+[solver]
+petsc_options = "-snes_linesearch_type basic -snes_linesearch_damping 0.1 -snes_max_it 5000"
+"#;
+
+/// Runs [`SLOW_STEPS`] in `dir/out` on `np` ranks with checkpoints never scheduled, signals it
+/// (`to_one_rank`: the second rank only) once step 1 is in history.csv, and checks that it stopped
+/// within step 2: one converged step, in the history, the results and a checkpoint.
+fn stop_within_a_step(dir: &Path, np: usize, to_one_rank: bool) {
+    std::fs::write(dir.join("case.toml"), SLOW_STEPS).unwrap();
+    let mut cmd = if np == 1 {
+        Command::new(bin())
+    } else {
+        let mut c = Command::new("mpirun");
+        c.args(["--oversubscribe", "-np", &np.to_string(), bin()]);
+        c
+    };
+    cmd.args([
+        "run",
+        "case.toml",
+        "--out",
+        "out",
+        "--checkpoint-every",
+        "100",
+    ])
+    .current_dir(dir)
+    .stdout(Stdio::null())
+    .stderr(Stdio::piped());
+    mpi_env(&mut cmd);
+    let mut child = cmd.spawn().expect("start nurbs-contact");
+    wait_for_first_step(dir, &mut child);
+    if to_one_rank {
+        let ranks = ranks_of(child.id());
+        assert_eq!(ranks.len(), 2, "ranks {ranks:?}");
+        kill("INT", ranks[1]);
+    } else {
+        kill("INT", child.id());
+    }
+    let (rc, err) = finish(child);
+    assert_eq!(rc, Some(130), "{err}");
+    let out = dir.join("out");
+    let s = summary(&out);
+    assert_eq!(s["status"], "interrupted", "{s}\n{err}");
+    assert_eq!(s["signal"], "SIGINT", "{err}");
+    // under the old rule (stop after the step in progress) step 2 would have converged
+    assert_eq!(s["converged_steps"], 1, "{err}");
+    assert_eq!(history_col(&out, "load_factor").len(), 1);
+    assert!(
+        err.contains("interrupted by SIGINT after 1 converged load steps"),
+        "{err}"
+    );
+    assert!(!out.join("results.h5.partial").exists());
+    // the step's results are written although `output.every` (default 1) would have anyway;
+    // and the checkpoint of step 1, which the schedule (every 100) did not ask for
+    assert_eq!(h5_steps(&out), 1);
+    assert_eq!(h5_last(&out, "bulk", "displacement").len(), 343 * 3);
+    let ckpt: Vec<String> = std::fs::read_dir(out.join("checkpoints"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(ckpt, vec!["step-000001".to_string()], "{err}");
+}
+
+/// A signal within a long step stops the run at the next Newton iteration instead of after the
+/// step (which at 10^6 unknowns takes longer than a scheduler's warning); the restart from the
+/// checkpoint it writes ends like the uninterrupted run.
+#[test]
+fn a_signal_within_a_step_stops_at_the_next_newton_iteration() {
+    let dir = scratch("interrupt/within-step-np1");
+    stop_within_a_step(&dir, 1, false);
+    let whole = dir.join("whole");
+    run_ok(
+        1,
+        &[
+            "run",
+            dir.join("case.toml").to_str().unwrap(),
+            "--out",
+            whole.to_str().unwrap(),
+            "-q",
+        ],
+    );
+    let out = dir.join("out");
+    run_ok(
+        1,
+        &[
+            "run",
+            dir.join("case.toml").to_str().unwrap(),
+            "--restart",
+            out.to_str().unwrap(),
+            "-q",
+        ],
+    );
+    assert_eq!(summary(&out)["status"], "converged");
+    let h = rel_diff(&history_values(&whole), &history_values(&out));
+    assert!(h < 1e-12, "history, restarted against uninterrupted: {h:e}");
+    let d = rel_diff(
+        &h5_last(&whole, "bulk", "displacement"),
+        &h5_last(&out, "bulk", "displacement"),
+    );
+    assert!(d < 1e-12, "restarted against uninterrupted: {d:e}");
+    assert_eq!(
+        history_col(&whole, "newton_iterations"),
+        history_col(&out, "newton_iterations")
+    );
+}
+
+/// On 2 ranks a signal to one rank stops both within the same step.
+#[test]
+fn a_signal_to_one_rank_within_a_step_stops_both_there() {
+    stop_within_a_step(&scratch("interrupt/within-step-np2"), 2, true);
 }

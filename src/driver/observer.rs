@@ -398,6 +398,36 @@ impl<'c, 'p> StepObserver<'c, 'p> {
         })
     }
 
+    /// The run was asked to stop within the step after the converged step `rec`, which `x` and
+    /// `asm` hold again: that step ends the run as an interrupt after it would have (written to
+    /// the results whatever the schedule, and checkpointed with checkpoints on). Collective.
+    pub(super) fn stopped_after(
+        &mut self,
+        model: &Model,
+        rec: &StepRecord,
+        x: &Vector,
+        before: Option<&Vector>,
+        asm: &mut Assembler,
+    ) -> Result<AfterStep, String> {
+        let t0 = Instant::now();
+        self.interrupted = crate::interrupt::agreed(asm.comm());
+        let last = (rec.load - self.n_stages).abs() < 1e-12;
+        let scheduled = last || rec.step.is_multiple_of(self.case.output.every);
+        if let Some(every) = self.checkpoint_every {
+            if !rec.step.is_multiple_of(every) {
+                self.checkpoint(model, rec, x, before, asm)
+                    .map_err(|e| format!("checkpoint: {e}"))?;
+            }
+        }
+        if !scheduled {
+            self.output
+                .results_step(rec, x, asm, Ok(()))
+                .map_err(|e| e.to_string())?;
+        }
+        self.t_output += t0.elapsed().as_secs_f64();
+        Ok(AfterStep::Stop)
+    }
+
     /// Writes a checkpoint of the converged step `rec`: the state gathered to rank 0 in global
     /// numbering, written there with copies of the output so far; `before` is the converged state
     /// before it (kept when the secant predictor will extrapolate from it). Collective.

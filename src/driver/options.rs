@@ -14,7 +14,9 @@ use crate::scene::schema::{LinearSolver, Preconditioner};
 use crate::scene::Case;
 use crate::solver::judge::{NEWTON_ATOL, NEWTON_MAX_IT, NEWTON_RTOL, NEWTON_STOL};
 use crate::solver::linear::rigid_body_null_space;
-use crate::solver::{run_load_steps_from, LoadPosition, SolverError, StepControl, StepRecord};
+use crate::solver::{
+    run_load_steps_from, LoadPosition, SolverError, StepControl, StepEvent, StepRecord,
+};
 use mpi::traits::*;
 
 /// The solver's state: unknowns, assembler (with contact), Jacobian, SNES and step control.
@@ -581,8 +583,16 @@ impl<'p> Solver<'p> {
             &self.control,
             start,
             self.x_before.as_ref(),
-            &mut |rec, x, before, asm| observer.observe(model, rec, x, before, asm),
+            &mut |event, rec, x, before, asm| match event {
+                StepEvent::Converged => observer.observe(model, rec, x, before, asm),
+                StepEvent::StoppedAfter => observer.stopped_after(model, rec, x, before, asm),
+            },
         );
+        if matches!(result, Err(SolverError::Interrupted { .. })) && observer.interrupted.is_none()
+        {
+            // stopped within the first step of this run: no step for the observer to see
+            observer.interrupted = crate::interrupt::agreed(self.asm.comm());
+        }
         if let Some(b) = &observer.bar {
             b.finish_and_clear();
         }

@@ -34,6 +34,13 @@ pub trait NonlinearProblem {
     fn stop_requested(&self) -> bool {
         false
     }
+    /// True when the run has been asked to stop (a signal): the solve stops after the current
+    /// Newton iteration unless it has converged, and [`SolveOutcome::interrupted`] says so.
+    /// Called once per Newton iteration on every rank; must return the same on every rank (it may
+    /// communicate to agree).
+    fn interrupted(&self) -> bool {
+        false
+    }
     /// Global unknowns of the contact interface at the last Jacobian (any rank's rows; a rank
     /// may name rows another owns), for [`Snes::set_interface_correction`]. Default: none.
     fn interface_dofs(&self) -> Vec<PetscInt> {
@@ -64,6 +71,9 @@ pub struct SolveOutcome {
     /// Krylov solves of this solve stopped by their iteration limit and taken as inexact Newton
     /// directions ([`Ksp::accept_at_limit`]).
     pub linear_accepted: usize,
+    /// The solve was stopped because the run was asked to stop
+    /// ([`NonlinearProblem::interrupted`]); its state is not converged.
+    pub interrupted: bool,
 }
 
 const HISTORY_LEN: usize = 1000;
@@ -144,6 +154,8 @@ struct Context<'a> {
     jacobians: usize,
     /// The fraction of the first Newton update that is taken ([`Snes::set_first_update`]).
     first_update: f64,
+    /// The solve was stopped at the problem's request to stop the run.
+    interrupted: bool,
 }
 
 /// The first Newton iteration of a solve takes the fraction `first_update` of the step its line
@@ -382,7 +394,8 @@ unsafe extern "C" fn post_check_trampoline(
 /// evaluation failed or the problem asks for one ([`NonlinearProblem::stop_requested`]), a stop
 /// (`SNES_DIVERGED_MAX_IT`, reported as `DIVERGED_STAGNATION`) when the solve [`stagnated`], and
 /// one (reported as `DIVERGED_PREDICTED_START`) when a watched start's first iteration raised the
-/// residual norm.
+/// residual norm; first of all a stop (reported as `INTERRUPTED`) of a solve that has not
+/// converged when the run was asked to stop ([`NonlinearProblem::interrupted`]).
 unsafe extern "C" fn converged_trampoline(
     snes: sys::SNES,
     it: PetscInt,
@@ -403,6 +416,12 @@ unsafe extern "C" fn converged_trampoline(
     let ctx = unsafe { &mut *(ctx as *mut Context) };
     // SAFETY: reason points to SNES's reason, written just above.
     let r = unsafe { &mut *reason };
+    // asked at every iteration on every rank, whatever the reason so far, since it may communicate
+    if ctx.problem.interrupted() && r.0 <= 0 {
+        ctx.interrupted = true;
+        *r = sys::SNESConvergedReason::SNES_DIVERGED_JACOBIAN_DOMAIN;
+        return 0;
+    }
     if r.0 == 0 && (ctx.jacobian_failed || ctx.problem.stop_requested()) {
         *r = sys::SNESConvergedReason::SNES_DIVERGED_JACOBIAN_DOMAIN;
     }
@@ -682,6 +701,7 @@ impl<'p> Snes<'p> {
             interface,
             jacobians: 0,
             first_update: self.first_update,
+            interrupted: false,
         };
         let ctx_ptr = &mut ctx as *mut Context as *mut c_void;
         // SAFETY: ctx outlives SNESSolve (it is on this stack frame); the callbacks are re-registered
@@ -749,6 +769,7 @@ impl<'p> Snes<'p> {
                 linear_failed: true,
                 linear_iterations: 0,
                 linear_accepted: 0,
+                interrupted: ctx.interrupted,
             });
         }
         let mut reason = sys::SNESConvergedReason(0);
@@ -772,7 +793,9 @@ impl<'p> Snes<'p> {
                 &mut n_hist
             ))?;
         }
-        let reason_text = if let Some((before, after)) = ctx.rose.filter(|_| reason.0 < 0) {
+        let reason_text = if ctx.interrupted {
+            "INTERRUPTED (the run was asked to stop)".to_string()
+        } else if let Some((before, after)) = ctx.rose.filter(|_| reason.0 < 0) {
             format!(
                 "DIVERGED_PREDICTED_START (the first Newton iteration from the predicted start \
                  raised the residual norm from {before:.3e} to {after:.3e})"
@@ -818,6 +841,7 @@ impl<'p> Snes<'p> {
             linear_failed,
             linear_iterations: lin_its.max(0) as usize,
             linear_accepted,
+            interrupted: ctx.interrupted,
         })
     }
 }

@@ -8,6 +8,6 @@ mod settle;
 
 pub use load_stepping::{
     run_load_steps, run_load_steps_from, translation_resistance, AfterStep, LoadPosition,
-    PredictorState, SolverError, StepControl, StepRecord, StepSizer, TranslationProbe,
+    PredictorState, SolverError, StepControl, StepEvent, StepRecord, StepSizer, TranslationProbe,
     FREE_TRANSLATION_TOL,
 };

@@ -45,7 +45,7 @@ pub struct SlurmSpec {
     #[serde(default)]
     pub max_running: Option<usize>,
     /// Seconds before the time limit at which each run gets one SIGTERM (`--signal=TERM@N`), so
-    /// that it finishes its load step and writes `summary.json` as interrupted. Default: a tenth of
+    /// that it stops at its next Newton iteration and writes `summary.json` as interrupted. Default: a tenth of
     /// the time limit, within 60..600 s (Slurm sends it up to 60 s early).
     #[serde(default)]
     pub stop_before: Option<u64>,
@@ -403,7 +403,7 @@ pub fn script(study: &Study, out: &Path, tasks: &[Task], res: &Resources) -> Str
     s += &format!("#SBATCH --ntasks={ranks}\n#SBATCH --cpus-per-task=1\n");
     s += &format!("#SBATCH --time={}\n", res.time);
     s += &format!("#SBATCH --mem-per-cpu={}\n", res.mem_per_rank);
-    // One SIGTERM to the runs before the limit: each finishes its load step and writes its summary.
+    // One SIGTERM to the runs before the limit: each stops at its next Newton iteration and writes its summary.
     // At the limit itself the run would get two (Slurm's, and srun's when Slurm signals srun) and
     // the second one ends it at once, without a summary.
     s += &format!("#SBATCH --signal=TERM@{}\n", res.stop_before);

@@ -485,6 +485,11 @@ impl NonlinearProblem for Assembler<'_> {
         self.pattern_outdated()
     }
 
+    /// A SIGINT or SIGTERM that any rank received ([`crate::interrupt::agreed`]: one reduction).
+    fn interrupted(&self) -> bool {
+        crate::interrupt::agreed(self.comm()).is_some()
+    }
+
     // `PetscInt` is `i32` in the Debian build; a 64-bit build widens here
     #[allow(clippy::useless_conversion)]
     fn interface_dofs(&self) -> Vec<crate::petsc::PetscInt> {

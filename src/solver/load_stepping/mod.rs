@@ -35,7 +35,7 @@ pub use predictor::PredictorState;
 pub use sizer::StepSizer;
 
 use crate::assembly::{prescribed_values, Assembler, ConflictError, DirichletBc};
-use crate::petsc::{Matrix, PetscError, Snes, SolveOutcome, Vector};
+use crate::petsc::{Matrix, NonlinearProblem, PetscError, Snes, SolveOutcome, Vector};
 use stepper::Stepper;
 
 /// How the load is stepped.
@@ -128,6 +128,17 @@ impl LoadPosition {
     }
 }
 
+/// What the load stepping shows its observer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StepEvent {
+    /// A step converged (its record, its state).
+    Converged,
+    /// The run was asked to stop within the step after this converged one: that step was given
+    /// up, and the state is this converged step's again (evaluated at it, so its fields can be
+    /// written); the run ends with [`SolverError::Interrupted`] whatever the observer answers.
+    StoppedAfter,
+}
+
 /// What the load stepping does after the observer has seen a converged step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum AfterStep {
@@ -185,7 +196,13 @@ pub enum SolverError {
     /// Boundary conditions contradict each other.
     #[error(transparent)]
     Conflict(#[from] ConflictError),
-    /// The observer asked to stop after a converged step (an interrupt).
+    /// The run was asked to stop (a signal) while a step was being solved: the stepper has
+    /// returned to the last converged state; [`run_load_steps_from`] ends the run with
+    /// [`SolverError::Interrupted`] instead.
+    #[error("interrupted within a load step")]
+    InterruptedInStep,
+    /// The observer asked to stop after a converged step, or a stop request ended the step after
+    /// it (an interrupt).
     #[error("interrupted after {steps} converged load steps (load {load:.6})")]
     Interrupted {
         /// Converged steps, all recorded.
@@ -216,9 +233,11 @@ pub enum SolverError {
     },
 }
 
-/// What the load stepping hands its observer after every converged step: the step, the converged
-/// state, the one before it (with the secant predictor on) and the assembler; it may stop the run.
+/// What the load stepping hands its observer after every converged step (and, after a stop
+/// within the next step, once more): the event, the step, the converged state, the one before it
+/// (with the secant predictor on) and the assembler; it may stop the run.
 pub type StepObserverFn<'a, 'p> = dyn FnMut(
+        StepEvent,
         &StepRecord,
         &Vector<'p>,
         Option<&Vector<'p>>,
@@ -255,7 +274,10 @@ pub fn run_load_steps<'p>(
         control,
         None,
         None,
-        &mut |rec, x, _before, asm| observer(rec, x, asm),
+        &mut |event, rec, x, _before, asm| match event {
+            StepEvent::Converged => observer(rec, x, asm),
+            StepEvent::StoppedAfter => Ok(AfterStep::Stop),
+        },
     )
 }
 
@@ -288,11 +310,29 @@ pub fn run_load_steps_from<'p>(
         bcs,
         coords,
     };
-    let mut records = Vec::new();
+    let mut records: Vec<StepRecord> = Vec::new();
     while let Some(stage) = stepper.stage() {
-        let rec = stepper.step(&mut sys, stage)?;
-        let after =
-            observer(&rec, sys.x, stepper.before(), sys.asm).map_err(SolverError::Observer)?;
+        let rec = match stepper.step(&mut sys, stage) {
+            Ok(rec) => rec,
+            Err(SolverError::InterruptedInStep) => {
+                // the step in progress is given up: the run ends at the last converged step
+                if let Some(last) = records.last() {
+                    observer(
+                        StepEvent::StoppedAfter,
+                        last,
+                        sys.x,
+                        stepper.before(),
+                        sys.asm,
+                    )
+                    .map_err(SolverError::Observer)?;
+                }
+                let (steps, load) = stepper.converged();
+                return Err(SolverError::Interrupted { steps, load });
+            }
+            Err(e) => return Err(e),
+        };
+        let after = observer(StepEvent::Converged, &rec, sys.x, stepper.before(), sys.asm)
+            .map_err(SolverError::Observer)?;
         let (steps, load) = (rec.step, rec.load);
         records.push(rec);
         if after == AfterStep::Stop {
@@ -334,10 +374,29 @@ impl System<'_, '_> {
         Ok(())
     }
 
-    /// One Newton solve from `x`, with its augmented Lagrangian rounds.
+    /// One Newton solve from `x`, with its augmented Lagrangian rounds; a solve stopped by a
+    /// request to stop the run is [`SolverError::InterruptedInStep`].
     ///
     /// Collective.
-    fn solve(&mut self) -> Result<SolveOutcome, PetscError> {
-        super::settle::solve_settled(self.asm, self.snes, self.x, self.jac)
+    fn solve(&mut self) -> Result<SolveOutcome, SolverError> {
+        let out = super::settle::solve_settled(self.asm, self.snes, self.x, self.jac)?;
+        if out.interrupted {
+            return Err(SolverError::InterruptedInStep);
+        }
+        Ok(out)
+    }
+
+    /// Evaluates the residual at `x`, so that the coupling set's points and the elements' states
+    /// are those of `x` (after a step was given up, for the output of the converged state `x`
+    /// holds again).
+    ///
+    /// Collective.
+    fn evaluate(&mut self) -> Result<(), SolverError> {
+        let mut f = self.x.duplicate()?;
+        NonlinearProblem::residual(&mut *self.asm, self.x, &mut f).map_err(|e| {
+            SolverError::Observer(format!(
+                "the last converged state, evaluated again for its output: {e}"
+            ))
+        })
     }
 }

@@ -138,12 +138,41 @@ impl<'c, 'p> Stepper<'c, 'p> {
         self.predictor.before()
     }
 
+    /// Converged steps (a restart's included) and the load they reached.
+    pub(super) fn converged(&self) -> (usize, f64) {
+        (self.step, self.sizer.lambda())
+    }
+
     /// The next load step, in `stage`: attempts from the last converged state until one is
     /// accepted, cut back after each failure and rescued at the minimum increment; then the
-    /// step is committed. `sys.x` ends with its state.
+    /// step is committed. `sys.x` ends with its state. A request to stop the run during a solve
+    /// gives the step up: [`SolverError::InterruptedInStep`], with `sys.x`, the load and the
+    /// element and contact states back at the last converged step.
     ///
     /// Collective.
     pub(super) fn step(
+        &mut self,
+        sys: &mut System<'_, 'p>,
+        stage: usize,
+    ) -> Result<StepRecord, SolverError> {
+        match self.take_step(sys, stage) {
+            Err(SolverError::InterruptedInStep) => {
+                // (a stop within the rescue leaves its damping on)
+                sys.asm.set_damping(0.0, sys.x)?;
+                sys.asm.rollback();
+                self.x_conv.copy_to(sys.x)?;
+                sys.set_load(self.sizer.lambda())?;
+                sys.evaluate()?;
+                Err(SolverError::InterruptedInStep)
+            }
+            r => r,
+        }
+    }
+
+    /// [`Stepper::step`] without the return to the converged state after a stop request.
+    ///
+    /// Collective.
+    fn take_step(
         &mut self,
         sys: &mut System<'_, 'p>,
         stage: usize,
@@ -435,6 +464,7 @@ mod tests {
             linear_failed: false,
             linear_iterations: 0,
             linear_accepted: 0,
+            interrupted: false,
         }
     }
 
