@@ -293,7 +293,7 @@ fn stop_within_a_step(dir: &Path, np: usize, to_one_rank: bool) {
 }
 
 /// A signal within a long step stops the run at the next Newton iteration instead of after the
-/// step (which at 10^6 unknowns takes longer than a scheduler's warning); the restart from the
+/// step (at 10^6 unknowns a step takes minutes, a Newton iteration under one); the restart from the
 /// checkpoint it writes ends like the uninterrupted run.
 #[test]
 fn a_signal_within_a_step_stops_at_the_next_newton_iteration() {
