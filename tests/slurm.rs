@@ -99,9 +99,9 @@ fn dry_run_writes_one_srun_task_per_run_with_the_local_command() {
             "no `{line}` in\n{script}"
         );
     }
-    // memory from the size estimate: 256 MiB + a little for 230 unknowns, in whole 64 MiB
+    // memory from the size estimate: 384 MiB + a little for 230 unknowns, in whole 64 MiB
     assert!(
-        script.lines().any(|l| l == "#SBATCH --mem-per-cpu=320M"),
+        script.lines().any(|l| l == "#SBATCH --mem-per-cpu=448M"),
         "{script}"
     );
     assert!(
