@@ -52,9 +52,10 @@ every = 50
 
 const EVERY: usize = 50;
 
-/// Starts a run of [`CASE`] in `dir` on `np` ranks (1: the binary itself, else under mpirun).
-fn start(dir: &Path, np: usize) -> Child {
-    std::fs::write(dir.join("case.toml"), CASE).unwrap();
+/// Starts a run of the case text `case` in `dir` on `np` ranks (1: the binary itself, else under
+/// mpirun), with `extra` arguments after `run case.toml --out out`.
+fn start_case(dir: &Path, np: usize, case: &str, extra: &[&str]) -> Child {
+    std::fs::write(dir.join("case.toml"), case).unwrap();
     let mut cmd = if np == 1 {
         Command::new(bin())
     } else {
@@ -63,11 +64,17 @@ fn start(dir: &Path, np: usize) -> Child {
         c
     };
     cmd.args(["run", "case.toml", "--out", "out"])
+        .args(extra)
         .current_dir(dir)
         .stdout(Stdio::null())
         .stderr(Stdio::piped());
     mpi_env(&mut cmd);
     cmd.spawn().expect("start nurbs-contact")
+}
+
+/// Starts a run of [`CASE`] in `dir` on `np` ranks.
+fn start(dir: &Path, np: usize) -> Child {
+    start_case(dir, np, CASE, &[])
 }
 
 /// Waits until history.csv holds at least one converged step.
@@ -192,73 +199,28 @@ fn sigint_to_one_rank_stops_both_at_the_same_step() {
     assert_interrupted(&dir.join("out"), "SIGINT", &err);
 }
 
-/// Three load steps of a few hundred Newton iterations each (full steps damped to a tenth: the
-/// residual falls by about 0.9 per iteration), so that a signal sent as soon as the first step is
-/// in history.csv lands long before the second converges.
-const SLOW_STEPS: &str = r#"
-[case]
-name = "interrupt_slow_steps"
-dim = 3
+/// [`CASE`] in three load steps of a few hundred Newton iterations each (full steps damped to a
+/// tenth: the residual falls by about 0.9 per iteration) on a finer block, results every step, so
+/// that a signal sent as soon as the first step is in history.csv lands long before the second
+/// converges.
+fn slow_steps() -> String {
+    let case = CASE
+        .replace("divisions = [4, 4, 4]", "divisions = [6, 6, 6]")
+        .replace("value = [[-0.2]]", "value = [[-0.1]]")
+        .replace("steps = 2000", "steps = 3")
+        .replace("every = 50", "every = 1");
+    assert!(
+        !case.contains("2000") && case.contains("[6, 6, 6]"),
+        "{case}"
+    );
+    case + "\n[solver]\npetsc_options = \"-snes_linesearch_type basic -snes_linesearch_damping 0.1 -snes_max_it 5000\"\n"
+}
 
-[meshes.block]
-generator = "box"
-origin = [0.0, 0.0, 0.0]
-size = [1.0, 1.0, 1.0]
-divisions = [6, 6, 6]
-
-[bodies.block]
-mesh = "block"
-element = "Q1C1"
-[bodies.block.material]
-model = "neo_hookean"
-E = 1.0
-nu = 0.3
-
-[[bcs]]
-body = "block"
-set = "zmin"
-kind = "fixed"
-
-[[bcs]]
-body = "block"
-set = "zmax"
-kind = "displacement"
-components = ["z"]
-value = [[-0.1]]
-
-[[stages]]
-name = "compress"
-steps = 3
-
-[solver]
-petsc_options = "-snes_linesearch_type basic -snes_linesearch_damping 0.1 -snes_max_it 5000"
-"#;
-
-/// Runs [`SLOW_STEPS`] in `dir/out` on `np` ranks with checkpoints never scheduled, signals it
+/// Runs [`slow_steps`] in `dir/out` on `np` ranks with checkpoints never scheduled, signals it
 /// (`to_one_rank`: the second rank only) once step 1 is in history.csv, and checks that it stopped
 /// within step 2: one converged step, in the history, the results and a checkpoint.
 fn stop_within_a_step(dir: &Path, np: usize, to_one_rank: bool) {
-    std::fs::write(dir.join("case.toml"), SLOW_STEPS).unwrap();
-    let mut cmd = if np == 1 {
-        Command::new(bin())
-    } else {
-        let mut c = Command::new("mpirun");
-        c.args(["--oversubscribe", "-np", &np.to_string(), bin()]);
-        c
-    };
-    cmd.args([
-        "run",
-        "case.toml",
-        "--out",
-        "out",
-        "--checkpoint-every",
-        "100",
-    ])
-    .current_dir(dir)
-    .stdout(Stdio::null())
-    .stderr(Stdio::piped());
-    mpi_env(&mut cmd);
-    let mut child = cmd.spawn().expect("start nurbs-contact");
+    let mut child = start_case(dir, np, &slow_steps(), &["--checkpoint-every", "100"]);
     wait_for_first_step(dir, &mut child);
     if to_one_rank {
         let ranks = ranks_of(child.id());

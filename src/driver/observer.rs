@@ -362,8 +362,7 @@ impl<'c, 'p> StepObserver<'c, 'p> {
         {
             extra_columns.push(rec.linear_fallbacks as f64);
         }
-        let last = (rec.load - self.n_stages).abs() < 1e-12;
-        let scheduled = last || rec.step.is_multiple_of(self.case.output.every);
+        let scheduled = self.scheduled(rec);
         self.output
             .step(
                 rec,
@@ -398,6 +397,12 @@ impl<'c, 'p> StepObserver<'c, 'p> {
         })
     }
 
+    /// Whether the results hold step `rec` by their schedule: every `output.every`-th step and the
+    /// last one.
+    fn scheduled(&self, rec: &StepRecord) -> bool {
+        (rec.load - self.n_stages).abs() < 1e-12 || rec.step.is_multiple_of(self.case.output.every)
+    }
+
     /// The run was asked to stop within the step after the converged step `rec`, which `x` and
     /// `asm` hold again: that step ends the run as an interrupt after it would have (written to
     /// the results whatever the schedule, and checkpointed with checkpoints on). Collective.
@@ -411,8 +416,7 @@ impl<'c, 'p> StepObserver<'c, 'p> {
     ) -> Result<AfterStep, String> {
         let t0 = Instant::now();
         self.interrupted = crate::interrupt::agreed(asm.comm());
-        let last = (rec.load - self.n_stages).abs() < 1e-12;
-        let scheduled = last || rec.step.is_multiple_of(self.case.output.every);
+        let scheduled = self.scheduled(rec);
         if let Some(every) = self.checkpoint_every {
             if !rec.step.is_multiple_of(every) {
                 self.checkpoint(model, rec, x, before, asm)
