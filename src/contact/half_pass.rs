@@ -163,8 +163,10 @@ pub(crate) struct Pass {
     pub(crate) halo: Vec<OwnElem>,
     /// Mortar gap: the control points of `elems` and `halo`.
     pub(crate) mortar: Option<MortarNet>,
-    /// One-pass weighted gap in 2D: the elements' points are placed on segments between the
-    /// master's element boundaries at every update ([`crate::contact::system`]'s `segments`).
+    /// Frictionless one-pass pairs (a weighted gap, or in 2D the pointwise gap under the plain
+    /// penalty): the elements' points are placed on segments between the master's element
+    /// boundaries (2D) or on the master elements' images (3D) at every update
+    /// ([`crate::contact::system`]'s `segments`).
     pub(crate) segments: Option<crate::contact::system::Segments>,
     /// Rigid shape at the current load.
     pub(crate) shape: Option<RigidShape>,

@@ -165,10 +165,7 @@ fn named(spec: &ContactSpec, v: &mut Issues) {
         return;
     };
     let (algorithm, gap) = name.algorithm_and_gap();
-    let this = match name {
-        FormulationName::Paper => "paper",
-        FormulationName::WeightedGap => "weighted_gap",
-    };
+    let this = name.key();
     let i = v.i;
     if let Some(a) = spec.algorithm.filter(|&a| a != algorithm) {
         v.push(

@@ -44,22 +44,28 @@ pub struct ContactSpec {
     /// `penalty` (eq. 5), `van_der_waals` (eq. 6) or `cohesive` (eq. 7).
     pub law: LawKind,
     /// A named formulation, `algorithm` and `gap` as one key: `paper` (the paper's: two-half-pass,
-    /// pointwise gap, the penalty alone, as the defaults of those keys) or `weighted_gap`
+    /// pointwise gap, the penalty alone, as the defaults of those keys), `weighted_gap`
     /// (`algorithm = "one_pass"` with `gap = "weighted"`: the slave's control points carry the
-    /// pressure of their weighted gap). `algorithm` or `gap` (with `paper`, `augmented` too) given
-    /// beside it must agree with it. Default, for a pair that gives none of `formulation`,
-    /// `algorithm` and `gap`: `weighted_gap` for a `penalty` pair of two deformable
-    /// NURBS-enriched surfaces (both bodies Q1Np or Q1Np.t); every other pair (adhesion laws, a
-    /// rigid partner, Q1C1, Q1E4, Q1C2 or Q1CH surfaces) takes `algorithm` and `gap` at their
-    /// defaults, the paper's formulation. The resolved case beside the results names
-    /// `weighted_gap` where a pair got it (docs/user-guide/contact-settings.md).
+    /// pressure of their weighted gap) or `one_pass_pointwise` (`algorithm = "one_pass"` with
+    /// `gap = "pointwise"`). `algorithm` or `gap` (with `paper`, `augmented` too) given beside it
+    /// must agree with it. Default, for a pair that gives none of `formulation`, `algorithm` and
+    /// `gap`: `weighted_gap` for a `penalty` pair of two deformable NURBS-enriched surfaces (both
+    /// bodies Q1Np or Q1Np.t); in 2D, `one_pass_pointwise` for a frictionless `penalty` pair of
+    /// two deformable faceted surfaces (both bodies Q1C1 or Q1E4); every other pair (adhesion
+    /// laws, a rigid partner, faceted surfaces with friction or in 3D, Q1C2 or Q1CH surfaces, an
+    /// enriched surface against a faceted one) takes `algorithm` and `gap` at their defaults, the paper's
+    /// formulation. The resolved case beside the results names the formulation where a pair got
+    /// one (docs/user-guide/contact-settings.md).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub formulation: Option<FormulationName>,
-    /// `two_half_pass` (default when the pair gives `gap` or does not take `weighted_gap` by
+    /// `two_half_pass` (default when the pair gives `gap` or takes no named formulation by
     /// default (see `formulation`): each surface integrated on its own points, traction on its own
-    /// body only) or `one_pass` (classic master/slave, the smoother choice in sliding: the first surface is
-    /// the slave whose points are integrated, the opposite force goes to the second, the master,
-    /// through its shape functions).
+    /// body only) or `one_pass` (classic master/slave, the smoother choice in sliding: the first
+    /// surface is the slave whose points are integrated, the opposite force goes to the second,
+    /// the master, through its shape functions; without friction the slave is integrated over
+    /// segments between the master's element boundaries (2D), or with a weighted gap in 3D over
+    /// the master elements' images, so a uniform pressure gives the master its consistent forces
+    /// on non-matching meshes).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schemars(extend("default" = "two_half_pass"))]
     pub algorithm: Option<Algorithm>,
@@ -182,28 +188,47 @@ impl ContactSpec {
 
     /// The formulation of a pair that names none (neither `formulation` nor `algorithm` nor
     /// `gap`): `weighted_gap` for a penalty pair of two deformable NURBS-enriched surfaces (both
-    /// bodies Q1Np or Q1Np.t). Other pairs that name none keep the keys' defaults, the paper's
-    /// formulation, and get `None`: the adhesion laws (the weighted gap is penalty-only), rigid
-    /// partners (one pass either way; there the weighted gap takes fewer Newton iterations but
-    /// loses the 3D and coarse 2D Hertz peaks and widens the contact), Q1C2 and Q1CH
-    /// (bases that go negative or carry slopes), and faceted Q1C1 or Q1E4 surfaces, on which every
-    /// one-pass weighted gap fails in sliding (ironing mesh 4, the twist; docs/formulations.md). A
-    /// pair that names a formulation or either key gets `None` too. `family` gives a body's
-    /// element family by name (`None` for an unknown body, which the model reports).
+    /// bodies Q1Np or Q1Np.t), and in 2D (`dim`) `one_pass_pointwise` for a frictionless
+    /// penalty pair of two deformable faceted surfaces (both bodies Q1C1 or Q1E4), on which every
+    /// one-pass weighted gap fails in sliding (ironing mesh 4) and the one-pass pointwise gap over
+    /// segments passes the patch test and slides without a rescue (docs/formulations.md). Other
+    /// pairs that name
+    /// none keep the keys' defaults, the paper's formulation, and get `None`: the adhesion laws
+    /// (the weighted gap is penalty-only), rigid partners (one pass either way; there the weighted
+    /// gap takes fewer Newton iterations but loses the 3D and coarse 2D Hertz peaks and widens
+    /// the contact), Q1C2 and Q1CH (bases that go negative or carry slopes), pairs of an enriched
+    /// and a faceted surface, and faceted pairs with friction or in 3D (whose pointwise points are
+    /// not integrated over segments). A pair that names a formulation or either key gets `None` too. `family`
+    /// gives a body's element family by name (`None` for an unknown body, which the model
+    /// reports).
     pub fn default_formulation(
         &self,
+        dim: usize,
         family: impl Fn(&str) -> Option<ElementFamily>,
     ) -> Option<FormulationName> {
         if self.formulation.is_some() || self.algorithm.is_some() || self.gap.is_some() {
             return None;
         }
         let deformable_pair = self.rigid.is_none() && self.surfaces.len() == 2;
-        let enriched = self.surfaces.iter().all(|s| {
-            let body = s.split_once('.').map_or(s.as_str(), |(b, _)| b);
-            matches!(family(body), Some(ElementFamily::Q1N { .. }))
-        });
-        (self.law == LawKind::Penalty && deformable_pair && enriched)
-            .then_some(FormulationName::WeightedGap)
+        let all = |f: fn(ElementFamily) -> bool| {
+            self.surfaces.iter().all(|s| {
+                let body = s.split_once('.').map_or(s.as_str(), |(b, _)| b);
+                family(body).is_some_and(f)
+            })
+        };
+        if self.law != LawKind::Penalty || !deformable_pair {
+            return None;
+        }
+        if all(|f| matches!(f, ElementFamily::Q1N { .. })) {
+            Some(FormulationName::WeightedGap)
+        } else if dim == 2
+            && all(|f| matches!(f, ElementFamily::Q1C1 | ElementFamily::Q1E4))
+            && self.mu.is_none_or(|mu| mu == 0.0)
+        {
+            Some(FormulationName::OnePassPointwise)
+        } else {
+            None
+        }
     }
 
     /// The pair's law and formulation in words, as `check` reports it: e.g. `penalty, one-pass,
@@ -240,10 +265,7 @@ impl ContactSpec {
         }
         let mut s = out.join(", ");
         if let Some(f) = self.formulation {
-            s.push_str(match f {
-                FormulationName::Paper => " (formulation = \"paper\")",
-                FormulationName::WeightedGap => " (formulation = \"weighted_gap\")",
-            });
+            s.push_str(&format!(" (formulation = \"{}\")", f.key()));
         }
         s
     }
@@ -269,14 +291,27 @@ pub enum FormulationName {
     Paper,
     /// One-pass with the gap weighted by the slave's control points (`weighted`).
     WeightedGap,
+    /// One-pass with the pointwise gap (`algorithm = "one_pass"`, `gap = "pointwise"`); without
+    /// friction the slave is integrated over segments between the master's element boundaries.
+    OnePassPointwise,
 }
 
 impl FormulationName {
+    /// Its value of the `formulation` key.
+    pub fn key(self) -> &'static str {
+        match self {
+            FormulationName::Paper => "paper",
+            FormulationName::WeightedGap => "weighted_gap",
+            FormulationName::OnePassPointwise => "one_pass_pointwise",
+        }
+    }
+
     /// Its `algorithm` and `gap`.
     pub fn algorithm_and_gap(self) -> (Algorithm, GapMode) {
         match self {
             FormulationName::Paper => (Algorithm::TwoHalfPass, GapMode::Pointwise),
             FormulationName::WeightedGap => (Algorithm::OnePass, GapMode::Weighted),
+            FormulationName::OnePassPointwise => (Algorithm::OnePass, GapMode::Pointwise),
         }
     }
 }
@@ -430,29 +465,46 @@ mod tests {
     }
 
     #[test]
-    fn only_a_penalty_pair_of_two_enriched_surfaces_naming_no_formulation_gets_the_weighted_gap() {
+    fn a_penalty_pair_naming_no_formulation_gets_the_weighted_gap_if_enriched_and_one_pass_if_faceted(
+    ) {
         let family = |b: &str| match b {
             "n2" => Some(ElementFamily::Q1N { p: 2, t: 0 }),
             "n21" => Some(ElementFamily::Q1N { p: 2, t: 1 }),
             "c1" => Some(ElementFamily::Q1C1),
+            "e4" => Some(ElementFamily::Q1E4),
             "c2" => Some(ElementFamily::Q1C2),
             _ => None,
         };
         let penalty = "law = \"penalty\"\neps_n = 10.0";
         let both = "[\"n2.s\", \"n21.t\"]";
         assert_eq!(
-            spec(penalty, both).default_formulation(family),
+            spec(penalty, both).default_formulation(2, family),
             Some(FormulationName::WeightedGap)
         );
         // augmented and friction keep the default
         let al = format!("{penalty}\naugmented = {{ tol = 1e-6, max = 9 }}\nmu = 0.2");
         assert_eq!(
-            spec(&al, both).default_formulation(family),
+            spec(&al, both).default_formulation(2, family),
             Some(FormulationName::WeightedGap)
         );
+        // two faceted surfaces without friction: the one-pass pointwise gap
+        let faceted = "[\"c1.s\", \"e4.t\"]";
+        assert_eq!(
+            spec(penalty, faceted).default_formulation(2, family),
+            Some(FormulationName::OnePassPointwise)
+        );
+        assert_eq!(
+            spec(&format!("{penalty}\nmu = 0.0"), faceted).default_formulation(2, family),
+            Some(FormulationName::OnePassPointwise)
+        );
         // a pair that names a formulation or either key, another law, a rigid partner, a faceted
-        // or Lagrange / Hermite surface, or an unknown body keeps the keys' defaults
+        // surface with friction or beside an enriched one, a Lagrange / Hermite surface, or an
+        // unknown body keeps the keys' defaults
+        assert_eq!(spec(penalty, faceted).default_formulation(3, family), None);
         for (extra, surfaces) in [
+            (format!("{penalty}\nmu = 0.2"), faceted),
+            (format!("{penalty}\nformulation = \"paper\""), faceted),
+            ("law = \"van_der_waals\"\na_h = 1.0\nr0 = 0.1".to_string(), faceted),
             (format!("{penalty}\nformulation = \"paper\""), both),
             (format!("{penalty}\nalgorithm = \"two_half_pass\""), both),
             (format!("{penalty}\ngap = \"pointwise\""), both),
@@ -466,7 +518,7 @@ mod tests {
             ),
         ] {
             assert_eq!(
-                spec(&extra, surfaces).default_formulation(family),
+                spec(&extra, surfaces).default_formulation(2, family),
                 None,
                 "{extra} {surfaces}"
             );

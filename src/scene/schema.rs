@@ -78,8 +78,9 @@ impl Case {
     /// checkpoint's, says which formulation ran.
     pub fn name_default_formulations(&mut self) {
         let bodies = &self.bodies;
+        let dim = self.case.dim;
         for c in &mut self.contact {
-            if let Some(f) = c.default_formulation(|b| bodies.get(b).map(|s| s.element)) {
+            if let Some(f) = c.default_formulation(dim, |b| bodies.get(b).map(|s| s.element)) {
                 c.formulation = Some(f);
             }
         }
