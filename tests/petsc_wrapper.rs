@@ -163,6 +163,61 @@ fn petsc_wrapper_end_to_end() {
     z.axpy(-1.0, &x).unwrap();
     assert!(z.norm2().unwrap() < 1e-12);
 
+    // KSP's convergence test: a stop query ends an unpreconditioned GMRES solve of a 1D
+    // Laplacian (which needs far more than 5 iterations) at the first iteration it answers yes,
+    // and `stopped` says so once; without the query the same solve converges, and a solve stopped
+    // by its iteration limit is accepted as converged when its true residual is small enough.
+    let m = 200;
+    let mut lap = Matrix::new_aij(&petsc, m).unwrap();
+    lap.preallocate_aij(&vec![3; m], &vec![0; m]).unwrap();
+    for i in 0..m as i32 {
+        for (j, v) in [(i - 1, -1.0), (i, 2.0), (i + 1, -1.0)] {
+            if j >= 0 && j < m as i32 {
+                lap.add_values(&[i], &[j], &[v]).unwrap();
+            }
+        }
+    }
+    lap.assemble().unwrap();
+    let mut rhs = Vector::new_mpi(&petsc, m).unwrap();
+    rhs.set(1.0).unwrap();
+    let mut sol = rhs.duplicate().unwrap();
+    let gmres = |stop: Option<nurbs_contact::petsc::StopQuery>, accept: Option<f64>, max_it| {
+        let mut k = Ksp::new(&petsc).unwrap();
+        k.set_operators(&lap).unwrap();
+        k.set_type("gmres").unwrap();
+        k.pc().unwrap().set_type("none").unwrap();
+        k.set_tolerances(1e-10, 1e-50, 1e4, max_it).unwrap();
+        k.set_convergence_test(accept, stop).unwrap();
+        k
+    };
+    let calls = std::rc::Rc::new(std::cell::Cell::new(0usize));
+    let seen = calls.clone();
+    let mut k = gmres(
+        Some(Box::new(move || {
+            seen.set(seen.get() + 1);
+            seen.get() > 5
+        })),
+        None,
+        10_000,
+    );
+    sol.set(0.0).unwrap();
+    let out = k.solve(&rhs, &mut sol).unwrap();
+    assert!(!out.converged, "{out:?}");
+    assert_eq!(out.iterations, 5, "{out:?}");
+    assert_eq!(calls.get(), 6);
+    assert!(k.stopped().unwrap(), "the stop is not reported");
+    assert!(!k.stopped().unwrap(), "the stop is reported twice");
+    let mut k = gmres(Some(Box::new(|| false)), None, 10_000);
+    sol.set(0.0).unwrap();
+    let out = k.solve(&rhs, &mut sol).unwrap();
+    assert!(out.converged && out.iterations > 5, "{out:?}");
+    assert!(!k.stopped().unwrap());
+    let mut k = gmres(None, Some(1.0), 3);
+    sol.set(0.0).unwrap();
+    let out = k.solve(&rhs, &mut sol).unwrap();
+    assert!(out.converged && out.iterations == 3, "{out:?}");
+    assert_eq!(k.accepted_at_limit().unwrap(), 1);
+
     // Errors carry PETSc's message and the function name (PETSc also prints its traceback).
     let small = Vector::new_seq(&petsc, 3).unwrap();
     let mut big = Vector::new_seq(&petsc, 4).unwrap();
@@ -239,6 +294,30 @@ fn petsc_wrapper_end_to_end() {
             .unwrap()
             .converged
     );
+
+    // A Krylov solve ended by the stop query of the KSP's convergence test (a signal to stop the
+    // run) ends the Newton solve as interrupted, not as a failed linear solve to retry; the next
+    // solve, without the stop, converges.
+    {
+        let mut k = snes.ksp().unwrap();
+        k.set_type("gmres").unwrap();
+        k.pc().unwrap().set_type("none").unwrap();
+    }
+    let stop_now = std::rc::Rc::new(std::cell::Cell::new(true));
+    let flag = stop_now.clone();
+    snes.ksp()
+        .unwrap()
+        .set_convergence_test(None, Some(Box::new(move || flag.get())))
+        .unwrap();
+    xs.set(1.0).unwrap();
+    let mut problem = Cubic::new(-1e9, false);
+    let out = snes.solve(&mut problem, &mut xs, &mut jm).unwrap();
+    assert!(out.interrupted && !out.converged, "{out:?}");
+    assert!(out.reason.starts_with("INTERRUPTED"), "{out:?}");
+    stop_now.set(false);
+    let mut problem = Cubic::new(-1e9, false);
+    let out = snes.solve(&mut problem, &mut xs, &mut jm).unwrap();
+    assert!(out.converged && !out.interrupted, "{out:?}");
 
     // PETSc's `l2` line search on x^3 = 8 from x = 1 with a domain error above x = 2.18: the full
     // step (x = 3.33) fails, lambda = 0.5 (x = 2.17) reduces |F|, and its secant step 0.511

@@ -8,7 +8,7 @@ use crate::contact::ContactSystem;
 use crate::model::Model;
 use crate::petsc::{
     options_missing_values, quiet_errors, tolerance_problems, Matrix, Petsc, PetscError, Snes,
-    Vector,
+    StopQuery, Vector,
 };
 use crate::scene::schema::{LinearSolver, Preconditioner};
 use crate::scene::Case;
@@ -160,10 +160,13 @@ pub(super) fn set_up_solver<'p>(
             }
         }
         // a solve stopped by `-ksp_max_it` that has reduced its residual enough is an inexact
-        // Newton direction, not a failure (`[solver] krylov_accept`)
-        if case.solver.krylov_accept > 0.0 {
-            snes.ksp()?.accept_at_limit(case.solver.krylov_accept)?;
-        }
+        // Newton direction, not a failure (`[solver] krylov_accept`); a signal to stop the run
+        // ends a Krylov solve at its next iteration (one all-reduce per iteration), so that a
+        // long solve at 10^6 unknowns does not outlast `[slurm] stop_before` or MPI's kill delay
+        let accept = (case.solver.krylov_accept > 0.0).then_some(case.solver.krylov_accept);
+        let comm = asm.comm().duplicate();
+        let stop: StopQuery = Box::new(move || crate::interrupt::agreed(&comm).is_some());
+        snes.ksp()?.set_convergence_test(accept, Some(stop))?;
     }
 
     let control = StepControl {

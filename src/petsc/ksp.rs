@@ -177,35 +177,54 @@ type ConvergenceTest = unsafe extern "C" fn(
     *mut c_void,
 ) -> sys::PetscErrorCode;
 
-/// The context of [`converged_or_accepted_at_limit`]: PETSc's default test's own context, the
-/// relative true residual that a solve stopped by its iteration limit must have reached, the count
-/// of solves so accepted, and the relative true residual of the last solve that reached the limit.
-struct AcceptAtLimit {
+/// A request to stop a Krylov solve, asked at every call of its convergence test on every rank:
+/// collective, and it must answer alike on every rank (e.g. an all-reduce of a signal flag).
+pub type StopQuery = Box<dyn FnMut() -> bool>;
+
+/// The context of [`krylov_test`]: PETSc's default test's own context; the relative true residual
+/// that a solve stopped by its iteration limit must have reached (`None`: such a solve fails), the
+/// count of solves so accepted, and the relative true residual of the last solve that reached
+/// the limit; the stop query, and whether it stopped a solve.
+struct KrylovTest {
     default_ctx: *mut c_void,
-    rtol: f64,
+    accept: Option<f64>,
     accepted: usize,
     last_true: f64,
+    stop: Option<StopQuery>,
+    stopped: bool,
 }
 
-/// PETSc's default convergence test, except that a solve that reaches its iteration limit
-/// (`-ksp_max_it`) with its true residual `|b - A x|` at most `rtol |b|` is converged
-/// (`CONVERGED_ITS`) instead of `DIVERGED_ITS`: an inexact Newton direction with forcing term
-/// `rtol` (Eisenstat and Walker's condition on the linearised residual).
-unsafe extern "C" fn converged_or_accepted_at_limit(
+/// PETSc's default convergence test, with two additions. A solve whose stop query answers yes
+/// ends at that iteration (`DIVERGED_BREAKDOWN`, and [`Ksp::stopped`] says so), so that a run
+/// asked to stop does not wait for the rest of a long Krylov solve. And with `accept`, a solve
+/// that reaches its iteration limit (`-ksp_max_it`) with its true residual `|b - A x|` at most
+/// `accept |b|` is converged (`CONVERGED_ITS`) instead of `DIVERGED_ITS`: an inexact Newton
+/// direction with forcing term `accept` (Eisenstat and Walker's condition on the linearised
+/// residual).
+unsafe extern "C" fn krylov_test(
     ksp: sys::KSP,
     n: PetscInt,
     rnorm: f64,
     reason: *mut sys::KSPConvergedReason,
     ctx: *mut c_void,
 ) -> sys::PetscErrorCode {
-    // SAFETY: `ctx` is the `AcceptAtLimit` that `Ksp::accept_at_limit` gave PETSc with this
+    // SAFETY: `ctx` is the `KrylovTest` that `Ksp::set_convergence_test` gave PETSc with this
     // function; PETSc passes valid `ksp` and `reason`.
     unsafe {
-        let c = &mut *(ctx as *mut AcceptAtLimit);
+        let c = &mut *(ctx as *mut KrylovTest);
         let ierr = sys::KSPConvergedDefault(ksp, n, rnorm, reason, c.default_ctx);
         if ierr != 0 {
             return ierr;
         }
+        // asked at every call on every rank, whatever the reason so far, since it communicates
+        if let Some(stop) = c.stop.as_mut() {
+            if stop() && (*reason).0 <= 0 {
+                c.stopped = true;
+                *reason = sys::KSPConvergedReason::KSP_DIVERGED_BREAKDOWN;
+                return 0;
+            }
+        }
+        let Some(rtol) = c.accept else { return 0 };
         if *reason == sys::KSPConvergedReason::KSP_CONVERGED_ITERATING {
             let mut max_it: PetscInt = 0;
             let ierr = sys::KSPGetTolerances(
@@ -247,7 +266,7 @@ unsafe extern "C" fn converged_or_accepted_at_limit(
                     return ierr;
                 }
                 c.last_true = r_norm / b_norm;
-                if r_norm.is_finite() && r_norm <= c.rtol * b_norm {
+                if r_norm.is_finite() && r_norm <= rtol * b_norm {
                     *reason = sys::KSPConvergedReason::KSP_CONVERGED_ITS;
                     c.accepted += 1;
                 }
@@ -257,48 +276,55 @@ unsafe extern "C" fn converged_or_accepted_at_limit(
     }
 }
 
-/// Frees the context of [`converged_or_accepted_at_limit`] (PETSc calls it when the test is
-/// replaced or the KSP destroyed).
-unsafe extern "C" fn destroy_accept_at_limit(ctx: *mut c_void) -> sys::PetscErrorCode {
-    // SAFETY: `ctx` came from `Box::into_raw` in `Ksp::accept_at_limit`, and PETSc calls this once.
+/// Frees the context of [`krylov_test`] (PETSc calls it when the test is replaced or the KSP
+/// destroyed).
+unsafe extern "C" fn destroy_krylov_test(ctx: *mut c_void) -> sys::PetscErrorCode {
+    // SAFETY: `ctx` came from `Box::into_raw` in `Ksp::set_convergence_test`, and PETSc calls
+    // this once.
     unsafe {
-        let c = Box::from_raw(ctx as *mut AcceptAtLimit);
+        let c = Box::from_raw(ctx as *mut KrylovTest);
         sys::KSPConvergedDefaultDestroy(c.default_ctx)
     }
 }
 
 impl Ksp<'_> {
-    /// Accepts a Krylov solve stopped by its iteration limit whose true residual `|b - A x|` is
-    /// at most `rtol |b|`, as an inexact Newton direction (`CONVERGED_ITS`), instead of failing it
-    /// (`DIVERGED_ITS`). Other solves are judged by PETSc's default test (in the method's own
+    /// Installs [`krylov_test`]: PETSc's default test; with `accept`, a Krylov solve stopped by
+    /// its iteration limit whose true residual `|b - A x|` is at most `accept |b|` is accepted as
+    /// an inexact Newton direction (`CONVERGED_ITS`) instead of failing (`DIVERGED_ITS`); with
+    /// `stop`, a solve ends at the first iteration at which the query answers yes
+    /// ([`Ksp::stopped`]). Other solves are judged by PETSc's default test (in the method's own
     /// norm).
     ///
     /// Collective.
-    pub fn accept_at_limit(&mut self, rtol: f64) -> Result<(), PetscError> {
+    pub fn set_convergence_test(
+        &mut self,
+        accept: Option<f64>,
+        stop: Option<StopQuery>,
+    ) -> Result<(), PetscError> {
         let mut default_ctx = std::ptr::null_mut();
         // SAFETY: PETSc allocates the default test's context.
         unsafe { call!(KSPConvergedDefaultCreate(&mut default_ctx))? };
-        let ctx = Box::into_raw(Box::new(AcceptAtLimit {
+        let ctx = Box::into_raw(Box::new(KrylovTest {
             default_ctx,
-            rtol,
+            accept,
             accepted: 0,
             last_true: f64::NAN,
+            stop,
+            stopped: false,
         }));
         // SAFETY: valid handle; PETSc owns `ctx` from here and frees it with the destroy function.
         unsafe {
             call!(KSPSetConvergenceTest(
                 self.raw,
-                Some(converged_or_accepted_at_limit),
+                Some(krylov_test),
                 ctx as *mut c_void,
-                Some(destroy_accept_at_limit)
+                Some(destroy_krylov_test)
             ))
         }
     }
 
-    /// The state of [`Ksp::accept_at_limit`]'s test: the solves it accepted so far, and the
-    /// relative true residual `|b - A x| / |b|` of the last solve that reached the iteration
-    /// limit (NaN before one did); `None` when that test is not installed.
-    pub fn limit_state(&self) -> Result<Option<(usize, f64)>, PetscError> {
+    /// [`krylov_test`]'s context, when that test is installed.
+    fn krylov_test(&mut self) -> Result<Option<&mut KrylovTest>, PetscError> {
         let mut test: Option<ConvergenceTest> = None;
         let mut ctx: *mut c_void = std::ptr::null_mut();
         // SAFETY: valid handle; PETSc writes the test's function pointer and context.
@@ -310,18 +336,37 @@ impl Ksp<'_> {
                 std::ptr::null_mut()
             ))?
         };
-        let ours: ConvergenceTest = converged_or_accepted_at_limit;
+        let ours: ConvergenceTest = krylov_test;
         if test.map(|t| t as usize) != Some(ours as usize) || ctx.is_null() {
             return Ok(None);
         }
-        // SAFETY: the test is ours, so its context is the `AcceptAtLimit` it was installed with.
-        let c = unsafe { &*(ctx as *const AcceptAtLimit) };
-        Ok(Some((c.accepted, c.last_true)))
+        // SAFETY: the test is ours, so its context is the `KrylovTest` it was installed with,
+        // which PETSc keeps alive while the test is installed.
+        Ok(Some(unsafe { &mut *(ctx as *mut KrylovTest) }))
     }
 
-    /// Solves accepted at the iteration limit by [`Ksp::accept_at_limit`] so far (0 when that
+    /// Whether the stop query of [`Ksp::set_convergence_test`] ended a solve since the last call
+    /// (which clears it); `false` when that test is not installed.
+    pub fn stopped(&mut self) -> Result<bool, PetscError> {
+        Ok(self
+            .krylov_test()?
+            .is_some_and(|c| std::mem::replace(&mut c.stopped, false)))
+    }
+
+    /// The state of [`Ksp::set_convergence_test`]'s acceptance at the limit: the solves it
+    /// accepted so far, and the relative true residual `|b - A x| / |b|` of the last solve that
+    /// reached the iteration limit (NaN before one did); `None` when that test is not installed
+    /// or accepts nothing.
+    pub fn limit_state(&mut self) -> Result<Option<(usize, f64)>, PetscError> {
+        Ok(self
+            .krylov_test()?
+            .filter(|c| c.accept.is_some())
+            .map(|c| (c.accepted, c.last_true)))
+    }
+
+    /// Solves accepted at the iteration limit by [`Ksp::set_convergence_test`] so far (0 when that
     /// test is not installed).
-    pub fn accepted_at_limit(&self) -> Result<usize, PetscError> {
+    pub fn accepted_at_limit(&mut self) -> Result<usize, PetscError> {
         Ok(self.limit_state()?.map_or(0, |(n, _)| n))
     }
 }

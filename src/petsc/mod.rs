@@ -23,7 +23,7 @@ mod vec;
 
 pub use error::{check, PetscError};
 pub use init::Petsc;
-pub use ksp::{Ksp, KspOutcome, Pc};
+pub use ksp::{Ksp, KspOutcome, Pc, StopQuery};
 pub use mat::Matrix;
 pub use nullspace::NullSpace;
 pub use options::{

@@ -69,7 +69,7 @@ pub struct SolveOutcome {
     /// Newton iteration for a direct solve).
     pub linear_iterations: usize,
     /// Krylov solves of this solve stopped by their iteration limit and taken as inexact Newton
-    /// directions ([`Ksp::accept_at_limit`]).
+    /// directions ([`Ksp::set_convergence_test`]).
     pub linear_accepted: usize,
     /// The solve was stopped because the run was asked to stop
     /// ([`NonlinearProblem::interrupted`]); its state is not converged.
@@ -737,6 +737,8 @@ impl<'p> Snes<'p> {
         }
         let raw = self.raw;
         let x_raw = x.as_raw();
+        // a stop of an earlier Krylov solve is not this solve's
+        self.ksp()?.stopped()?;
         // SAFETY: valid handles; the context installed above lives on this stack frame.
         let run = || unsafe { call!(SNESSolve(raw, std::ptr::null_mut(), x_raw)) };
         let fall_back = self.can_fall_back();
@@ -792,6 +794,10 @@ impl<'p> Snes<'p> {
                 &mut hist_its,
                 &mut n_hist
             ))?;
+        }
+        // a Krylov solve ended by the problem's stop query (the same answer on every rank)
+        if reason.0 < 0 && self.ksp()?.stopped()? {
+            ctx.interrupted = true;
         }
         let reason_text = if ctx.interrupted {
             "INTERRUPTED (the run was asked to stop)".to_string()

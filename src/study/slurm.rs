@@ -45,7 +45,8 @@ pub struct SlurmSpec {
     #[serde(default)]
     pub max_running: Option<usize>,
     /// Seconds before the time limit at which each run gets one SIGTERM (`--signal=TERM@N`), so
-    /// that it stops at its next Newton iteration and writes `summary.json` as interrupted. Default: a tenth of
+    /// that it stops at its next Newton (iterative route: Krylov) iteration and writes `summary.json`
+    /// as interrupted. Default: a tenth of
     /// the time limit, within 60..600 s (Slurm sends it up to 60 s early).
     #[serde(default)]
     pub stop_before: Option<u64>,
