@@ -15,14 +15,15 @@ source ci/env.sh
 OLD=$(realpath "$1"); NEW=$(realpath "$2"); WORK=${3:-$(mktemp -d)}
 CASES=$PWD/cases
 # the paper's formulation where a pair's default is another (two deformable enriched surfaces under
-# the penalty law): what the script guards is that formulation, bit for bit
+# the penalty law, or two faceted ones in 2D without friction): what the script guards is that
+# formulation, bit for bit
 PAPER="--set contact.0.formulation=paper"
 runs() {
   local bin=$1 root=$2
   mkdir -p "$root"
   r() { local name=$1; shift; "$bin" run -q --overwrite --out "$root/$name" "$@"; }
   r ironing4_q1n2 "$CASES/ironing_2d.toml" --set output.plots=false $PAPER
-  r ironing4_q1c1 "$CASES/ironing_2d.toml" --set bodies.block.element=Q1C1 --set bodies.cylinder.element=Q1C1 --set output.plots=false
+  r ironing4_q1c1 "$CASES/ironing_2d.toml" --set bodies.block.element=Q1C1 --set bodies.cylinder.element=Q1C1 --set output.plots=false $PAPER
   r twisting2 "$CASES/twisting_3d.toml" --set output.plots=false $PAPER
   r peeling_coarse "$CASES/peeling_2d.toml" --set 'meshes.strip.divisions=[40,2]' --set 'bcs.1.angle_deg=[90.0]' --set stages.0.steps=36 --set output.every=4 --set output.plots=false
   r dcb_coarse "$CASES/dcb_2d.toml" --set 'bcs.0.value=[[0.0, 9.0]]' --set stages.0.steps=90 --set output.every=30 --set output.plots=false

@@ -50,7 +50,7 @@ use super::ContactSystem;
 use crate::contact::basis::FaceBasis;
 use crate::contact::formulation::Pressure;
 use crate::contact::half_pass::QPoint;
-use crate::contact::pair::{PairDef, Partner};
+use crate::contact::pair::{Law, PairDef, Partner};
 use crate::contact::search::Aabb;
 use crate::contact::surface::{frame, raw_normal, MAX_FACE_NODES};
 
@@ -189,15 +189,21 @@ pub(crate) fn reserve(ps: &mut crate::contact::half_pass::Pass, need: &[(usize, 
 
 /// Whether a pair's pass is integrated over segments: one-pass, frictionless, against another
 /// surface, with a weighted gap (2D, and 3D unless switched off) or, in 2D, with the pointwise
-/// gap under the plain penalty. An augmented pointwise pair keeps a multiplier per material
-/// point, which points that move onto new segments would not keep. In 3D the pointwise gap is
+/// gap under the plain penalty law. An augmented pointwise pair keeps a multiplier per material
+/// point and the cohesive law a pairing and damage per material point, which points that move
+/// onto new segments would not keep (van der Waals pairs keep the element's rule too: not
+/// measured with segments). In 3D the pointwise gap is
 /// not segmented: over the master elements' images it passes the 3D patch test (spread 1.3e-11
 /// with Q1C1, 1.8e-11 with Q1N2), but with Q1C1 Table 4's twist on mesh 8 then stalls in the
 /// press (steps cut to 2e-4 of the load by load 0.88, up to 256 Newton iterations each), as the
 /// one-pass weighted gaps do there.
 pub(crate) fn segmented(def: &PairDef, dim: usize, partner: &Partner) -> bool {
     let pressure = match def.formulation.pressure {
-        Pressure::Pointwise => dim == 2 && def.formulation.augmented().is_none(),
+        Pressure::Pointwise => {
+            dim == 2
+                && def.formulation.augmented().is_none()
+                && matches!(def.formulation.law, Law::Penalty { .. })
+        }
         p => p.is_nodal() && (dim == 2 || segments_3d()),
     };
     pressure
@@ -1170,6 +1176,82 @@ mod tests {
         cell_points, cells_of, clip_convex, merge_segments, points_box, signed_area, triangle_rule,
         Segments,
     };
+
+    #[test]
+    fn a_one_pass_pointwise_pair_is_segmented_in_2d_under_the_plain_penalty_only() {
+        use crate::contact::formulation::{Enforcement, Formulation, Passes, Pressure};
+        use crate::contact::pair::{Augmented, Friction, Law, PairDef, Partner};
+        let def = |passes, law, enforcement, friction| PairDef {
+            name: "p".into(),
+            formulation: Formulation {
+                passes,
+                pressure: Pressure::Pointwise,
+                enforcement,
+                law,
+            },
+            passes: vec![(0, Partner::Surface(1))],
+            search_distance: 1.0,
+            moment_point: [0.0; 3],
+            debonded: None,
+            region: None,
+            friction,
+        };
+        let penalty = Law::Penalty { eps_n: 10.0 };
+        let plain = def(Passes::OnePass, penalty, Enforcement::Penalty, None);
+        let surface = Partner::Surface(1);
+        assert!(super::segmented(&plain, 2, &surface));
+        assert!(!super::segmented(&plain, 3, &surface), "3D");
+        let cohesive = Law::Cohesive {
+            t0: 1.0,
+            g0: 0.1,
+            eps_n: 10.0,
+            quadratic: false,
+        };
+        let friction = Friction {
+            mu: 0.3,
+            eps_t: 10.0,
+            stages: Vec::new(),
+        };
+        for (what, d) in [
+            (
+                "two half-passes",
+                def(Passes::TwoHalfPass, penalty, Enforcement::Penalty, None),
+            ),
+            (
+                "cohesive",
+                def(Passes::OnePass, cohesive, Enforcement::Penalty, None),
+            ),
+            (
+                "van der Waals",
+                def(
+                    Passes::OnePass,
+                    Law::VanDerWaals { a_h: 1.0, r0: 0.1 },
+                    Enforcement::Penalty,
+                    None,
+                ),
+            ),
+            (
+                "augmented",
+                def(
+                    Passes::OnePass,
+                    penalty,
+                    Enforcement::Augmented(Augmented { tol: 1e-6, max: 5 }),
+                    None,
+                ),
+            ),
+            (
+                "friction",
+                def(
+                    Passes::OnePass,
+                    penalty,
+                    Enforcement::Penalty,
+                    Some(friction.clone()),
+                ),
+            ),
+        ] {
+            assert!(!super::segmented(&d, 2, &surface), "{what}");
+        }
+    }
 
     #[test]
     fn triangle_rules_integrate_their_degree_exactly() {
