@@ -795,7 +795,8 @@ impl<'p> Snes<'p> {
                 &mut n_hist
             ))?;
         }
-        // a Krylov solve ended by the problem's stop query (the same answer on every rank)
+        // a Krylov solve ended by the stop query of the KSP's convergence test (a request to stop
+        // the run, answered alike on every rank)
         if reason.0 < 0 && self.ksp()?.stopped()? {
             ctx.interrupted = true;
         }
