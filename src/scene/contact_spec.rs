@@ -53,9 +53,9 @@ pub struct ContactSpec {
     /// bodies Q1Np or Q1Np.t); in 2D, `one_pass_pointwise` for a frictionless `penalty` pair of
     /// two deformable faceted surfaces (both bodies Q1C1 or Q1E4); every other pair (adhesion
     /// laws, a rigid partner, faceted surfaces with friction or in 3D, Q1C2 or Q1CH surfaces, an
-    /// enriched surface against a faceted one) takes `algorithm` and `gap` at their defaults, the paper's
-    /// formulation. The resolved case beside the results names the formulation where a pair got
-    /// one (docs/user-guide/contact-settings.md).
+    /// enriched surface against a faceted one) takes `algorithm` and `gap` at their defaults, the
+    /// paper's formulation. The resolved case beside the results names the formulation where a
+    /// pair got one (docs/user-guide/contact-settings.md).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub formulation: Option<FormulationName>,
     /// `two_half_pass` (default when the pair gives `gap` or takes no named formulation by
@@ -70,7 +70,7 @@ pub struct ContactSpec {
     #[schemars(extend("default" = "two_half_pass"))]
     pub algorithm: Option<Algorithm>,
     /// `penalty`: how the pressure is distributed. `pointwise` (default when the pair gives
-    /// `algorithm` or does not take `weighted_gap` by default (see `formulation`): eq. 5 at every
+    /// `algorithm` or takes no named formulation by default (see `formulation`): eq. 5 at every
     /// quadrature point, the paper's) or `element_mean`: one pressure per surface element, the mean over the
     /// element of the pointwise pressures `eps_n <-g_N>` (weights `w J0`, over its reference
     /// area), applied at every point of the element. On enriched surfaces it removes the
@@ -192,15 +192,14 @@ impl ContactSpec {
     /// penalty pair of two deformable faceted surfaces (both bodies Q1C1 or Q1E4), on which every
     /// one-pass weighted gap fails in sliding (ironing mesh 4) and the one-pass pointwise gap over
     /// segments passes the patch test and slides without a rescue (docs/formulations.md). Other
-    /// pairs that name
-    /// none keep the keys' defaults, the paper's formulation, and get `None`: the adhesion laws
-    /// (the weighted gap is penalty-only), rigid partners (one pass either way; there the weighted
-    /// gap takes fewer Newton iterations but loses the 3D and coarse 2D Hertz peaks and widens
-    /// the contact), Q1C2 and Q1CH (bases that go negative or carry slopes), pairs of an enriched
-    /// and a faceted surface, and faceted pairs with friction or in 3D (whose pointwise points are
-    /// not integrated over segments). A pair that names a formulation or either key gets `None` too. `family`
-    /// gives a body's element family by name (`None` for an unknown body, which the model
-    /// reports).
+    /// pairs that name none keep the keys' defaults, the paper's formulation, and get `None`: the
+    /// adhesion laws (the weighted gap is penalty-only), rigid partners (one pass either way;
+    /// there the weighted gap takes fewer Newton iterations but loses the 3D and coarse 2D Hertz
+    /// peaks and widens the contact), Q1C2 and Q1CH (bases that go negative or carry slopes),
+    /// pairs of an enriched and a faceted surface, and faceted pairs with friction or in 3D (whose
+    /// pointwise points are not integrated over segments). A pair that names a formulation or
+    /// either key gets `None` too. `family` gives a body's element family by name (`None` for an
+    /// unknown body, which the model reports).
     pub fn default_formulation(
         &self,
         dim: usize,
@@ -291,8 +290,9 @@ pub enum FormulationName {
     Paper,
     /// One-pass with the gap weighted by the slave's control points (`weighted`).
     WeightedGap,
-    /// One-pass with the pointwise gap (`algorithm = "one_pass"`, `gap = "pointwise"`); without
-    /// friction the slave is integrated over segments between the master's element boundaries.
+    /// One-pass with the pointwise gap (`algorithm = "one_pass"`, `gap = "pointwise"`); in 2D and
+    /// without friction the slave is integrated over segments between the master's element
+    /// boundaries.
     OnePassPointwise,
 }
 
