@@ -154,19 +154,7 @@ fn petsc_jacobian_check_holds_for_one_pass_pointwise_over_segments() {
             &["--", "-snes_test_jacobian"],
         );
         assert!(out.status.success(), "{fam}: {}", stderr(&out));
-        let text = String::from_utf8_lossy(&out.stdout);
-        let ratios: Vec<f64> = text
-            .lines()
-            .filter_map(|l| l.split("||J - Jfd||_F/||J||_F = ").nth(1))
-            .map(|r| {
-                r.split(',')
-                    .next()
-                    .unwrap()
-                    .trim()
-                    .parse()
-                    .expect("a ratio")
-            })
-            .collect();
+        let ratios = jacobian_check_ratios(&out);
         assert!(
             ratios.len() >= 5,
             "{fam}: {} checks in {}",

@@ -605,24 +605,12 @@ fn petsc_jacobian_check_holds_along_the_one_pass_weighted_gap_twisting_press() {
         ],
         &["--", "-snes_test_jacobian"],
     );
-    let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success(),
         "the press failed: {}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let ratios: Vec<f64> = text
-        .lines()
-        .filter_map(|l| l.split("||J - Jfd||_F/||J||_F = ").nth(1))
-        .map(|r| {
-            r.split(',')
-                .next()
-                .unwrap()
-                .trim()
-                .parse()
-                .expect("a ratio")
-        })
-        .collect();
+    let ratios = jacobian_check_ratios(&out);
     assert!(
         ratios.len() >= 40,
         "{} checks in {}",

@@ -134,6 +134,23 @@ pub fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
+/// The ratios `||J - Jfd||_F / ||J||_F` that PETSc's `-snes_test_jacobian` printed on a run's
+/// standard output, one per Newton iterate, in order.
+pub fn jacobian_check_ratios(out: &Output) -> Vec<f64> {
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| l.split("||J - Jfd||_F/||J||_F = ").nth(1))
+        .map(|r| {
+            r.split(',')
+                .next()
+                .unwrap()
+                .trim()
+                .parse()
+                .expect("a ratio")
+        })
+        .collect()
+}
+
 /// Opens an HDF5 file read-only without HDF5's file lock. A run spawned by another test while the
 /// file is open inherits its descriptor (HDF5 does not open with close-on-exec), and a lock held
 /// through that descriptor outlives the test's own close: a later run's open of the file would
