@@ -2,11 +2,12 @@
 """Benchmark of the solver core (docs/performance/solver.md): a Neo-Hookean hex8 block compressed in 3 load steps
 at several sizes, on 1 and 2 ranks, COO vs MatSetValues assembly. Prints one markdown table row per
 run, with the per-Newton-iteration split taken from PETSc's -log_view and the peak memory per rank
-from /usr/bin/time. Usage: python3 ci/bench.py [SIZES...] (default 10 20 30)."""
+from /usr/bin/time. Usage: python3 ci/bench.py [SIZES...] (default 10 20 30); BIN=path runs another
+binary."""
 import json, os, re, subprocess, sys, tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-BIN = os.path.join(ROOT, "target", "release", "nurbs-contact")
+BIN = os.environ.get("BIN", os.path.join(ROOT, "target", "release", "nurbs-contact"))
 CASE = os.path.join(ROOT, "cases", "block_compression_3d.toml")
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
            OMPI_MCA_btl="self,vader", OPENBLAS_NUM_THREADS="1")

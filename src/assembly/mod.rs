@@ -21,5 +21,5 @@ pub use dirichlet::{
 pub use dofmap::{DofMap, DofMapError, GlobalDof, LocalDof};
 pub use element_set::{ElementFailure, ElementSet};
 pub use rigid_coupling::{NodeOffsets, RigidCoupling};
-pub use sink::{BlockScatter, CooSink, CouplingRuns, DenseSink, MatrixSink, DROPPED};
+pub use sink::{BlockScatter, CellMap, CooSink, CouplingRuns, DenseSink, MatrixSink, DROPPED};
 pub use skew::{SkewBc, SkewError, SkewKind, SkewRow, SkewRows};

@@ -26,12 +26,25 @@ pub trait MatrixSink {
     }
 }
 
-/// Values laid out in the order of a COO pattern: element `slot` owns `n_e^2` consecutive entries
-/// starting at `offsets[slot]`; slots from `first_scattered` on are coupling blocks, added
-/// through `scattered` into entries they share with other blocks.
-pub struct CooSink<'a> {
-    /// Start of each element's block in `values`. [n_elements + 1]
+/// Where the elements' matrices go in the COO values: element `slot`'s `n_e^2` entries (row-major)
+/// are `map[offsets[slot]..offsets[slot + 1]]`, each the COO entry it adds into (`DROPPED`: a
+/// dropped row, or a column without an unknown). Elements that reach the same matrix entry add
+/// into one COO entry.
+#[derive(Debug, Clone, Copy)]
+pub struct CellMap<'a> {
+    /// Start of each element's entries in `map`. [n_elements + 1]
     pub offsets: &'a [usize],
+    /// The COO entry of each element entry.
+    pub map: &'a [u32],
+}
+
+/// Values laid out in the order of a COO pattern, which the sink adds into (they start at zero):
+/// elements (slots below `first_scattered`) through their [`CellMap`]; slots from
+/// `first_scattered` on are coupling blocks, added through `scattered` into entries they share
+/// with other blocks.
+pub struct CooSink<'a> {
+    /// Where each element's entries go.
+    pub cells: CellMap<'a>,
     /// The COO value array handed to `MatSetValuesCOO`.
     pub values: &'a mut [f64],
     /// Where the rows of coupling block `slot - first_scattered` go.
@@ -45,17 +58,17 @@ pub struct CooSink<'a> {
 }
 
 impl<'a> CooSink<'a> {
-    /// A sink over `values`, laid out as `offsets` says, with the coupling blocks from slot
+    /// A sink over `values`, the elements' entries placed through `cells`, with the coupling blocks from slot
     /// `first_scattered` on placed through `scattered` and `runs`.
     pub fn new(
-        offsets: &'a [usize],
+        cells: CellMap<'a>,
         values: &'a mut [f64],
         scattered: &'a [BlockScatter],
         runs: &'a CouplingRuns,
         first_scattered: usize,
     ) -> Self {
         CooSink {
-            offsets,
+            cells,
             values,
             scattered,
             runs,
@@ -179,15 +192,26 @@ impl CouplingRuns {
     }
 }
 
+impl CooSink<'_> {
+    /// Adds element `slot`'s entries `k` at their COO entries.
+    fn add_element(&mut self, slot: usize, k: &[f64]) {
+        let start = self.cells.offsets[slot];
+        debug_assert_eq!(self.cells.offsets[slot + 1] - start, k.len());
+        for (&m, &v) in self.cells.map[start..start + k.len()].iter().zip(k) {
+            if m != DROPPED {
+                self.values[m as usize] += v;
+            }
+        }
+    }
+}
+
 impl MatrixSink for CooSink<'_> {
     fn add(&mut self, slot: usize, _dofs: &[i32], k_e: &[f64]) {
-        let start = self.offsets[slot];
-        self.values[start..start + k_e.len()].copy_from_slice(k_e);
+        self.add_element(slot, k_e);
     }
     fn add_block(&mut self, slot: usize, _rows: &[i32], cols: &[i32], k: &[f64]) {
         if slot < self.first_scattered {
-            let start = self.offsets[slot];
-            self.values[start..start + k.len()].copy_from_slice(k);
+            self.add_element(slot, k);
             return;
         }
         let scattered = self.scattered;
@@ -270,9 +294,12 @@ mod tests {
             };
             2
         ];
-        let offsets = [0, 2, 6];
+        let cells = CellMap {
+            offsets: &[0, 2],
+            map: &[0, 1],
+        };
         let mut values = vec![0.0; 6];
-        let mut sink = CooSink::new(&offsets, &mut values, &scattered, &runs, 1);
+        let mut sink = CooSink::new(cells, &mut values, &scattered, &runs, 1);
         sink.add_block(1, &rows, &c0, &k0);
         sink.add_block(2, &rows, &c1, &k1);
         let mut dense = DenseSink::new(4);
@@ -300,11 +327,14 @@ mod tests {
             };
             2
         ];
-        let offsets = [0, 6];
+        let cells = CellMap {
+            offsets: &[0],
+            map: &[],
+        };
         let mut values = vec![0.0; 6];
         let k0 = [1.0, 2.0, 3.0, 4.0];
         let k1 = [10.0, 20.0, 30.0, 40.0];
-        let mut sink = CooSink::new(&offsets, &mut values, &scattered, &runs, 0);
+        let mut sink = CooSink::new(cells, &mut values, &scattered, &runs, 0);
         sink.add_block(0, &[0, 1], &[0, 1], &k0);
         sink.add_block(1, &[0, 1], &[1, 2], &k1);
         let mut dense = DenseSink::new(3);
@@ -329,9 +359,12 @@ mod tests {
                 rows: vec![(p, 0), (DROPPED, 0), (p, 8)],
             },
         ];
-        let offsets = [0, 12];
+        let cells = CellMap {
+            offsets: &[0],
+            map: &[],
+        };
         let mut values = vec![0.0; 12];
-        let mut sink = CooSink::new(&offsets, &mut values, &scattered, &runs, 0);
+        let mut sink = CooSink::new(cells, &mut values, &scattered, &runs, 0);
         // rows of block 1 from row 1 (global 1, 2), columns of block 1 from column 2 (global 2, 3)
         let k = [1.0, 2.0, 3.0, 4.0];
         sink.add_cross((1, 1), (1, 2), &[1, 2], &[2, 3], &k);

@@ -284,6 +284,13 @@ impl SkewRows {
     pub fn of(&self, g: PetscInt) -> Option<&SkewRow> {
         self.index.get(&g).map(|&i| &self.rows[i])
     }
+
+    /// Constraints given directly (tests of the assembly's patterns).
+    #[cfg(test)]
+    pub(crate) fn from_rows(rows: Vec<SkewRow>) -> Self {
+        let index = rows.iter().enumerate().map(|(i, r)| (r.dep, i)).collect();
+        SkewRows { rows, index }
+    }
 }
 
 #[cfg(test)]

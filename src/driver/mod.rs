@@ -767,6 +767,12 @@ fn finish_and_report(
                 &mut coo_entries,
                 SystemOperation::sum(),
             );
+            let mut cell_entries = 0u64;
+            comm.all_reduce_into(
+                &(t.cell_entries as u64),
+                &mut cell_entries,
+                SystemOperation::sum(),
+            );
             let mut region_entries = 0u64;
             comm.all_reduce_into(
                 &(t.region_entries as u64),
@@ -784,6 +790,7 @@ fn finish_and_report(
                 missing_blocks: total,
                 ring,
                 coo_entries,
+                cell_entries,
                 region_entries,
                 run_columns,
             }

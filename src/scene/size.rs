@@ -7,7 +7,9 @@
 //!   cell `12 n + 32` for `n` nodes per cell (three copies of the connectivity, offsets, kinds);
 //! - the Jacobian: `12` bytes per stored entry (value and 32-bit column index), with `3^dim dim`
 //!   entries per row of a structured mesh, plus `24` bytes per element-matrix entry
-//!   (`(n dim)^2` per cell) for the COO assembly buffers.
+//!   (`(n dim)^2` per cell) for the COO assembly (it holds 4 bytes per element entry and about
+//!   24 per matrix entry, 14 per element entry on a hex mesh: this term errs high, and the Slurm
+//!   requests built on it were calibrated with it).
 //!
 //! - the linear solver of the route that runs (`[solver] linear`, see [`linear_solver_bytes`]):
 //!   the MUMPS factors (direct), or GAMG's hierarchy and the Krylov vectors (iterative), fitted

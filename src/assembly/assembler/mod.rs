@@ -12,7 +12,7 @@ use super::coupling_set::Block;
 use super::dofmap::{DofMap, GlobalDof};
 use super::element_set::{ElementFailure, ElementSet};
 use super::rigid_coupling::NodeOffsets;
-use super::sink::{CooSink, CouplingRuns, MatrixSink};
+use super::sink::{CellMap, CooSink, CouplingRuns, MatrixSink};
 use super::skew::SkewRows;
 use crate::petsc::{
     Matrix, NonlinearProblem, Petsc, PetscError, PetscInt, ProblemError, Scatter, Vector,
@@ -21,6 +21,7 @@ use mpi::collective::SystemOperation;
 use mpi::traits::*;
 use std::time::Instant;
 
+mod cells;
 mod couplings;
 mod damping;
 mod measures;
@@ -67,6 +68,9 @@ pub struct Timers {
     pub pattern_rebuilds: usize,
     /// COO entries of the largest pattern built on this rank.
     pub coo_entries: usize,
+    /// Entries of this rank's element matrices (each cell's `n_e^2`), which the COO pattern
+    /// merges into one entry per matrix entry.
+    pub cell_entries: usize,
     /// Entries of the coupling blocks' shared regions (the union of their rows times the union
     /// of their columns; neighbouring regions overlap) in the largest pattern built on this rank.
     pub region_entries: usize,
@@ -103,8 +107,12 @@ pub struct Assembler<'p> {
     mode: MatrixAssembly,
     /// Connectivity of every cell of the model (only for [`MatrixAssembly::Preallocated`]).
     all_cells: (Vec<usize>, Vec<u32>),
-    /// Start of each element block in `coo_values`, then of each coupling region (see
-    /// [`BlockScatter`](super::sink::BlockScatter)) and of the diagonal block, and the end.
+    /// The cells' part of the COO pattern (built with the first pattern, kept across the
+    /// coupling set's rebuilds).
+    cells: Option<cells::CellPattern>,
+    /// Start of the coupling regions' entries in `coo_values` (the cells' entries end there), of
+    /// each coupling region (see [`BlockScatter`](super::sink::BlockScatter)) and of the diagonal
+    /// block, and the end.
     coo_offsets: Vec<usize>,
     coo_values: Vec<f64>,
     pattern_ready: bool,
@@ -217,6 +225,7 @@ impl<'p> Assembler<'p> {
             scatter,
             mode: MatrixAssembly::Coo,
             all_cells: (Vec::new(), Vec::new()),
+            cells: None,
             coo_offsets: Vec::new(),
             coo_values: Vec::new(),
             pattern_ready: false,
@@ -284,6 +293,7 @@ impl<'p> Assembler<'p> {
             }
         }
         self.skew = skew;
+        self.cells = None;
         self.pattern_ready = false;
     }
 
@@ -568,23 +578,31 @@ impl NonlinearProblem for Assembler<'_> {
             MatrixAssembly::Coo => {
                 let mut values = std::mem::take(&mut self.coo_values);
                 let offsets = std::mem::take(&mut self.coo_offsets);
-                // coupling blocks add into their shared regions, and reserved blocks that are not
-                // needed now must not keep old values
+                let cells = self
+                    .cells
+                    .take()
+                    .expect("the pattern builds the cells' part");
+                // elements and coupling blocks add into shared entries, and reserved blocks that
+                // are not needed now must not keep old values
+                values[..offsets[offsets.len() - 2]].fill(0.0);
                 let mut scattered = Vec::new();
                 let mut runs = CouplingRuns::new();
                 let mut first_scattered = usize::MAX;
                 if let Some(c) = &mut self.coupled {
-                    let (a, b) = (offsets[c.first_slot], offsets[offsets.len() - 2]);
-                    values[a..b].fill(0.0);
                     scattered = std::mem::take(&mut c.block_scatter);
                     runs = std::mem::take(&mut c.runs);
                     first_scattered = c.first_slot;
                 }
                 let res = {
+                    let map = CellMap {
+                        offsets: &cells.offsets,
+                        map: &cells.map,
+                    };
                     let mut sink =
-                        CooSink::new(&offsets, &mut values, &scattered, &runs, first_scattered);
+                        CooSink::new(map, &mut values, &scattered, &runs, first_scattered);
                     self.guarded_loop(x, Some(&mut sink))
                 };
+                self.cells = Some(cells);
                 if let Some(c) = &mut self.coupled {
                     c.block_scatter = scattered;
                     c.runs = runs;

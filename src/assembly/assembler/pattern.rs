@@ -1,6 +1,7 @@
 //! The sparsity pattern: element blocks, the coupling set's blocks, the diagonal block and skew
 //! rows' entries, preallocated exactly (COO, or per-row counts for the classic path).
 
+use super::cells::CellPattern;
 use super::{Assembler, MatrixAssembly};
 use crate::assembly::skew::{SkewRow, SkewRows};
 use crate::assembly::{BlockScatter, CouplingRuns, MatrixSink, DROPPED};
@@ -25,7 +26,7 @@ pub(super) fn row_target<'a>(
 
 /// Pattern bookkeeping of a skew row's entry at COO index `idx`, column `gj`: its weight on the
 /// first other row, and entries for the further ones (pushed later as `extra`).
-fn note_skew(
+pub(super) fn note_skew(
     r: &SkewRow,
     idx: usize,
     gj: PetscInt,
@@ -39,7 +40,7 @@ fn note_skew(
 }
 
 /// A COO entry's index as the coupling rows' runs store it.
-fn coo_index(i: usize) -> Result<u32, PetscError> {
+pub(super) fn coo_index(i: usize) -> Result<u32, PetscError> {
     u32::try_from(i).map_err(|_| PetscError {
         code: 0,
         function: "build_pattern",
@@ -200,26 +201,23 @@ impl Assembler<'_> {
             MatrixAssembly::Coo => {
                 let mut rows: Vec<PetscInt> = Vec::new();
                 let mut cols: Vec<PetscInt> = Vec::new();
-                let mut scale = Vec::new();
-                let mut extra = Vec::new();
-                self.coo_offsets.clear();
-                self.coo_offsets.push(0);
-                for r in &self.restrict {
-                    for e in 0..r.offsets.len() - 1 {
-                        let g = &r.global[r.offsets[e]..r.offsets[e + 1]];
-                        for &gi in g {
-                            let (row, sk) = row_target(&self.constrained, &self.skew, gi);
-                            for &gj in g {
-                                if let Some(sr) = sk {
-                                    note_skew(sr, rows.len(), gj, &mut scale, &mut extra);
-                                }
-                                rows.push(row);
-                                cols.push(gj);
-                            }
-                        }
-                        self.coo_offsets.push(rows.len());
-                    }
+                // The cells' entries, merged (built once: they do not change with the contact
+                // pattern).
+                if self.cells.is_none() {
+                    self.cells = Some(CellPattern::build(
+                        &self.restrict,
+                        &self.constrained,
+                        &self.skew,
+                        self.dofs.n_global(),
+                    )?);
                 }
+                let cells = self.cells.as_ref().expect("built just above");
+                cells.push_coo(&mut rows, &mut cols);
+                let mut scale = cells.skew_scale.clone();
+                let mut extra = cells.skew_extra.clone();
+                self.timers.cell_entries = cells.element_entries();
+                self.coo_offsets.clear();
+                self.coo_offsets.push(rows.len());
                 // The coupling set's blocks (contact: rows of a surface element, columns of it
                 // and of its partner). Blocks whose keys share the first two components (contact:
                 // the half-pass and the surface element) share one region, the union of their rows
@@ -237,7 +235,7 @@ impl Assembler<'_> {
                         Some(p) => p,
                         None => c.set.band_blocks(c.ring),
                     };
-                    c.first_slot = self.coo_offsets.len() - 1;
+                    c.first_slot = cells.offsets.len() - 1;
                     let mut regions = Regions::default();
                     let mut start = 0;
                     while start < c.blocks.len() {
@@ -388,7 +386,7 @@ impl MatrixSink for PetscSink<'_, '_, '_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::assembly::{CooSink, DenseSink};
+    use crate::assembly::{CellMap, CooSink, DenseSink};
 
     /// Overlapping regions with a skew row, a constrained row and a column without an unknown:
     /// blocks and a cross block added through the runs, the skew rows' values moved as the
@@ -440,8 +438,11 @@ mod tests {
             cols.push(gj);
         }
         let mut values = vec![0.0; rows.len()];
-        let offsets = [0, 2];
-        let mut sink = CooSink::new(&offsets, &mut values, &scattered, &runs, 1);
+        let cells = CellMap {
+            offsets: &[0, 2],
+            map: &[0, 1],
+        };
+        let mut sink = CooSink::new(cells, &mut values, &scattered, &runs, 1);
         let mut dense = DenseSink::new(n);
         let mut slot = 1;
         let mut next = 1.0;
