@@ -58,8 +58,8 @@ pub struct CooSink<'a> {
 }
 
 impl<'a> CooSink<'a> {
-    /// A sink over `values`, the elements' entries placed through `cells`, with the coupling blocks from slot
-    /// `first_scattered` on placed through `scattered` and `runs`.
+    /// A sink over `values`, the elements' entries placed through `cells`, with the coupling
+    /// blocks from slot `first_scattered` on placed through `scattered` and `runs`.
     pub fn new(
         cells: CellMap<'a>,
         values: &'a mut [f64],

@@ -186,9 +186,10 @@ pub struct ContactPatternStats {
     /// set-up. Absent in summaries written before it existed.
     #[serde(default)]
     pub coo_entries: u64,
-    /// Entries of the cells' element matrices, summed over ranks: the COO pattern holds one entry
-    /// per matrix entry that the cells reach, so these over the cells' part of `coo_entries` tell
-    /// how many cells share an entry. Absent in summaries written before it existed.
+    /// Entries of the cells' element matrices (constrained rows included), summed over ranks:
+    /// 4 bytes each in the assembler (the COO entry each adds into); the COO pattern holds one
+    /// entry per matrix entry that the cells reach, so they are well above the cells' part of
+    /// `coo_entries`. Absent in summaries written before it existed.
     #[serde(default)]
     pub cell_entries: u64,
     /// Entries of the contact blocks' shared regions in the largest pattern a rank built, summed

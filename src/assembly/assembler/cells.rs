@@ -238,7 +238,8 @@ mod tests {
         distinct.dedup();
         assert_eq!(distinct.len(), merged.len());
         assert!(merged.windows(2).all(|w| w[0] < w[1]), "{merged:?}");
-        // entries: rows 0-4 merged (3 + 4 + 4 + 4 + 4), row 5's 4 skew entries, row 6 dropped
+        // entries: rows 0-4 merged (row 3 reaches columns 1-6), row 5's 4 skew entries, row 6
+        // dropped
         assert_eq!(p.cols.len(), 3 + 4 + 4 + 6 + 4);
         assert_eq!(p.len(), p.cols.len() + 4);
         assert_eq!(p.element_entries(), 9 + 16 + 16);

@@ -4,7 +4,8 @@
 //!
 //! Constrained unknowns stay in the system: their residual row is `u_i - ubar_i` and their matrix row
 //! is the identity, so Newton drives them to the prescribed value even from a guess that misses it.
-//! Element contributions to those rows are dropped in the COO pattern (negative row index).
+//! Element contributions to those rows are dropped from the COO pattern (the cells' map sends them
+//! nowhere, coupling blocks' rows are marked dropped).
 //! Skew conditions ([`super::skew`]) are constrained rows too, but their element rows are moved to
 //! the node's other rows with the constraint's weights, and their own row is the constraint.
 
@@ -110,10 +111,9 @@ pub struct Assembler<'p> {
     /// The cells' part of the COO pattern (built with the first pattern, kept across the
     /// coupling set's rebuilds).
     cells: Option<cells::CellPattern>,
-    /// Start of the coupling regions' entries in `coo_values` (the cells' entries end there), of
-    /// each coupling region (see [`BlockScatter`](super::sink::BlockScatter)) and of the diagonal
-    /// block, and the end.
-    coo_offsets: Vec<usize>,
+    /// The diagonal block's entries in `coo_values`: the cells' and the coupling regions' entries
+    /// come before it, the skew rows' after.
+    coo_diag: (usize, usize),
     coo_values: Vec<f64>,
     pattern_ready: bool,
     /// Owned entries of the last residual before Dirichlet rows were imposed (reactions). [n_owned]
@@ -226,7 +226,7 @@ impl<'p> Assembler<'p> {
             mode: MatrixAssembly::Coo,
             all_cells: (Vec::new(), Vec::new()),
             cells: None,
-            coo_offsets: Vec::new(),
+            coo_diag: (0, 0),
             coo_values: Vec::new(),
             pattern_ready: false,
             raw_residual: vec![0.0; n_owned],
@@ -576,15 +576,16 @@ impl NonlinearProblem for Assembler<'_> {
         }
         let local = match self.mode {
             MatrixAssembly::Coo => {
+                let Some(cells) = self.cells.take() else {
+                    return Err(ProblemError::Fatal(
+                        "the Jacobian's pattern has no cells' part".into(),
+                    ));
+                };
                 let mut values = std::mem::take(&mut self.coo_values);
-                let offsets = std::mem::take(&mut self.coo_offsets);
-                let cells = self
-                    .cells
-                    .take()
-                    .expect("the pattern builds the cells' part");
+                let (tail, end) = self.coo_diag;
                 // elements and coupling blocks add into shared entries, and reserved blocks that
                 // are not needed now must not keep old values
-                values[..offsets[offsets.len() - 2]].fill(0.0);
+                values[..tail].fill(0.0);
                 let mut scattered = Vec::new();
                 let mut runs = CouplingRuns::new();
                 let mut first_scattered = usize::MAX;
@@ -622,7 +623,6 @@ impl NonlinearProblem for Assembler<'_> {
                     }
                 }
                 // Identity rows of the constrained unknowns, damping on the free ones.
-                let (tail, end) = (offsets[offsets.len() - 2], offsets[offsets.len() - 1]);
                 let (lo, _) = self.dofs.owned_range();
                 for (i, v) in values[tail..end].iter_mut().enumerate() {
                     *v = if self.constrained[lo as usize + i] {
@@ -634,7 +634,6 @@ impl NonlinearProblem for Assembler<'_> {
                     };
                 }
                 self.coo_values = values;
-                self.coo_offsets = offsets;
                 res
             }
             MatrixAssembly::Preallocated => match j.zero() {

@@ -1,5 +1,6 @@
-//! The sparsity pattern: element blocks, the coupling set's blocks, the diagonal block and skew
-//! rows' entries, preallocated exactly (COO, or per-row counts for the classic path).
+//! The sparsity pattern: the cells' merged entries ([`super::cells`]), the coupling set's blocks,
+//! the diagonal block and skew rows' entries, preallocated exactly (COO, or per-row counts for the
+//! classic path).
 
 use super::cells::CellPattern;
 use super::{Assembler, MatrixAssembly};
@@ -39,16 +40,20 @@ pub(super) fn note_skew(
     }
 }
 
-/// A COO entry's index as the coupling rows' runs store it.
+/// A COO entry's index as the cells' map and the coupling rows' runs store it (`u32::MAX` is
+/// `DROPPED`).
 pub(super) fn coo_index(i: usize) -> Result<u32, PetscError> {
-    u32::try_from(i).map_err(|_| PetscError {
-        code: 0,
-        function: "build_pattern",
-        message: format!(
-            "the Jacobian's pattern has {i} entries on one rank, beyond the 2^32 its coupling \
-             regions can address: run on more ranks"
-        ),
-    })
+    u32::try_from(i)
+        .ok()
+        .filter(|&k| k != DROPPED)
+        .ok_or_else(|| PetscError {
+            code: 0,
+            function: "build_pattern",
+            message: format!(
+                "the Jacobian's pattern has {i} entries on one rank, beyond the 2^32 - 1 its \
+                 index maps can address: run on more ranks"
+            ),
+        })
 }
 
 /// The non-negative entries of `lists`, sorted and unique.
@@ -216,8 +221,6 @@ impl Assembler<'_> {
                 let mut scale = cells.skew_scale.clone();
                 let mut extra = cells.skew_extra.clone();
                 self.timers.cell_entries = cells.element_entries();
-                self.coo_offsets.clear();
-                self.coo_offsets.push(rows.len());
                 // The coupling set's blocks (contact: rows of a surface element, columns of it
                 // and of its partner). Blocks whose keys share the first two components (contact:
                 // the half-pass and the surface element) share one region, the union of their rows
@@ -263,17 +266,15 @@ impl Assembler<'_> {
                         (&mut scale, &mut extra),
                     )?;
                     self.timers.run_columns = self.timers.run_columns.max(c.runs.cols.len());
-                    // (every region's entries lie between the first region's start and here)
-                    self.coo_offsets
-                        .extend(std::iter::repeat_n(rows.len(), regions.regions.len()));
                 }
                 // A final block with the diagonal of every owned row: identity rows of the
                 // constrained unknowns, the pseudo-transient damping (or zero) on the free ones.
+                let diag_start = rows.len();
                 for g in lo..hi {
                     rows.push(g);
                     cols.push(g);
                 }
-                self.coo_offsets.push(rows.len());
+                self.coo_diag = (diag_start, rows.len());
                 // Skew constraint rows `x_d - sum a_o x_o`: their off-diagonal entries, then the
                 // element entries of skew rows on their further other rows.
                 self.skew_tail = rows.len();
