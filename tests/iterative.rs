@@ -343,9 +343,15 @@ fn a_krylov_solve_stopped_at_its_limit_with_a_small_residual_is_an_inexact_newto
     let s = summary(&d);
     assert_eq!(s["status"], "converged");
     let newton = &s["newton"];
-    assert_eq!(newton["linear_fallbacks"].as_u64(), Some(0), "a fallback");
     let accepted = newton["linear_accepted_at_limit"].as_u64().unwrap();
     assert!(accepted >= 1, "no solve accepted at the limit: {newton}");
+    // The solve stopped at its limit is accepted, not a fallback. A later GMRES(100) solve of the
+    // indefinite tangent may still break down and fall back, depending on round-off (once seen:
+    // DIVERGED_BREAKDOWN after 200 iterations, with the summation order of the Jacobian's shared
+    // entries changed), so at most one fallback is allowed; a route that ignored `krylov_accept`
+    // accepts none (above).
+    let fallbacks = newton["linear_fallbacks"].as_u64().unwrap();
+    assert!(fallbacks <= 1, "{fallbacks} fallbacks: {newton}");
     let per_step: u64 = s["steps"]
         .as_array()
         .unwrap()
