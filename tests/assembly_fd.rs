@@ -101,6 +101,14 @@ fn jacobian_columns(j: &Matrix, x: &Vector, n: usize) -> Vec<Vec<f64>> {
         .collect()
 }
 
+/// The largest entry-wise difference of two matrices given by columns.
+fn max_abs_diff(a: &[Vec<f64>], b: &[Vec<f64>]) -> f64 {
+    a.iter()
+        .flatten()
+        .zip(b.iter().flatten())
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
+}
+
 #[test]
 fn assembled_jacobian_matches_finite_differences_of_the_assembled_residual() {
     let universe = mpi::initialize().expect("MPI init");
@@ -169,11 +177,7 @@ fn assembled_jacobian_matches_finite_differences_of_the_assembled_residual() {
     let mut j2 = Matrix::new_aij(&petsc, n).unwrap();
     asm2.jacobian(&x, &mut j2).unwrap();
     let cols2 = jacobian_columns(&j2, &x, n);
-    let diff = cols
-        .iter()
-        .flatten()
-        .zip(cols2.iter().flatten())
-        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    let diff = max_abs_diff(&cols, &cols2);
     assert!(
         diff < 1e-13 * scale,
         "COO and MatSetValues Jacobians differ by {diff:e}"
@@ -190,12 +194,7 @@ fn assembled_jacobian_matches_finite_differences_of_the_assembled_residual() {
     }
     asm.jacobian(&x, &mut j).unwrap();
     asm2.jacobian(&x, &mut j2).unwrap();
-    let (a, b) = (jacobian_columns(&j, &x, n), jacobian_columns(&j2, &x, n));
-    let diff = a
-        .iter()
-        .flatten()
-        .zip(b.iter().flatten())
-        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    let diff = max_abs_diff(&jacobian_columns(&j, &x, n), &jacobian_columns(&j2, &x, n));
     assert!(
         diff < 1e-13 * scale,
         "second COO Jacobian and MatSetValues differ by {diff:e}"
