@@ -231,6 +231,35 @@ fn element_inverted_by_the_load_fails_cleanly_after_cutbacks_on_2_ranks() {
 }
 
 #[test]
+fn a_pattern_one_rank_cannot_build_stops_every_rank() {
+    // Rank 1's part of the Jacobian's pattern fails (fault injection, as an index beyond the maps'
+    // 2^32 entries would): rank 0 must not wait for it in the collective preallocation.
+    let d = scratch("pattern-fails-on-rank-1");
+    let p = write_case(&d, BLOCK);
+    let out = run_with_env(
+        2,
+        &[
+            "run",
+            p.to_str().unwrap(),
+            "--out",
+            d.join("out").to_str().unwrap(),
+            "-q",
+            "--overwrite",
+        ],
+        None,
+        std::time::Duration::from_secs(120),
+        &[("NURBS_CONTACT_FAIL_PATTERN_ON_RANK", "1")],
+    )
+    .expect("a rank waited for the other in the pattern's preallocation (killed at 120 s)");
+    let e = stderr(&out);
+    assert!(!out.status.success() && !e.contains("panicked"), "{e}");
+    assert!(
+        e.contains("failed on rank 1") && e.contains("NURBS_CONTACT_FAIL_PATTERN_ON_RANK"),
+        "names the failure of rank 1: {e}"
+    );
+}
+
+#[test]
 fn unwritable_output_directory_stops_every_rank_with_one_message() {
     // --out names an existing file: rank 0 cannot create the directory; rank 1 must not hang.
     let d = scratch("unwritable-out");

@@ -7,6 +7,8 @@ use super::{Assembler, MatrixAssembly};
 use crate::assembly::skew::{SkewRow, SkewRows};
 use crate::assembly::{BlockScatter, CouplingRuns, MatrixSink, DROPPED};
 use crate::petsc::{Matrix, PetscError, PetscInt};
+use mpi::collective::SystemOperation;
+use mpi::traits::*;
 use std::time::Instant;
 
 /// Where an element row `gi` goes in the pattern: dropped (constrained), itself, or (a skew row)
@@ -54,6 +56,20 @@ pub(super) fn coo_index(i: usize) -> Result<u32, PetscError> {
                  index maps can address: run on more ranks"
             ),
         })
+}
+
+/// Fault injection for the test of a pattern that one rank cannot build: with
+/// `NURBS_CONTACT_FAIL_PATTERN_ON_RANK=r` in the environment, rank `r`'s part of every pattern
+/// fails as one beyond the index maps' reach does (`tests/mpi.rs` runs a case so on 2 ranks).
+fn injected_failure(rank: i32) -> bool {
+    static AT: std::sync::OnceLock<Option<i32>> = std::sync::OnceLock::new();
+    *AT.get_or_init(|| {
+        std::env::var("NURBS_CONTACT_FAIL_PATTERN_ON_RANK")
+            .ok()?
+            .trim()
+            .parse()
+            .ok()
+    }) == Some(rank)
 }
 
 /// The non-negative entries of `lists`, sorted and unique.
@@ -204,95 +220,27 @@ impl Assembler<'_> {
         let (lo, hi) = self.dofs.owned_range();
         match self.mode {
             MatrixAssembly::Coo => {
-                let mut rows: Vec<PetscInt> = Vec::new();
-                let mut cols: Vec<PetscInt> = Vec::new();
-                // The cells' entries, merged (built once: they do not change with the contact
-                // pattern).
-                if self.cells.is_none() {
-                    self.cells = Some(CellPattern::build(
-                        &self.restrict,
-                        &self.constrained,
-                        &self.skew,
-                        self.dofs.n_global(),
-                    )?);
-                }
-                let cells = self.cells.as_ref().expect("built just above");
-                cells.push_coo(&mut rows, &mut cols);
-                let mut scale = cells.skew_scale.clone();
-                let mut extra = cells.skew_extra.clone();
-                self.timers.cell_entries = cells.element_entries();
-                // The coupling set's blocks (contact: rows of a surface element, columns of it
-                // and of its partner). Blocks whose keys share the first two components (contact:
-                // the half-pass and the surface element) share one region, the union of their rows
-                // times the union of their columns, and the regions' entries are merged before
-                // PETSc sees them: each (row, column) of the regions gets one COO entry. The regions
-                // of neighbouring surface elements overlap in most of their entries (the weighted
-                // gaps' rows reach every column of their control points' supports), and PETSc
-                // would otherwise hold, sort and sum each of them once per region. A matrix row's
-                // merged entries are one run of consecutive COO entries; a block row finds its
-                // columns in its row's run through the run's column pattern (`CouplingRuns`), which
-                // the rows of a node share. Skew rows keep a run per region (their values are
-                // scaled onto the node's other rows entry by entry).
-                if let Some(c) = &mut self.coupled {
-                    c.blocks = match c.preset.take() {
-                        Some(p) => p,
-                        None => c.set.band_blocks(c.ring),
-                    };
-                    c.first_slot = cells.offsets.len() - 1;
-                    let mut regions = Regions::default();
-                    let mut start = 0;
-                    while start < c.blocks.len() {
-                        let key = (c.blocks[start].0, c.blocks[start].1);
-                        let end = start
-                            + c.blocks[start..]
-                                .iter()
-                                .take_while(|b| (b.0, b.1) == key)
-                                .count();
-                        let dofs: Vec<_> = c.blocks[start..end]
-                            .iter()
-                            .map(|b| c.set.block_dofs(b))
-                            .collect();
-                        // rows that reach the matrix (not constrained, or skew rows moved)
-                        regions.add(&dofs, |gi| {
-                            row_target(&self.constrained, &self.skew, gi).0 >= 0
-                        });
-                        start = end;
+                // Every rank builds its entries before the collective preallocation: a rank that
+                // cannot (too many entries for the index maps) stops every rank, which would
+                // otherwise wait in `MatSetPreallocationCOO` for it.
+                let local = self.coo_pattern(lo, hi);
+                let failed = i32::from(local.is_err());
+                let mut any = 0i32;
+                self.comm()
+                    .all_reduce_into(&failed, &mut any, SystemOperation::max());
+                let (mut rows, mut cols) = match local {
+                    Err(e) => return Err(e),
+                    Ok(_) if any != 0 => {
+                        return Err(PetscError {
+                            code: 0,
+                            function: "build_pattern",
+                            message: "another rank could not build its part of the Jacobian's \
+                                      pattern (its own message says why)"
+                                .into(),
+                        })
                     }
-                    self.timers.region_entries = self.timers.region_entries.max(regions.entries);
-                    (c.block_scatter, c.runs) = regions.runs(
-                        |gi| row_target(&self.constrained, &self.skew, gi),
-                        self.dofs.n_global(),
-                        (&mut rows, &mut cols),
-                        (&mut scale, &mut extra),
-                    )?;
-                    self.timers.run_columns = self.timers.run_columns.max(c.runs.cols.len());
-                }
-                // A final block with the diagonal of every owned row: identity rows of the
-                // constrained unknowns, the pseudo-transient damping (or zero) on the free ones.
-                let diag_start = rows.len();
-                for g in lo..hi {
-                    rows.push(g);
-                    cols.push(g);
-                }
-                self.coo_diag = (diag_start, rows.len());
-                // Skew constraint rows `x_d - sum a_o x_o`: their off-diagonal entries, then the
-                // element entries of skew rows on their further other rows.
-                self.skew_tail = rows.len();
-                for (d, others) in &self.skew_owned {
-                    for &(o, _) in others {
-                        rows.push(lo + *d as PetscInt);
-                        cols.push(lo + o as PetscInt);
-                    }
-                }
-                self.skew_copy.clear();
-                for (o, gj, src, a) in extra {
-                    self.skew_copy.push((src, rows.len(), a));
-                    rows.push(o);
-                    cols.push(gj);
-                }
-                self.skew_scale = scale;
-                self.coo_values = vec![0.0; rows.len()];
-                self.timers.coo_entries = self.timers.coo_entries.max(rows.len());
+                    Ok(p) => p,
+                };
                 j.set_preallocation_coo(&mut rows, &mut cols)?;
             }
             MatrixAssembly::Preallocated => {
@@ -303,6 +251,117 @@ impl Assembler<'_> {
         self.pattern_ready = true;
         self.timers.pattern += t0.elapsed().as_secs_f64();
         Ok(())
+    }
+
+    /// This rank's COO entries of the pattern (rows, columns) for the owned rows `lo..hi`: the
+    /// cells' merged entries, the coupling set's regions, the diagonal block and the skew rows'
+    /// entries; records where each part lies for the assembly. Not collective.
+    fn coo_pattern(
+        &mut self,
+        lo: PetscInt,
+        hi: PetscInt,
+    ) -> Result<(Vec<PetscInt>, Vec<PetscInt>), PetscError> {
+        if injected_failure(self.comm().rank()) {
+            return Err(PetscError {
+                code: 0,
+                function: "build_pattern",
+                message: format!(
+                    "the Jacobian's pattern failed on rank {} (injected by \
+                     NURBS_CONTACT_FAIL_PATTERN_ON_RANK)",
+                    self.comm().rank()
+                ),
+            });
+        }
+        let mut rows: Vec<PetscInt> = Vec::new();
+        let mut cols: Vec<PetscInt> = Vec::new();
+        // The cells' entries, merged (built once: they do not change with the contact
+        // pattern).
+        if self.cells.is_none() {
+            self.cells = Some(CellPattern::build(
+                &self.restrict,
+                &self.constrained,
+                &self.skew,
+                self.dofs.n_global(),
+            )?);
+        }
+        let cells = self.cells.as_ref().expect("built just above");
+        cells.push_coo(&mut rows, &mut cols);
+        let mut scale = cells.skew_scale.clone();
+        let mut extra = cells.skew_extra.clone();
+        self.timers.cell_entries = cells.element_entries();
+        // The coupling set's blocks (contact: rows of a surface element, columns of it
+        // and of its partner). Blocks whose keys share the first two components (contact:
+        // the half-pass and the surface element) share one region, the union of their rows
+        // times the union of their columns, and the regions' entries are merged before
+        // PETSc sees them: each (row, column) of the regions gets one COO entry. The regions
+        // of neighbouring surface elements overlap in most of their entries (the weighted
+        // gaps' rows reach every column of their control points' supports), and PETSc
+        // would otherwise hold, sort and sum each of them once per region. A matrix row's
+        // merged entries are one run of consecutive COO entries; a block row finds its
+        // columns in its row's run through the run's column pattern (`CouplingRuns`), which
+        // the rows of a node share. Skew rows keep a run per region (their values are
+        // scaled onto the node's other rows entry by entry).
+        if let Some(c) = &mut self.coupled {
+            c.blocks = match c.preset.take() {
+                Some(p) => p,
+                None => c.set.band_blocks(c.ring),
+            };
+            c.first_slot = cells.offsets.len() - 1;
+            let mut regions = Regions::default();
+            let mut start = 0;
+            while start < c.blocks.len() {
+                let key = (c.blocks[start].0, c.blocks[start].1);
+                let end = start
+                    + c.blocks[start..]
+                        .iter()
+                        .take_while(|b| (b.0, b.1) == key)
+                        .count();
+                let dofs: Vec<_> = c.blocks[start..end]
+                    .iter()
+                    .map(|b| c.set.block_dofs(b))
+                    .collect();
+                // rows that reach the matrix (not constrained, or skew rows moved)
+                regions.add(&dofs, |gi| {
+                    row_target(&self.constrained, &self.skew, gi).0 >= 0
+                });
+                start = end;
+            }
+            self.timers.region_entries = self.timers.region_entries.max(regions.entries);
+            (c.block_scatter, c.runs) = regions.runs(
+                |gi| row_target(&self.constrained, &self.skew, gi),
+                self.dofs.n_global(),
+                (&mut rows, &mut cols),
+                (&mut scale, &mut extra),
+            )?;
+            self.timers.run_columns = self.timers.run_columns.max(c.runs.cols.len());
+        }
+        // A final block with the diagonal of every owned row: identity rows of the
+        // constrained unknowns, the pseudo-transient damping (or zero) on the free ones.
+        let diag_start = rows.len();
+        for g in lo..hi {
+            rows.push(g);
+            cols.push(g);
+        }
+        self.coo_diag = (diag_start, rows.len());
+        // Skew constraint rows `x_d - sum a_o x_o`: their off-diagonal entries, then the
+        // element entries of skew rows on their further other rows.
+        self.skew_tail = rows.len();
+        for (d, others) in &self.skew_owned {
+            for &(o, _) in others {
+                rows.push(lo + *d as PetscInt);
+                cols.push(lo + o as PetscInt);
+            }
+        }
+        self.skew_copy.clear();
+        for (o, gj, src, a) in extra {
+            self.skew_copy.push((src, rows.len(), a));
+            rows.push(o);
+            cols.push(gj);
+        }
+        self.skew_scale = scale;
+        self.coo_values = vec![0.0; rows.len()];
+        self.timers.coo_entries = self.timers.coo_entries.max(rows.len());
+        Ok((rows, cols))
     }
 
     /// Exact per-row nonzero counts of the owned rows, split into the diagonal block and the rest.
