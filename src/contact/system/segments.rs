@@ -57,14 +57,34 @@ use crate::contact::surface::{frame, raw_normal, MAX_FACE_NODES};
 /// Samples per element at which the breakpoint functions are evaluated before bisection.
 const SAMPLES: usize = 16;
 
-/// Breakpoints that moved less than this (in the slave coordinate) since the points were placed
-/// keep them where they are. The tangent holds the points fixed (it omits the breakpoints'
-/// motion, whose effect on the residual is of the order of the segments' quadrature error): moving
-/// them at every update left Newton converging only linearly once the iterates' changes were
-/// small (on the 2D patch test with Q1N2, 11 iterations in a step where held points take 4). A
-/// breakpoint held `d` from its kink leaves an error of order `d^2` in the integral: the patch
-/// test's pressure stays uniform to 3e-12.
+/// 3D: images of master corners that moved less than this (in the slave coordinate) since the
+/// element's points were placed keep them where they are (within a load step the points are then
+/// held, [`HOLD`]). The tangent holds the points fixed (it omits the breakpoints' motion, whose
+/// effect on the residual is of the order of the segments' quadrature error).
 const KEEP: f64 = 1e-4;
+
+/// 2D: breakpoints that moved less than this (in the slave coordinate) since the points were
+/// placed keep them where they are; the others are placed again at the next update, every
+/// residual evaluation included. The tangent holds the points fixed: moving them at every update
+/// left Newton converging only linearly once the iterates' changes were small (on the 2D patch
+/// test with Q1N2, 11 iterations in a step where held points take 4). A breakpoint held `d` from
+/// its kink leaves an error of order `d^2` in its element's integral. The weighted gaps keep
+/// [`KEEP`]; the pointwise gap takes [`KEEP_POINTWISE_2D`].
+const KEEP_2D: f64 = KEEP;
+
+/// 2D, the pointwise gap: [`KEEP_2D`] of its passes. Measured on the 4-unit slide of ironing
+/// (`ci/formulation_matrix.py --rows patch2d,ironing4,ironing8,ironing16 --families Q1C1,Q1N2
+/// --forms op/pointwise`, docs/formulations.md "The breakpoints' threshold"): with 1e-4 the cuts
+/// of the fan of points projecting onto a faceted master's kinked node moved by 1e-2..3e-2
+/// between the evaluations of one Newton iteration, and Newton stalled in the press of Q1C1 on
+/// mesh 4 (19 failed iterations, one cutback); with this threshold that run has 4 failed
+/// iterations and no cutback, mesh 8 takes 17 % (Q1C1) and 9 % (Q1N2) fewer Newton iterations,
+/// and DeltaP_x and DeltaP_y agree to three digits; the patch test's pressure stays uniform to
+/// 1.2e-11. The weighted gap with Q1C1 does not take it: its press of ironing mesh 4 then fails
+/// at load 0.70 (`tests/weighted_gap.rs` presses to 0.95 without a cutback with [`KEEP`]).
+/// Holding the 2D points through a load step and placing them again after it, as 3D does, took
+/// more iterations (mesh 4: 2421 against 1492 with Q1C1, 1453 against 1245 with Q1N2).
+const KEEP_POINTWISE_2D: f64 = 2e-2;
 
 /// 3D: after a converged solve, elements whose images moved more than this (in the slave
 /// coordinate) since their points were placed are placed again and the step solved again
@@ -98,6 +118,9 @@ pub(crate) struct Segments {
     pub(crate) slots: usize,
     /// The weight functions are the linear parent's corners (`weighted_linear`).
     linear: bool,
+    /// 2D: how far (in the slave coordinate) the breakpoints may move before the points are
+    /// placed again ([`KEEP_2D`], [`KEEP_POINTWISE_2D`]).
+    keep: f64,
     /// Per element (own, then halo): the breakpoints its points are placed on (`None`: not yet
     /// placed).
     placed: Vec<Option<Vec<f64>>>,
@@ -215,7 +238,18 @@ pub(crate) fn segmented(def: &PairDef, dim: usize, partner: &Partner) -> bool {
 impl ContactSystem {
     /// The segment rule of surface `k` integrated against surface `l` with `n_g` Gauss points per
     /// segment: enough slots for the longest slave element over the shortest master element.
-    pub(super) fn segment_rule(&self, k: usize, l: usize, n_g: usize, linear: bool) -> Segments {
+    pub(super) fn segment_rule(
+        &self,
+        k: usize,
+        l: usize,
+        n_g: usize,
+        pressure: &Pressure,
+    ) -> Segments {
+        let linear = pressure.linear_parent();
+        let keep = match pressure {
+            Pressure::Pointwise => KEEP_POINTWISE_2D,
+            _ => KEEP_2D,
+        };
         let chord = |s: usize| -> Vec<f64> {
             let surf = &self.surfaces[s];
             (0..surf.elements.len())
@@ -256,6 +290,7 @@ impl ContactSystem {
                 wz,
                 slots,
                 linear,
+                keep: KEEP,
                 placed: Vec::new(),
                 tri,
                 layouts: Vec::new(),
@@ -268,6 +303,7 @@ impl ContactSystem {
             wz,
             slots,
             linear,
+            keep,
             placed: Vec::new(),
             tri: Vec::new(),
             layouts: Vec::new(),
@@ -348,7 +384,7 @@ impl ContactSystem {
                     }
                     let kept = seg.placed[i].as_ref().is_some_and(|p| {
                         p.len() == cuts.len()
-                            && p.iter().zip(&cuts).all(|(a, b)| (a - b).abs() <= KEEP)
+                            && p.iter().zip(&cuts).all(|(a, b)| (a - b).abs() <= seg.keep)
                     });
                     if !kept {
                         self.place_points(pi, si, i, e, &cuts, &seg, region.as_ref());
@@ -1299,6 +1335,7 @@ mod tests {
                 wz,
                 slots: 8,
                 linear: false,
+                keep: super::KEEP,
                 placed: Vec::new(),
                 tri: triangle_rule(n_g),
                 layouts: Vec::new(),

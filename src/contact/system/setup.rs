@@ -115,8 +115,7 @@ impl ContactSystem {
                             .map(|el| el.basis.quadrature_counts()[0])
                             .max()
                             .unwrap_or(1);
-                        let linear = def.formulation.pressure.linear_parent();
-                        Some(sys.segment_rule(k, *l, n_g, linear))
+                        Some(sys.segment_rule(k, *l, n_g, &def.formulation.pressure))
                     }
                     _ => None,
                 };
