@@ -810,6 +810,47 @@ mod tests {
     }
 
     #[test]
+    fn a_layout_that_does_not_describe_the_copy_is_refused_naming_the_field() {
+        let _serial = h5_serial();
+        let dir = tmp("resume");
+        let w = write_two_steps(&dir);
+        w.flush().unwrap();
+        let layout = w.layout();
+        let copy = dir.join("copy.h5");
+        std::fs::copy(w.partial_file(), &copy).unwrap();
+        drop(w);
+        let good = ResultsWriter::resume(&dir, &copy, &grids(), &layout).unwrap();
+        assert_eq!(good.steps_written(), 2);
+        drop(good);
+        for (from, to, want) in [
+            // more rows than the grid has points
+            (
+                "field 0 displacement node 6 3",
+                "field 0 displacement node 9 3",
+                "displacement",
+            ),
+            // a cell field called a node field
+            ("field 0 I1 cell 2 1", "field 0 I1 node 2 1", "`I1`"),
+            // a step the copy does not hold
+            ("step 1 1", "step 7 1", "step 7"),
+            // a field the copy does not hold
+            ("field 1 gap node 3 1", "field 1 pap node 3 1", "`pap`"),
+        ] {
+            let bad = layout.replacen(from, to, 1);
+            assert_ne!(bad, layout, "{from}");
+            let e = ResultsWriter::resume(&dir, &copy, &grids(), &bad)
+                .err()
+                .unwrap_or_else(|| panic!("{to}: accepted"))
+                .to_string();
+            assert!(
+                e.contains("copy.h5 (checkpoint results)") && e.contains(want),
+                "{to}: {e}"
+            );
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
     fn bad_grids_and_fields_are_rejected_with_names() {
         let _serial = h5_serial();
         let dir = tmp("bad");

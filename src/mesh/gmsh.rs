@@ -2,9 +2,11 @@
 //! as named node and face sets.
 //!
 //! Supported sections: `$MeshFormat`, `$PhysicalNames`, `$Entities`, `$Nodes`, `$Elements`;
-//! other sections are skipped. The mesh dimension is the highest dimension of a quad (2) or
-//! hex (3) element block; elements of that dimension become cells, lower-dimensional elements
-//! (points type 15, lines type 1, quads type 3 in 3D) only feed the sets.
+//! other sections are skipped. An element block's entity has its elements' dimension (point 0,
+//! line 1, quad 2, hex 3). The mesh dimension is the highest dimension of a quad (2) or hex (3)
+//! block that holds elements, and a mesh without one is an error; elements of that dimension
+//! become cells, lower-dimensional elements (points type 15, lines type 1, quads type 3 in 3D)
+//! only feed the sets.
 //!
 //! Sets: every physical group becomes a node set holding the nodes of all its elements (named
 //! after `$PhysicalNames`, or `physical_{dim}_{tag}` without a name; groups of different
@@ -204,11 +206,16 @@ fn split_sections<'a>(text: &'a str, path: &str) -> Result<Vec<Section<'a>>, Mes
 
 /// Number of nodes of a supported Gmsh element type.
 fn nodes_per_element(ty: i64) -> Option<usize> {
+    element_shape(ty).map(|(npe, _, _)| npe)
+}
+
+/// Nodes, dimension and name of a supported Gmsh element type.
+fn element_shape(ty: i64) -> Option<(usize, usize, &'static str)> {
     match ty {
-        1 => Some(2),  // 2-node line
-        3 => Some(4),  // 4-node quadrangle
-        5 => Some(8),  // 8-node hexahedron
-        15 => Some(1), // point
+        1 => Some((2, 1, "line")),
+        3 => Some((4, 2, "quadrangle")),
+        5 => Some((8, 3, "hexahedron")),
+        15 => Some((1, 0, "point")),
         _ => None,
     }
 }
@@ -351,7 +358,13 @@ pub fn parse_gmsh_with_warnings<'a>(
                 let mut tags = Vec::new();
                 reserve(&mut tags, n_phys, |m| err(line, m))?;
                 for _ in 0..n_phys {
-                    tags.push(c.int("physical tag")?.1);
+                    let (line, t) = c.int("physical tag")?;
+                    // a negative tag is the group's with the entity's orientation reversed; this
+                    // one has no positive counterpart
+                    if t == i64::MIN {
+                        return Err(err(line, format!("physical tag {t} is out of range")));
+                    }
+                    tags.push(t);
                 }
                 entity_physicals.insert((d, tag), tags);
                 if d > 0 {
@@ -474,7 +487,7 @@ pub fn parse_gmsh_with_warnings<'a>(
             let dim = c.count("entity dimension")?;
             let (_, entity) = c.int("entity tag")?;
             let (line, ty) = c.int("element type")?;
-            let npe = nodes_per_element(ty).ok_or_else(|| {
+            let (npe, elem_dim, elem_name) = element_shape(ty).ok_or_else(|| {
                 err(
                     line,
                     format!(
@@ -482,6 +495,17 @@ pub fn parse_gmsh_with_warnings<'a>(
                     ),
                 )
             })?;
+            // a block's entity has the dimension of its elements: the mesh's dimension and its
+            // cells are taken from the blocks
+            if dim != elem_dim {
+                return Err(err(
+                    line,
+                    format!(
+                        "element type {ty} ({elem_name}) in a block of entity dimension {dim}: a \
+                         {elem_name} has dimension {elem_dim}"
+                    ),
+                ));
+            }
             let (line, n) = c.count_fitting("number of elements in block", 1 + npe)?;
             n_read += n;
             if n_read > n_elems {
@@ -534,10 +558,12 @@ pub fn parse_gmsh_with_warnings<'a>(
         )?;
     }
 
+    // the dimension of the highest non-empty cell block: its blocks hold at least one cell
     let dim = blocks
         .iter()
+        .filter(|b| !b.tags.is_empty())
         .filter_map(|b| match b.ty {
-            3 if b.dim == 2 => Some(2),
+            3 => Some(2),
             5 => Some(3),
             _ => None,
         })
@@ -583,19 +609,10 @@ pub fn parse_gmsh_with_warnings<'a>(
     } else {
         CellKind::Hex8
     };
-    let cell_type = if dim == 2 { 3 } else { 5 };
-    // (element tag, line) of each cell
+    // (element tag, line) of each cell; a block of the mesh's dimension holds its cells (the
+    // block's type is that dimension's, checked when the block was read)
     let mut cell_source: Vec<(i64, usize)> = Vec::new();
     for b in blocks.iter().filter(|b| b.dim == dim) {
-        if b.ty != cell_type {
-            return Err(err(
-                b.lines.first().copied().unwrap_or(elems_sec.line),
-                format!(
-                    "element type {} in a {dim}D block of a mesh of {cell_kind:?} cells",
-                    b.ty
-                ),
-            ));
-        }
         cell_source.extend(b.tags.iter().copied().zip(b.lines.iter().copied()));
         for nodes in b.nodes.chunks(cell_kind.n_nodes()) {
             let c = mesh.push_cell(cell_kind, nodes) as usize;
@@ -994,6 +1011,60 @@ $Elements\n2 2 1 2\n2 1 3 1\n1 1 2 3 4\n3 1 5 1\n2 1 2 3 4 5 6 7 8\n$EndElements
         assert!(w[0].contains("tags 17, 9"), "{w:?}");
         let (_, w) = parse_gmsh_with_warnings(QUADS_2X1, "ok.msh").unwrap();
         assert!(w.is_empty(), "{w:?}");
+    }
+
+    #[test]
+    fn an_element_in_a_block_of_another_dimension_is_an_error() {
+        // a hexahedron in a surface block: it would make the mesh 3D without making a cell
+        let t = ONE_HEX.replace("3 1 5 1\n", "2 1 5 1\n");
+        fails_at(
+            &t,
+            "2 1 5 1",
+            "element type 5 (hexahedron) in a block of entity dimension 2",
+        );
+        // quadrangles in a curve block
+        let t = QUADS_2X1.replace("2 1 3 2\n", "1 1 3 2\n");
+        fails_at(
+            &t,
+            "1 1 3 2",
+            "element type 3 (quadrangle) in a block of entity dimension 1",
+        );
+        // a line in a point block
+        let t = QUADS_2X1.replace("1 2 1 1\n", "0 2 1 1\n");
+        fails_at(
+            &t,
+            "0 2 1 1",
+            "element type 1 (line) in a block of entity dimension 0",
+        );
+    }
+
+    #[test]
+    fn a_mesh_without_cells_is_an_error() {
+        // the only quadrangle block is empty: no cell, though the block's type is a cell's
+        let start = QUADS_2X1.find("$Elements").unwrap();
+        let t = format!(
+            "{}$Elements\n1 0 1 0\n2 1 3 0\n$EndElements\n",
+            &QUADS_2X1[..start]
+        );
+        fails_at(
+            &t,
+            "$Elements",
+            "no quadrangle (type 3) or hexahedron (type 5) elements",
+        );
+    }
+
+    #[test]
+    fn a_physical_tag_without_a_magnitude_is_an_error() {
+        // -i64::MIN does not exist: the tag cannot name a group
+        let t = QUADS_2X1.replace(
+            "2 2 0 0 2 1 0 1 2 0",
+            &format!("2 2 0 0 2 1 0 1 {} 0", i64::MIN),
+        );
+        fails_at(
+            &t,
+            &format!("2 2 0 0 2 1 0 1 {} 0", i64::MIN),
+            &format!("physical tag {} is out of range", i64::MIN),
+        );
     }
 
     #[test]

@@ -193,6 +193,8 @@ impl Study {
         if spec.axes.is_empty() {
             return Err(invalid("axes", "a study needs at least one axis".into()));
         }
+        // before anything that walks the values (some checks compare them pairwise)
+        check_run_count(&spec).map_err(|m| invalid("axes", m))?;
         let mut axis_names: Vec<String> = Vec::new();
         for (a, axis) in spec.axes.iter().enumerate() {
             let key = format!("axes.{a}");
@@ -371,6 +373,38 @@ impl Study {
     }
 }
 
+/// Runs a study may have: each is a process, a directory and a row of `study.csv`, and their names
+/// are compared pairwise ([`check_run_names`]).
+pub const MAX_RUNS: usize = 10_000;
+
+/// The runs of the axes (the product of their sizes) are at most [`MAX_RUNS`].
+fn check_run_count(spec: &StudySpec) -> Result<(), String> {
+    let sizes: Vec<usize> = spec.axes.iter().map(axis_size).collect();
+    let total = sizes.iter().try_fold(1usize, |t, &n| t.checked_mul(n));
+    if total.is_some_and(|t| t <= MAX_RUNS) {
+        return Ok(());
+    }
+    let runs = match total {
+        Some(t) => t.to_string(),
+        None => format!("more than {}", usize::MAX),
+    };
+    let axes: Vec<String> = spec
+        .axes
+        .iter()
+        .zip(&sizes)
+        .map(|(a, n)| format!("{} ({n} values)", a.name))
+        .collect();
+    Err(format!(
+        "the axes {} make {runs} runs; a study holds at most {MAX_RUNS}",
+        axes.join(" x ")
+    ))
+}
+
+/// Values of an axis: its levels or its values (one of them is empty).
+fn axis_size(axis: &AxisSpec) -> usize {
+    axis.levels.len().max(axis.values.len())
+}
+
 /// Entries of a study's output folder besides its run directories.
 const STUDY_ENTRIES: &[&str] = &[
     "logs",
@@ -484,13 +518,10 @@ pub fn axis_labels(axis: &AxisSpec) -> Vec<String> {
         .collect()
 }
 
-/// Every combination of the axes' values, the first axis varying slowest.
+/// Every combination of the axes' values, the first axis varying slowest; their number is
+/// bounded by [`check_run_count`].
 fn resolve_runs(spec: &StudySpec, level: Option<usize>) -> Vec<RunSpec> {
-    let sizes: Vec<usize> = spec
-        .axes
-        .iter()
-        .map(|a| a.levels.len().max(a.values.len()))
-        .collect();
+    let sizes: Vec<usize> = spec.axes.iter().map(axis_size).collect();
     let labels: Vec<Vec<String>> = spec.axes.iter().map(axis_labels).collect();
     let total: usize = sizes.iter().product();
     let mut runs = Vec::with_capacity(total);
@@ -615,6 +646,38 @@ levels = [ { name = "coarse", value = 16, set = ["meshes.disk.n_arc=16"] },
             .unwrap_err()
             .to_string();
         assert!(e.contains("`coarse` twice"), "{e}");
+    }
+
+    #[test]
+    fn more_runs_than_a_study_holds_are_refused_naming_the_axes() {
+        // `axes` axes of `n` values each: n^axes runs
+        let study = |axes: usize, n: usize| {
+            let values: Vec<String> = (0..n).map(|i| i.to_string()).collect();
+            let mut t = String::from("case = \"hertz_2d.toml\"\n");
+            for a in 0..axes {
+                t.push_str(&format!(
+                    "[[axes]]\nname = \"a{a}\"\nkeys = [\"solver.max_iterations\"]\nvalues = [{}]\n",
+                    values.join(", ")
+                ));
+            }
+            t
+        };
+        // 1000^7 runs overflow a count; 300^4 = 8.1e9 do not, but are far too many to list
+        for (axes, n, runs) in [
+            (7, 1000, "more than 18446744073709551615"),
+            (4, 300, "8100000000"),
+            (3, 22, "10648"),
+        ] {
+            let e = parse(&study(axes, n)).unwrap_err().to_string();
+            assert!(
+                e.contains("test.toml: `axes`")
+                    && e.contains(&format!("{runs} runs"))
+                    && e.contains(&format!("a0 ({n} values)"))
+                    && e.contains("a study holds at most 10000"),
+                "{e}"
+            );
+        }
+        assert_eq!(parse(&study(2, 100)).unwrap().runs.len(), 10_000);
     }
 
     #[test]

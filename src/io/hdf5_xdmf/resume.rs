@@ -123,6 +123,38 @@ impl ResultsWriter {
                 _ => return Err(parse_err()),
             }
         }
+        // the layout describes the copy: every field is there, as many rows as its grid has points
+        // or cells, in the shape the layout gives (which the XDMF file will declare)
+        for st in &steps {
+            for f in &st.fields {
+                let g = &infos[f.grid];
+                let what = format!(
+                    "layout: step {} field `{}` of grid `{}`",
+                    st.index, f.name, g.name
+                );
+                let (rows, of) = match f.center {
+                    Center::Node => (g.n_points, "points"),
+                    Center::Cell => (g.n_cells, "cells"),
+                };
+                if f.rows != rows {
+                    return Err(bad(format!(
+                        "{what}: {} rows, the grid has {rows} {of}",
+                        f.rows
+                    )));
+                }
+                let name = format!("steps/{:06}/{}/{}", st.index, g.name, f.name);
+                let shape = h5
+                    .dataset(&name)
+                    .map(|d| d.shape())
+                    .map_err(|_| bad(format!("{what}: no dataset `{name}` in the copy")))?;
+                if shape != f.dims() {
+                    return Err(bad(format!(
+                        "{what}: the dataset has the shape {shape:?}, the layout {:?}",
+                        f.dims()
+                    )));
+                }
+            }
+        }
         let w = ResultsWriter {
             h5,
             h5_partial,
