@@ -1,6 +1,7 @@
 //! Checkpoints are checked on read: a `state.h5` whose position, step size or fields no run of the
 //! case can have written (a load outside its stage, a stage beyond the case's, a negative
-//! increment, a non-finite or rescaled displacement), or that is missing, stops the restart with an
+//! increment, a non-finite or rescaled displacement, a contact pattern naming an element the
+//! surface does not have), or that is missing, stops the restart with an
 //! error naming the file and the dataset as a bad checkpoint; nothing is continued from it, and
 //! the run directory is left as it was. The checkpoints are corrupted here with the crate's own
 //! HDF5 binding.
@@ -154,4 +155,16 @@ fn a_missing_state_is_a_bad_checkpoint_read_not_written() {
     assert!(err.contains("has no state.h5"), "{err}");
     assert!(!err.contains("writing"), "{err}");
     assert_eq!(std::fs::read(out.join("history.csv")).unwrap(), before);
+}
+
+#[test]
+fn a_contact_pattern_naming_an_element_beyond_the_surface_is_a_bad_checkpoint() {
+    let (out, state) = checkpointed_run("pattern");
+    // the first coupling's columns: an element of its own surface (the key's bit 31) that the
+    // surface does not have
+    corrupt(&state, "contact_pattern", |p| {
+        p[2] = f64::from((1u32 << 31) + 9999)
+    });
+    let err = refused(1, &out, "contact_pattern");
+    assert!(err.contains("element 9999"), "{err}");
 }

@@ -74,6 +74,12 @@ pub trait CouplingSet: Any + Send {
     /// filtered by it).
     fn owns_block(&self, block: &Block) -> bool;
 
+    /// Why `block` names no block of this set (an index beyond its passes or elements), for a
+    /// pattern read from a checkpoint; `Ok` for every block the set itself produces.
+    fn check_block(&self, _block: &Block) -> Result<(), String> {
+        Ok(())
+    }
+
     /// Global row and column unknowns of `block` (negative: none); its entries in the sink are
     /// row-major `[rows][cols]`.
     fn block_dofs(&self, block: &Block) -> (Vec<i32>, Vec<i32>);

@@ -210,7 +210,9 @@ pub(super) fn restore(
             .chunks_exact(3)
             .map(|r| (r[0] as u32, r[1] as u32, r[2] as u32))
             .collect();
-        solver.asm.preset_coupling_pattern(&all);
+        if let Err(why) = solver.asm.preset_coupling_pattern(&all) {
+            local = Err(bad("contact_pattern", why));
+        }
     }
     if local.is_ok() {
         if let Some(c) = solver.asm.coupling_set_mut::<ContactSystem>() {

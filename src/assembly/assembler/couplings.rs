@@ -294,8 +294,14 @@ impl<'p> Assembler<'p> {
 
     /// The blocks the next pattern is built from (a restart: those of
     /// [`coupling_pattern`](Self::coupling_pattern) on every rank; this rank keeps its own).
-    pub fn preset_coupling_pattern(&mut self, all: &[Block]) {
+    /// An error names the first block that names none of the set's (a corrupt checkpoint).
+    pub fn preset_coupling_pattern(&mut self, all: &[Block]) -> Result<(), String> {
         if let Some(c) = &mut self.coupled {
+            for (i, b) in all.iter().enumerate() {
+                c.set
+                    .check_block(b)
+                    .map_err(|why| format!("coupling {i} {b:?}: {why}"))?;
+            }
             let mut own: Vec<Block> = all
                 .iter()
                 .copied()
@@ -306,6 +312,7 @@ impl<'p> Assembler<'p> {
             c.preset = Some(own);
             self.pattern_ready = false;
         }
+        Ok(())
     }
 
     /// Gathers the displacement of the coupling set's nodes and updates the set there (contact:

@@ -48,6 +48,10 @@ impl CouplingSet for ContactSystem {
         self.integrates(pass, e)
     }
 
+    fn check_block(&self, block: &Block) -> Result<(), String> {
+        ContactSystem::check_block(self, block)
+    }
+
     fn block_dofs(&self, block: &Block) -> (Vec<i32>, Vec<i32>) {
         ContactSystem::block_dofs(self, block)
     }

@@ -202,6 +202,36 @@ impl ContactSystem {
         out
     }
 
+    /// Why coupling `c` (pass, surface element, block key) names no coupling of this system: a
+    /// pass, an element of its surface or a partner element beyond the model's. Every coupling
+    /// this system produces passes; a pattern read from a checkpoint is checked with it.
+    pub fn check_block(&self, c: &Coupling) -> Result<(), String> {
+        let (pass, k_e, l_e) = *c;
+        let n_pass = self.pairs.iter().map(|p| p.passes.len()).sum::<usize>();
+        if pass as usize >= n_pass {
+            return Err(format!(
+                "pass {pass}: the contact pairs have {n_pass} passes"
+            ));
+        }
+        let (k, partner, _) = self.pass_surfaces(pass as usize);
+        let n_k = self.surfaces[k].elements.len();
+        let beyond = |e: u32, s: usize, n: usize| {
+            format!("pass {pass}: element {e} of surface {s}, which has {n} elements")
+        };
+        if k_e as usize >= n_k {
+            return Err(beyond(k_e, k, n_k));
+        }
+        match (BlockKey::decode(l_e), partner) {
+            (BlockKey::Own(e2), _) if e2 as usize >= n_k => Err(beyond(e2, k, n_k)),
+            (BlockKey::Partner(e2) | BlockKey::Reach(e2), Some(l))
+                if e2 as usize >= self.surfaces[l].elements.len() =>
+            {
+                Err(beyond(e2, l, self.surfaces[l].elements.len()))
+            }
+            _ => Ok(()),
+        }
+    }
+
     /// Rows (own element, constrained rows dropped by the caller) and columns of a coupling block:
     /// those of the own element and its partner element (one-pass: the partner's rows too, but
     /// not under a `Reach` key), or (mortar gap) of another element of the own surface.
